@@ -1,0 +1,314 @@
+//! `BezierCurve`: one polynomial Bezier curve of any degree in the plane or in space.
+
+use super::basis::bernstein;
+use super::point::Vector;
+
+/// A Bezier curve `P(u) = sum_i B_{i,n}(u) P_i`, `u` in `[0, 1]`, with `n + 1` control points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BezierCurve<P: Vector> {
+    /// Control points `P_0 ..= P_n`.
+    pub ctrl: Vec<P>,
+}
+
+/// The closest point of a curve to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nearest {
+    /// Parameter of the foot point.
+    pub u: f64,
+    /// Squared distance from the query to the foot point.
+    pub distance_sq: f64,
+}
+
+impl<P: Vector> BezierCurve<P> {
+    /// A curve from its control points (at least one).
+    #[must_use]
+    pub fn new(ctrl: Vec<P>) -> Self {
+        debug_assert!(
+            !ctrl.is_empty(),
+            "a Bezier curve needs at least one control point"
+        );
+        BezierCurve { ctrl }
+    }
+
+    /// The polynomial degree `n` (one less than the number of control points).
+    #[must_use]
+    pub fn degree(&self) -> usize {
+        self.ctrl.len() - 1
+    }
+
+    /// Evaluate the curve at parameter `u` by de Casteljau's algorithm.
+    #[must_use]
+    pub fn eval(&self, u: f64) -> P {
+        let mut buf: smallbuf::Buf<P> = smallbuf::Buf::from_slice(&self.ctrl);
+        let pts = buf.as_mut_slice();
+        let n = pts.len();
+        for r in 1..n {
+            for i in 0..n - r {
+                pts[i] = pts[i].lerp_to(pts[i + 1], u);
+            }
+        }
+        pts[0]
+    }
+
+    /// Evaluate the curve at parameter `u` in Bernstein form (paper eq. 1).
+    #[must_use]
+    pub fn eval_bernstein(&self, u: f64) -> P {
+        let n = self.degree();
+        let mut b = [0.0; 33];
+        debug_assert!(n <= 32, "eval_bernstein: degree {n} above 32");
+        bernstein(n, u, &mut b);
+        let mut acc = P::ZERO;
+        for (p, w) in self.ctrl.iter().zip(&b) {
+            acc += *p * *w;
+        }
+        acc
+    }
+
+    /// The derivative curve (hodograph), of degree `n - 1` (paper eq. 2).
+    ///
+    /// A degree-0 curve has the zero curve as its derivative.
+    #[must_use]
+    pub fn deriv(&self) -> BezierCurve<P> {
+        let n = self.degree();
+        if n == 0 {
+            return BezierCurve::new(vec![P::ZERO]);
+        }
+        let nf = n as f64;
+        BezierCurve::new(self.ctrl.windows(2).map(|w| (w[1] - w[0]) * nf).collect())
+    }
+
+    /// The first derivative `dP/du` at `u`.
+    #[must_use]
+    pub fn eval_deriv(&self, u: f64) -> P {
+        self.deriv().eval(u)
+    }
+
+    /// Split at `u` into the pieces over `[0, u]` and `[u, 1]`, each reparameterised to `[0, 1]`.
+    #[must_use]
+    pub fn split(&self, u: f64) -> (BezierCurve<P>, BezierCurve<P>) {
+        let n = self.degree();
+        let mut pts = self.ctrl.clone();
+        let mut left = Vec::with_capacity(n + 1);
+        let mut right = vec![P::ZERO; n + 1];
+        left.push(pts[0]);
+        right[n] = pts[n];
+        for r in 1..=n {
+            for i in 0..=n - r {
+                pts[i] = pts[i].lerp_to(pts[i + 1], u);
+            }
+            left.push(pts[0]);
+            right[n - r] = pts[n - r];
+        }
+        (BezierCurve::new(left), BezierCurve::new(right))
+    }
+
+    /// The piece over `[u0, u1]`, reparameterised to `[0, 1]`.
+    #[must_use]
+    pub fn subcurve(&self, u0: f64, u1: f64) -> BezierCurve<P> {
+        if u1 <= u0 {
+            return BezierCurve::new(vec![self.eval(u0); self.ctrl.len()]);
+        }
+        let (_, right) = self.split(u0);
+        if u0 >= 1.0 {
+            return right;
+        }
+        let (piece, _) = right.split((u1 - u0) / (1.0 - u0));
+        piece
+    }
+
+    /// The same curve with degree raised by one.
+    #[must_use]
+    pub fn elevate(&self) -> BezierCurve<P> {
+        let n = self.degree();
+        let m = (n + 1) as f64;
+        let mut out = Vec::with_capacity(n + 2);
+        out.push(self.ctrl[0]);
+        for i in 1..=n {
+            let a = i as f64 / m;
+            out.push(self.ctrl[i - 1] * a + self.ctrl[i] * (1.0 - a));
+        }
+        out.push(self.ctrl[n]);
+        BezierCurve::new(out)
+    }
+
+    /// The closest point to `q` on the curve, `u` clamped to `[0, 1]`.
+    ///
+    /// Samples the curve at `samples + 1` parameters, then refines the best sample by Newton
+    /// steps on `(P(u) - q) . P'(u) = 0` kept inside the bracket of its neighbours, until the
+    /// parameter step is below `1e-14` (the result is exact to rounding for smooth curves whose
+    /// closest point is isolated).
+    #[must_use]
+    pub fn nearest(&self, q: P, samples: usize) -> Nearest {
+        let samples = samples.max(1);
+        let mut best = Nearest {
+            u: 0.0,
+            distance_sq: f64::INFINITY,
+        };
+        for i in 0..=samples {
+            let u = i as f64 / samples as f64;
+            let e = (self.eval(u) - q).length_squared();
+            if e < best.distance_sq {
+                best = Nearest { u, distance_sq: e };
+            }
+        }
+        let h = 1.0 / samples as f64;
+        let (lo, hi) = ((best.u - h).max(0.0), (best.u + h).min(1.0));
+        let d1 = self.deriv();
+        let d2 = d1.deriv();
+        let mut u = best.u;
+        for _ in 0..50 {
+            let r = self.eval(u) - q;
+            let t = d1.eval(u);
+            let f = r.dot(t);
+            let fp = t.dot(t) + r.dot(d2.eval(u));
+            if fp <= 0.0 || !fp.is_finite() {
+                break;
+            }
+            let un = (u - f / fp).clamp(lo, hi);
+            let done = (un - u).abs() < 1e-14;
+            u = un;
+            if done {
+                break;
+            }
+        }
+        let e = (self.eval(u) - q).length_squared();
+        if e < best.distance_sq {
+            best = Nearest { u, distance_sq: e };
+        }
+        best
+    }
+}
+
+/// A fixed-capacity stack buffer for de Casteljau, falling back to the heap for high degrees.
+mod smallbuf {
+    use super::Vector;
+
+    pub enum Buf<P: Vector> {
+        Stack([P; 16], usize),
+        Heap(Vec<P>),
+    }
+
+    impl<P: Vector> Buf<P> {
+        pub fn from_slice(s: &[P]) -> Self {
+            if s.len() <= 16 {
+                let mut a = [P::ZERO; 16];
+                a[..s.len()].copy_from_slice(s);
+                Buf::Stack(a, s.len())
+            } else {
+                Buf::Heap(s.to_vec())
+            }
+        }
+
+        pub fn as_mut_slice(&mut self) -> &mut [P] {
+            match self {
+                Buf::Stack(a, n) => &mut a[..*n],
+                Buf::Heap(v) => v.as_mut_slice(),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+
+    fn cubic() -> BezierCurve<DVec2> {
+        BezierCurve::new(vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(0.3, 0.9),
+            DVec2::new(0.8, -0.4),
+            DVec2::new(1.0, 0.2),
+        ])
+    }
+
+    #[test]
+    fn casteljau_matches_bernstein() {
+        let c = cubic();
+        for i in 0..=50 {
+            let u = i as f64 / 50.0;
+            assert!((c.eval(u) - c.eval_bernstein(u)).length() < 1e-15);
+        }
+        assert_eq!(c.eval(0.0), c.ctrl[0]);
+        assert_eq!(c.eval(1.0), c.ctrl[3]);
+    }
+
+    #[test]
+    fn derivative_matches_finite_differences() {
+        let c = cubic();
+        let h = 1e-6;
+        for i in 1..20 {
+            let u = i as f64 / 20.0;
+            let fd = (c.eval(u + h) - c.eval(u - h)) / (2.0 * h);
+            assert!((c.eval_deriv(u) - fd).length() < 1e-8);
+        }
+        // Second derivative of the hodograph as well.
+        let d = c.deriv();
+        for i in 1..20 {
+            let u = i as f64 / 20.0;
+            let fd = (d.eval(u + h) - d.eval(u - h)) / (2.0 * h);
+            assert!((d.eval_deriv(u) - fd).length() < 1e-7);
+        }
+    }
+
+    #[test]
+    fn split_then_rejoin_reproduces_the_curve() {
+        let c = cubic();
+        for &s in &[0.1, 0.37, 0.5, 0.9] {
+            let (a, b) = c.split(s);
+            assert_eq!(a.ctrl[3], b.ctrl[0]);
+            for i in 0..=20 {
+                let u = i as f64 / 20.0;
+                assert!((a.eval(u) - c.eval(u * s)).length() < 1e-14);
+                assert!((b.eval(u) - c.eval(s + u * (1.0 - s))).length() < 1e-14);
+            }
+        }
+        let piece = c.subcurve(0.2, 0.7);
+        for i in 0..=20 {
+            let u = i as f64 / 20.0;
+            assert!((piece.eval(u) - c.eval(0.2 + 0.5 * u)).length() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn elevation_keeps_the_curve() {
+        let c = cubic();
+        let e = c.elevate().elevate();
+        assert_eq!(e.degree(), 5);
+        for i in 0..=30 {
+            let u = i as f64 / 30.0;
+            assert!((e.eval(u) - c.eval(u)).length() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn nearest_on_a_line_is_the_orthogonal_projection() {
+        let c = BezierCurve::new(vec![
+            DVec3::ZERO,
+            DVec3::new(1.0, 1.0, 0.0) / 3.0 * 1.0,
+            DVec3::new(2.0, 2.0, 0.0) / 3.0,
+            DVec3::new(1.0, 1.0, 0.0),
+        ]);
+        let q = DVec3::new(0.2, 0.6, 0.5);
+        let n = c.nearest(q, 8);
+        assert!((n.u - 0.4).abs() < 1e-12, "u = {}", n.u);
+        let exact = 0.2 * 0.2 * 2.0 + 0.25;
+        assert!((n.distance_sq - exact).abs() < 1e-14);
+        // Beyond the end it clamps to the end point.
+        let n = c.nearest(DVec3::new(2.0, 2.0, 0.0), 8);
+        assert_eq!(n.u, 1.0);
+    }
+
+    #[test]
+    fn nearest_is_orthogonal_for_a_curved_segment() {
+        let c = cubic();
+        let q = DVec2::new(0.55, 0.6);
+        let n = c.nearest(q, 16);
+        let r = c.eval(n.u) - q;
+        assert!(r.dot(c.eval_deriv(n.u)).abs() < 1e-12);
+        for i in 0..=1000 {
+            let u = i as f64 / 1000.0;
+            assert!((c.eval(u) - q).length_squared() >= n.distance_sq - 1e-15);
+        }
+    }
+}

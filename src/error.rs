@@ -1,0 +1,63 @@
+//! The library's one error type and its `Result` alias.
+
+use std::path::PathBuf;
+
+/// Everything the library can fail with. Parse errors name the file and the line.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// What the operating system said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A line of an input file could not be understood.
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        /// The file concerned.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with that line.
+        message: String,
+    },
+    /// An input file is well-formed but unusable as a whole (empty, too few points, ...).
+    #[error("{path}: {message}")]
+    Input {
+        /// The file concerned.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A layout, option or argument is outside what the method supports.
+    #[error("{0}")]
+    Invalid(String),
+    /// A numerical method failed (singular system, no convergence where it is required).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// The GPU path failed or is unavailable where it was required.
+    #[error("gpu: {0}")]
+    Gpu(String),
+}
+
+impl Error {
+    /// An [`Error::Invalid`] from anything printable.
+    pub fn invalid(msg: impl Into<String>) -> Self {
+        Error::Invalid(msg.into())
+    }
+
+    /// True for errors caused by the user's input or arguments (the CLI exits with status 2).
+    #[must_use]
+    pub fn is_user_error(&self) -> bool {
+        matches!(
+            self,
+            Error::Io { .. } | Error::Parse { .. } | Error::Input { .. } | Error::Invalid(_)
+        )
+    }
+}
+
+/// The library's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
