@@ -9,10 +9,18 @@
 //! - [`bezier`]: Bernstein basis, single curves and patches (eval, deriv, split, elevate).
 //! - [`chain`]: chain and grid layouts, the extraction map `expanded = E · design`,
 //!   `CurveChain`, `PatchGrid`.
+//! - [`geometry`]: aerofoil generators, `.dat`/CSV/XYZ readers and writers, blade lofting.
+//! - [`fit`]: offset metrics, foot points, least squares, Nelder-Mead, BFGS, GA, CMA-ES.
+//! - [`eval`]: population evaluation on the CPU (rayon) and the GPU (wgpu).
+//! - [`export`]: JSON reports, SVG plots, meshes and renders.
 //! - [`error`]: the library's error type.
 
 pub mod bezier;
 pub mod chain;
 pub mod error;
+pub mod eval;
+pub mod export;
+pub mod fit;
+pub mod geometry;
 
 pub use error::{Error, Result};

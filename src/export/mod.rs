@@ -1,0 +1,1 @@
+//! Outputs: the JSON report, SVG plots, OBJ/STL meshes and PNG renders.

@@ -1,0 +1,2 @@
+//! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
+//! readers and writers, blade lofting.
