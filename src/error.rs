@@ -41,6 +41,9 @@ pub enum Error {
     /// The GPU path failed or is unavailable where it was required.
     #[error("gpu: {0}")]
     Gpu(String),
+    /// An output (plot, mesh, render) could not be produced.
+    #[error("output: {0}")]
+    Output(String),
 }
 
 impl Error {

@@ -1,0 +1,345 @@
+//! The JSON fit report of DESIGN.md §4 for curves and surfaces, written by `fit` and read back
+//! by `eval`.
+
+use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
+use crate::error::{Error, Result};
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Offsets between the data and the fitted shape.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OffsetReport {
+    /// `closest` (true closest-point distances) or `corresponding` (fixed parameters).
+    pub metric: String,
+    /// `Σ e_j²`.
+    pub sum_sq: f64,
+    /// `Σ e_j`.
+    pub sum: f64,
+    /// `sqrt(sum_sq / n)`.
+    pub rms: f64,
+    /// `max e_j`.
+    pub max: f64,
+    /// The data point with the largest offset.
+    pub max_at: Vec<f64>,
+}
+
+/// One stage of a fit (an optimiser run).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitInfo {
+    /// Method name as given on the command line (`lsq`, `bfgs`, `ga`, ...).
+    pub method: String,
+    /// Iterations (or generations) taken.
+    pub iterations: u64,
+    /// Objective evaluations (for population methods: individuals evaluated).
+    pub evaluations: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// `cpu`, or the GPU adapter that ran the population evaluations.
+    pub backend: String,
+    /// Stages of a hybrid method (`ga+lsq`: the GA, then the least-squares polish).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<FitInfo>,
+    /// Population evaluations per second (individual × point), for population methods.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evals_per_second: Option<f64>,
+}
+
+/// Where the data came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InputInfo {
+    /// The input file as given.
+    pub path: String,
+    /// Number of data points used.
+    pub points: usize,
+}
+
+/// The report of a curve fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurveReport {
+    /// Always `curve`.
+    pub kind: String,
+    /// Always 2.
+    pub dimension: usize,
+    /// Degree of every segment.
+    pub degree: usize,
+    /// Number of segments.
+    pub segments: usize,
+    /// `C0`, `C1` or `C2`.
+    pub continuity: Continuity,
+    /// Breaks `0 = t0 < ... < ts = 1`.
+    pub breaks: Vec<f64>,
+    /// The optimisation variables.
+    pub design_points: Vec<[f64; 2]>,
+    /// Expanded Bezier control points; segment k uses `[k*d ..= (k+1)*d]`.
+    pub control_points: Vec<[f64; 2]>,
+    /// Offsets, re-measured in f64.
+    pub offset: OffsetReport,
+    /// How the fit ran.
+    pub fit: FitInfo,
+    /// The data.
+    pub input: InputInfo,
+}
+
+/// The report of a surface fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SurfaceReport {
+    /// Always `surface`.
+    pub kind: String,
+    /// Always 3.
+    pub dimension: usize,
+    /// `[du, dv]`.
+    pub degree: [usize; 2],
+    /// `[pu, pv]`.
+    pub patches: [usize; 2],
+    /// Continuity along u and along v.
+    pub continuity: [Continuity; 2],
+    /// Breaks along u.
+    pub breaks_u: Vec<f64>,
+    /// Breaks along v.
+    pub breaks_v: Vec<f64>,
+    /// The design net, rows along u.
+    pub design_net: Vec<Vec<[f64; 3]>>,
+    /// The expanded control net, rows along u.
+    pub control_net: Vec<Vec<[f64; 3]>>,
+    /// Offsets, re-measured in f64.
+    pub offset: OffsetReport,
+    /// How the fit ran.
+    pub fit: FitInfo,
+    /// The data.
+    pub input: InputInfo,
+}
+
+/// Either kind of report, as read back from a file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Report {
+    /// A curve report.
+    Curve(CurveReport),
+    /// A surface report.
+    Surface(SurfaceReport),
+}
+
+impl CurveReport {
+    /// The report of `chain` with the given offsets, fit information and input.
+    #[must_use]
+    pub fn new(chain: &CurveChain<DVec2>, offset: OffsetReport, fit: FitInfo, input: InputInfo) -> Self {
+        let l = chain.layout();
+        CurveReport {
+            kind: "curve".into(),
+            dimension: 2,
+            degree: l.degree(),
+            segments: l.segments(),
+            continuity: l.continuity(),
+            breaks: l.breaks().to_vec(),
+            design_points: chain.design().iter().map(|p| p.to_array()).collect(),
+            control_points: chain.ctrl().iter().map(|p| p.to_array()).collect(),
+            offset,
+            fit,
+            input,
+        }
+    }
+
+    /// The chain layout the report describes.
+    pub fn layout(&self) -> Result<ChainLayout> {
+        let l = ChainLayout::with_breaks(self.degree, self.breaks.clone(), self.continuity)?;
+        if l.segments() != self.segments {
+            return Err(Error::invalid(format!(
+                "report: {} segments but {} breaks",
+                self.segments,
+                self.breaks.len()
+            )));
+        }
+        Ok(l)
+    }
+
+    /// The chain rebuilt from the design points (checked against the stored control points).
+    pub fn chain(&self) -> Result<CurveChain<DVec2>> {
+        let design = self.design_points.iter().map(|&p| DVec2::from_array(p)).collect();
+        let chain = CurveChain::new(self.layout()?, design)?;
+        check_expanded(chain.ctrl().iter().map(|p| p.to_array().to_vec()), self.control_points.iter().map(|p| p.to_vec()))?;
+        Ok(chain)
+    }
+}
+
+impl SurfaceReport {
+    /// The report of `grid` with the given offsets, fit information and input.
+    #[must_use]
+    pub fn new(grid: &PatchGrid<DVec3>, offset: OffsetReport, fit: FitInfo, input: InputInfo) -> Self {
+        let l = grid.layout();
+        let nest = |pts: &[DVec3], cols: usize| -> Vec<Vec<[f64; 3]>> {
+            pts.chunks(cols).map(|r| r.iter().map(|p| p.to_array()).collect()).collect()
+        };
+        SurfaceReport {
+            kind: "surface".into(),
+            dimension: 3,
+            degree: [l.u.degree(), l.v.degree()],
+            patches: [l.u.segments(), l.v.segments()],
+            continuity: [l.u.continuity(), l.v.continuity()],
+            breaks_u: l.u.breaks().to_vec(),
+            breaks_v: l.v.breaks().to_vec(),
+            design_net: nest(grid.design(), l.design_shape().1),
+            control_net: nest(grid.net(), l.net_shape().1),
+            offset,
+            fit,
+            input,
+        }
+    }
+
+    /// The grid layout the report describes.
+    pub fn layout(&self) -> Result<GridLayout> {
+        let u = ChainLayout::with_breaks(self.degree[0], self.breaks_u.clone(), self.continuity[0])?;
+        let v = ChainLayout::with_breaks(self.degree[1], self.breaks_v.clone(), self.continuity[1])?;
+        if [u.segments(), v.segments()] != self.patches {
+            return Err(Error::invalid("report: patches do not match the breaks"));
+        }
+        Ok(GridLayout::new(u, v))
+    }
+
+    /// The grid rebuilt from the design net (checked against the stored control net).
+    pub fn grid(&self) -> Result<PatchGrid<DVec3>> {
+        let layout = self.layout()?;
+        let (nu, nv) = layout.design_shape();
+        if self.design_net.len() != nu || self.design_net.iter().any(|r| r.len() != nv) {
+            return Err(Error::invalid(format!("report: design_net is not {nu} x {nv}")));
+        }
+        let design = self.design_net.iter().flatten().map(|&p| DVec3::from_array(p)).collect();
+        let grid = PatchGrid::new(layout, design)?;
+        check_expanded(
+            grid.net().iter().map(|p| p.to_array().to_vec()),
+            self.control_net.iter().flatten().map(|p| p.to_vec()).collect::<Vec<_>>().into_iter(),
+        )?;
+        Ok(grid)
+    }
+}
+
+/// Stored control points must be the expansion of the stored design points (to rounding).
+fn check_expanded(
+    ours: impl ExactSizeIterator<Item = Vec<f64>>,
+    stored: impl ExactSizeIterator<Item = Vec<f64>>,
+) -> Result<()> {
+    if ours.len() != stored.len() {
+        return Err(Error::invalid(format!(
+            "report: {} control points stored, the layout expands to {}",
+            stored.len(),
+            ours.len()
+        )));
+    }
+    for (i, (a, b)) in ours.zip(stored).enumerate() {
+        let scale = a.iter().chain(&b).fold(1.0_f64, |m, x| m.max(x.abs()));
+        if a.iter().zip(&b).any(|(x, y)| (x - y).abs() > 1e-9 * scale) {
+            return Err(Error::invalid(format!(
+                "report: control point {i} is not generated from the design points by the layout"
+            )));
+        }
+    }
+    Ok(())
+}
+
+impl Report {
+    /// Read a report (either kind) from a JSON file.
+    pub fn read(path: &Path) -> Result<Report> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.into(), source })?;
+        let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
+            path: path.into(),
+            line: e.line(),
+            message: format!("not valid JSON: {e}"),
+        })?;
+        let kind = value.get("kind").and_then(|k| k.as_str()).unwrap_or_default().to_string();
+        let bad = |e: serde_json::Error| Error::Input { path: path.into(), message: format!("not a bezchain {kind} report: {e}") };
+        match kind.as_str() {
+            "curve" => Ok(Report::Curve(serde_json::from_value(value).map_err(bad)?)),
+            "surface" => Ok(Report::Surface(serde_json::from_value(value).map_err(bad)?)),
+            _ => Err(Error::Input {
+                path: path.into(),
+                message: "not a bezchain report (\"kind\" must be \"curve\" or \"surface\")".into(),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn offset() -> OffsetReport {
+        OffsetReport { metric: "closest".into(), sum_sq: 1e-8, sum: 1e-4, rms: 1e-5, max: 3e-5, max_at: vec![0.5, 0.1] }
+    }
+
+    fn fit() -> FitInfo {
+        FitInfo {
+            method: "lsq".into(),
+            iterations: 3,
+            evaluations: 4,
+            seconds: 0.001,
+            backend: "cpu".into(),
+            stages: vec![],
+            evals_per_second: None,
+        }
+    }
+
+    #[test]
+    fn curve_report_round_trips_with_the_design_keys() {
+        let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
+        let design: Vec<DVec2> = (0..12).map(|i| DVec2::new(i as f64 / 11.0, (i as f64).sin() * 0.1)).collect();
+        let chain = CurveChain::new(layout, design).unwrap();
+        let rep = CurveReport::new(&chain, offset(), fit(), InputInfo { path: "data/naca4413.dat".into(), points: 82 });
+        let text = serde_json::to_string_pretty(&rep).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for key in ["kind", "dimension", "degree", "segments", "continuity", "breaks", "design_points", "control_points", "offset", "fit", "input"] {
+            assert!(v.get(key).is_some(), "missing key {key}");
+        }
+        assert_eq!(v["continuity"], "C1");
+        assert_eq!(v["control_points"].as_array().unwrap().len(), 16);
+        for key in ["metric", "sum_sq", "sum", "rms", "max", "max_at"] {
+            assert!(v["offset"].get(key).is_some(), "missing offset.{key}");
+        }
+        for key in ["method", "iterations", "evaluations", "seconds", "backend"] {
+            assert!(v["fit"].get(key).is_some(), "missing fit.{key}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.json");
+        std::fs::write(&path, &text).unwrap();
+        match Report::read(&path).unwrap() {
+            Report::Curve(back) => {
+                assert_eq!(back, rep);
+                assert_eq!(back.chain().unwrap().ctrl(), chain.ctrl());
+            }
+            Report::Surface(_) => panic!("read a curve report as a surface"),
+        }
+    }
+
+    #[test]
+    fn surface_report_round_trips() {
+        let g = GridLayout::new(
+            ChainLayout::uniform(3, 4, Continuity::C1).unwrap(),
+            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
+        );
+        let design: Vec<DVec3> = (0..60).map(|i| DVec3::new((i / 6) as f64, (i % 6) as f64, (i as f64).cos())).collect();
+        let grid = PatchGrid::new(g, design).unwrap();
+        let rep = SurfaceReport::new(&grid, offset(), fit(), InputInfo { path: "cloud.csv".into(), points: 984 });
+        assert_eq!((rep.design_net.len(), rep.design_net[0].len()), (10, 6));
+        assert_eq!((rep.control_net.len(), rep.control_net[0].len()), (13, 7));
+        let v = serde_json::to_value(&rep).unwrap();
+        assert_eq!(v["degree"], serde_json::json!([3, 3]));
+        assert_eq!(v["patches"], serde_json::json!([4, 2]));
+        let back: SurfaceReport = serde_json::from_value(v).unwrap();
+        assert_eq!(back.grid().unwrap().net(), grid.net());
+    }
+
+    #[test]
+    fn tampered_and_foreign_reports_are_refused() {
+        let layout = ChainLayout::uniform(2, 2, Continuity::C1).unwrap();
+        let chain = CurveChain::new(layout, vec![DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE]).unwrap();
+        let mut rep = CurveReport::new(&chain, offset(), fit(), InputInfo { path: "x".into(), points: 4 });
+        rep.control_points[2][0] += 0.5;
+        assert!(rep.chain().is_err());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.json");
+        std::fs::write(&path, "{\"kind\": \"curve\", \"degree\": 3}").unwrap();
+        assert!(matches!(Report::read(&path), Err(Error::Input { .. })));
+        std::fs::write(&path, "{ not json").unwrap();
+        assert!(matches!(Report::read(&path), Err(Error::Parse { line: 1, .. })));
+        std::fs::write(&path, "[1, 2]").unwrap();
+        assert!(Report::read(&path).is_err());
+    }
+}
