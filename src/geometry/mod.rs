@@ -1,6 +1,15 @@
 //! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
 //! readers and writers, blade lofting.
 
+mod dat;
+mod io;
 mod naca;
+mod points;
 
+pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
+pub use io::write_atomic;
 pub use naca::{Naca, NacaOptions, Spacing};
+pub use points::{
+    parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
+    write_csv_to, write_curve_csv, Cloud, Format, Grid, Loaded, Loaded2, Loaded3, LoadedPoints,
+};

@@ -66,6 +66,7 @@ const FIVE_STANDARD: [(f64, f64); 5] = [
     (0.3910, 3.230),
 ];
 /// Reflex 5-digit mean lines (design lift 0.3): position digit 2..=5 → (r, k1, k2/k1).
+#[allow(clippy::approx_constant)] // 0.3180 is the tabulated r of the 241 mean line, not 1/π
 const FIVE_REFLEX: [(f64, f64, f64); 4] = [
     (0.1300, 51.990, 0.000764),
     (0.2170, 15.793, 0.00677),
@@ -115,10 +116,12 @@ impl Naca {
                             k21,
                         }
                     }
-                    _ => return Err(Error::invalid(format!(
+                    _ => {
+                        return Err(Error::invalid(format!(
                         "NACA {digits}: no standard 5-digit mean line for position {pos} and reflex digit {}",
                         d[2]
-                    ))),
+                    )))
+                    }
                 };
                 (camber, (d[3] * 10 + d[4]) as f64 / 100.0)
             }
