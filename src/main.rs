@@ -1,1 +1,35 @@
-fn main() {}
+//! The `bezchain` command line: parse arguments, call the library, write outputs, map errors to
+//! exit statuses (0 success, 2 bad input or arguments, 1 anything else).
+
+mod cli;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Chained Bezier curves and patches as compact shape-optimisation variables.
+#[derive(Parser)]
+#[command(name = "bezchain", version, about, long_about = None, arg_required_else_help = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Generate a NACA 4- or 5-digit aerofoil in Selig format.
+    Naca(cli::naca::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Naca(args) => cli::naca::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", cli::one_line(&e));
+            ExitCode::from(cli::exit_status(&e))
+        }
+    }
+}

@@ -156,7 +156,10 @@ impl CurveReport {
     pub fn chain(&self) -> Result<CurveChain<DVec2>> {
         let design = self.design_points.iter().map(|&p| DVec2::from_array(p)).collect();
         let chain = CurveChain::new(self.layout()?, design)?;
-        check_expanded(chain.ctrl().iter().map(|p| p.to_array().to_vec()), self.control_points.iter().map(|p| p.to_vec()))?;
+        check_expanded(
+            chain.ctrl().iter().map(|p| p.to_array().to_vec()),
+            self.control_points.iter().map(|p| p.to_vec()),
+        )?;
         Ok(chain)
     }
 }
@@ -167,7 +170,9 @@ impl SurfaceReport {
     pub fn new(grid: &PatchGrid<DVec3>, offset: OffsetReport, fit: FitInfo, input: InputInfo) -> Self {
         let l = grid.layout();
         let nest = |pts: &[DVec3], cols: usize| -> Vec<Vec<[f64; 3]>> {
-            pts.chunks(cols).map(|r| r.iter().map(|p| p.to_array()).collect()).collect()
+            pts.chunks(cols)
+                .map(|r| r.iter().map(|p| p.to_array()).collect())
+                .collect()
         };
         SurfaceReport {
             kind: "surface".into(),
@@ -202,11 +207,21 @@ impl SurfaceReport {
         if self.design_net.len() != nu || self.design_net.iter().any(|r| r.len() != nv) {
             return Err(Error::invalid(format!("report: design_net is not {nu} x {nv}")));
         }
-        let design = self.design_net.iter().flatten().map(|&p| DVec3::from_array(p)).collect();
+        let design = self
+            .design_net
+            .iter()
+            .flatten()
+            .map(|&p| DVec3::from_array(p))
+            .collect();
         let grid = PatchGrid::new(layout, design)?;
         check_expanded(
             grid.net().iter().map(|p| p.to_array().to_vec()),
-            self.control_net.iter().flatten().map(|p| p.to_vec()).collect::<Vec<_>>().into_iter(),
+            self.control_net
+                .iter()
+                .flatten()
+                .map(|p| p.to_vec())
+                .collect::<Vec<_>>()
+                .into_iter(),
         )?;
         Ok(grid)
     }
@@ -238,14 +253,24 @@ fn check_expanded(
 impl Report {
     /// Read a report (either kind) from a JSON file.
     pub fn read(path: &Path) -> Result<Report> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.into(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.into(),
+            source,
+        })?;
         let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
             path: path.into(),
             line: e.line(),
             message: format!("not valid JSON: {e}"),
         })?;
-        let kind = value.get("kind").and_then(|k| k.as_str()).unwrap_or_default().to_string();
-        let bad = |e: serde_json::Error| Error::Input { path: path.into(), message: format!("not a bezchain {kind} report: {e}") };
+        let kind = value
+            .get("kind")
+            .and_then(|k| k.as_str())
+            .unwrap_or_default()
+            .to_string();
+        let bad = |e: serde_json::Error| Error::Input {
+            path: path.into(),
+            message: format!("not a bezchain {kind} report: {e}"),
+        };
         match kind.as_str() {
             "curve" => Ok(Report::Curve(serde_json::from_value(value).map_err(bad)?)),
             "surface" => Ok(Report::Surface(serde_json::from_value(value).map_err(bad)?)),
@@ -262,7 +287,14 @@ mod tests {
     use super::*;
 
     fn offset() -> OffsetReport {
-        OffsetReport { metric: "closest".into(), sum_sq: 1e-8, sum: 1e-4, rms: 1e-5, max: 3e-5, max_at: vec![0.5, 0.1] }
+        OffsetReport {
+            metric: "closest".into(),
+            sum_sq: 1e-8,
+            sum: 1e-4,
+            rms: 1e-5,
+            max: 3e-5,
+            max_at: vec![0.5, 0.1],
+        }
     }
 
     fn fit() -> FitInfo {
@@ -280,12 +312,34 @@ mod tests {
     #[test]
     fn curve_report_round_trips_with_the_design_keys() {
         let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..12).map(|i| DVec2::new(i as f64 / 11.0, (i as f64).sin() * 0.1)).collect();
+        let design: Vec<DVec2> = (0..12)
+            .map(|i| DVec2::new(i as f64 / 11.0, (i as f64).sin() * 0.1))
+            .collect();
         let chain = CurveChain::new(layout, design).unwrap();
-        let rep = CurveReport::new(&chain, offset(), fit(), InputInfo { path: "data/naca4413.dat".into(), points: 82 });
+        let rep = CurveReport::new(
+            &chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "data/naca4413.dat".into(),
+                points: 82,
+            },
+        );
         let text = serde_json::to_string_pretty(&rep).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-        for key in ["kind", "dimension", "degree", "segments", "continuity", "breaks", "design_points", "control_points", "offset", "fit", "input"] {
+        for key in [
+            "kind",
+            "dimension",
+            "degree",
+            "segments",
+            "continuity",
+            "breaks",
+            "design_points",
+            "control_points",
+            "offset",
+            "fit",
+            "input",
+        ] {
             assert!(v.get(key).is_some(), "missing key {key}");
         }
         assert_eq!(v["continuity"], "C1");
@@ -314,9 +368,19 @@ mod tests {
             ChainLayout::uniform(3, 4, Continuity::C1).unwrap(),
             ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
         );
-        let design: Vec<DVec3> = (0..60).map(|i| DVec3::new((i / 6) as f64, (i % 6) as f64, (i as f64).cos())).collect();
+        let design: Vec<DVec3> = (0..60)
+            .map(|i| DVec3::new((i / 6) as f64, (i % 6) as f64, (i as f64).cos()))
+            .collect();
         let grid = PatchGrid::new(g, design).unwrap();
-        let rep = SurfaceReport::new(&grid, offset(), fit(), InputInfo { path: "cloud.csv".into(), points: 984 });
+        let rep = SurfaceReport::new(
+            &grid,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "cloud.csv".into(),
+                points: 984,
+            },
+        );
         assert_eq!((rep.design_net.len(), rep.design_net[0].len()), (10, 6));
         assert_eq!((rep.control_net.len(), rep.control_net[0].len()), (13, 7));
         let v = serde_json::to_value(&rep).unwrap();
@@ -330,7 +394,15 @@ mod tests {
     fn tampered_and_foreign_reports_are_refused() {
         let layout = ChainLayout::uniform(2, 2, Continuity::C1).unwrap();
         let chain = CurveChain::new(layout, vec![DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE]).unwrap();
-        let mut rep = CurveReport::new(&chain, offset(), fit(), InputInfo { path: "x".into(), points: 4 });
+        let mut rep = CurveReport::new(
+            &chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "x".into(),
+                points: 4,
+            },
+        );
         rep.control_points[2][0] += 0.5;
         assert!(rep.chain().is_err());
         let dir = tempfile::tempdir().unwrap();

@@ -34,7 +34,8 @@ impl CurvePlot<'_> {
     pub fn to_svg(&self) -> Result<String> {
         let mut out = String::new();
         {
-            let root = SVGBackend::with_string(&mut out, (WIDTH, TOP_HEIGHT + BOTTOM_HEIGHT)).into_drawing_area();
+            let root =
+                SVGBackend::with_string(&mut out, (WIDTH, TOP_HEIGHT + BOTTOM_HEIGHT)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_err)?;
             let (top, bottom) = root.split_vertically(TOP_HEIGHT);
             self.draw_shape(&top)?;
@@ -61,9 +62,18 @@ impl CurvePlot<'_> {
         // Design points are drawn as they are; expanded points that are not copies of a design
         // point are the generated ones (the joins for C1, more for C2).
         let design: Vec<(f64, f64)> = chain.design().iter().map(|p| (p.x, p.y)).collect();
-        let generated: Vec<(f64, f64)> =
-            ctrl.iter().enumerate().filter(|(r, _)| !l.map().is_copy(*r)).map(|(_, &p)| p).collect();
-        let all = self.data.iter().map(|p| (p.x, p.y)).chain(ctrl.iter().copied()).chain(curve.iter().copied());
+        let generated: Vec<(f64, f64)> = ctrl
+            .iter()
+            .enumerate()
+            .filter(|(r, _)| !l.map().is_copy(*r))
+            .map(|(_, &p)| p)
+            .collect();
+        let all = self
+            .data
+            .iter()
+            .map(|p| (p.x, p.y))
+            .chain(ctrl.iter().copied())
+            .chain(curve.iter().copied());
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for (x, y) in all {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
@@ -83,10 +93,21 @@ impl CurvePlot<'_> {
             .y_label_area_size(55)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(plot_err)?;
-        chart.configure_mesh().x_desc("x").y_desc("y").light_line_style(WHITE).draw().map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("x")
+            .y_desc("y")
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(plot_err)?;
         let grey = RGBColor(150, 150, 150);
         chart
-            .draw_series(DashedLineSeries::new(ctrl.iter().copied(), 5, 4, grey.stroke_width(1)))
+            .draw_series(DashedLineSeries::new(
+                ctrl.iter().copied(),
+                5,
+                4,
+                grey.stroke_width(1),
+            ))
             .map_err(plot_err)?
             .label("control polygon")
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey));
@@ -97,21 +118,31 @@ impl CurvePlot<'_> {
             .label(format!("fitted chain ({} segments, degree {d})", l.segments()))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], blue.stroke_width(2)));
         chart
-            .draw_series(self.data.iter().map(|p| Circle::new((p.x, p.y), 2, BLACK.filled())))
+            .draw_series(
+                self.data
+                    .iter()
+                    .map(|p| Circle::new((p.x, p.y), 2, BLACK.filled())),
+            )
             .map_err(plot_err)?
             .label(format!("data ({} points)", self.data.len()))
             .legend(|(x, y)| Circle::new((x + 9, y), 2, BLACK.filled()));
         let red = RGBColor(214, 39, 40);
         chart
-            .draw_series(design.iter().map(|&(x, y)| {
-                EmptyElement::at((x, y)) + Rectangle::new([(-4, -4), (4, 4)], red.filled())
-            }))
+            .draw_series(
+                design.iter().map(|&(x, y)| {
+                    EmptyElement::at((x, y)) + Rectangle::new([(-4, -4), (4, 4)], red.filled())
+                }),
+            )
             .map_err(plot_err)?
             .label(format!("design points ({})", design.len()))
             .legend(move |(x, y)| Rectangle::new([(x + 5, y - 4), (x + 13, y + 4)], red.filled()));
         let green = RGBColor(44, 160, 44);
         chart
-            .draw_series(generated.iter().map(|&(x, y)| Circle::new((x, y), 5, green.stroke_width(2))))
+            .draw_series(
+                generated
+                    .iter()
+                    .map(|&(x, y)| Circle::new((x, y), 5, green.stroke_width(2))),
+            )
             .map_err(plot_err)?
             .label(format!("generated join points ({})", generated.len()))
             .legend(move |(x, y)| Circle::new((x + 9, y), 5, green.stroke_width(2)));
@@ -131,7 +162,10 @@ impl CurvePlot<'_> {
         let top = if max > 0.0 { max * 3.0 } else { 1.0 };
         let floor = top * 1e-7;
         let mut chart = ChartBuilder::on(area)
-            .caption(format!("offset of each data point (max {max:.3e})"), ("sans-serif", 16))
+            .caption(
+                format!("offset of each data point (max {max:.3e})"),
+                ("sans-serif", 16),
+            )
             .margin(12)
             .x_label_area_size(35)
             .y_label_area_size(70)
@@ -147,12 +181,18 @@ impl CurvePlot<'_> {
         let blue = RGBColor(31, 119, 180);
         chart
             .draw_series(self.offsets.iter().enumerate().map(|(i, &e)| {
-                PathElement::new(vec![(i as f64, floor), (i as f64, e.max(floor))], blue.stroke_width(2))
+                PathElement::new(
+                    vec![(i as f64, floor), (i as f64, e.max(floor))],
+                    blue.stroke_width(2),
+                )
             }))
             .map_err(plot_err)?;
         chart
             .draw_series(
-                self.offsets.iter().enumerate().map(|(i, &e)| Circle::new((i as f64, e.max(floor)), 2, blue.filled())),
+                self.offsets
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &e)| Circle::new((i as f64, e.max(floor)), 2, blue.filled())),
             )
             .map_err(plot_err)?;
         Ok(())
@@ -167,11 +207,22 @@ mod tests {
     #[test]
     fn the_plot_holds_every_marker() {
         let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..12).map(|i| DVec2::new(i as f64 / 11.0, 0.1 * (i as f64).sin())).collect();
+        let design: Vec<DVec2> = (0..12)
+            .map(|i| DVec2::new(i as f64 / 11.0, 0.1 * (i as f64).sin()))
+            .collect();
         let chain = CurveChain::new(layout, design).unwrap();
-        let data: Vec<DVec2> = (0..40).map(|i| chain.eval(i as f64 / 39.0) + DVec2::new(0.0, 1e-4)).collect();
+        let data: Vec<DVec2> = (0..40)
+            .map(|i| chain.eval(i as f64 / 39.0) + DVec2::new(0.0, 1e-4))
+            .collect();
         let offsets: Vec<f64> = (0..40).map(|i| 1e-5 * (1.0 + i as f64)).collect();
-        let svg = CurvePlot { title: "test".into(), data: &data, chain: &chain, offsets: &offsets }.to_svg().unwrap();
+        let svg = CurvePlot {
+            title: "test".into(),
+            data: &data,
+            chain: &chain,
+            offsets: &offsets,
+        }
+        .to_svg()
+        .unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains("design points (12)"));
         assert!(svg.contains("generated join points (4)"));

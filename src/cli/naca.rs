@@ -1,0 +1,52 @@
+//! `bezchain naca`: generate a NACA aerofoil in Selig format.
+
+use super::Target;
+use anyhow::Result;
+use bezchain::geometry::{write_selig_to, Naca, NacaOptions, Spacing};
+use clap::ValueEnum;
+use std::path::PathBuf;
+
+/// Station spacing along the chord.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SpacingArg {
+    /// Dense at the leading and trailing edges.
+    Cosine,
+    /// Uniform in x on each surface.
+    Uniform,
+}
+
+/// Arguments of `bezchain naca`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Designation: 4 digits (e.g. 4413) or 5 digits (e.g. 23012).
+    pub code: String,
+    /// Total number of contour points (upper TE → LE → lower TE).
+    #[arg(long, default_value_t = 82)]
+    pub points: usize,
+    /// Station spacing.
+    #[arg(long, value_enum, default_value_t = SpacingArg::Cosine)]
+    pub spacing: SpacingArg,
+    /// Close the trailing edge (thickness coefficient −0.1036 instead of −0.1015).
+    #[arg(long)]
+    pub closed_te: bool,
+    /// Output file (Selig `.dat`); standard output when omitted or `-`.
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
+}
+
+/// Generate the contour and write it.
+pub fn run(args: Args) -> Result<()> {
+    let naca = Naca::parse(&args.code)?;
+    let spacing = match args.spacing {
+        SpacingArg::Cosine => Spacing::Cosine,
+        SpacingArg::Uniform => Spacing::Uniform,
+    };
+    let points = naca.contour(&NacaOptions {
+        points: args.points,
+        spacing,
+        closed_te: args.closed_te,
+    })?;
+    let mut text = Vec::new();
+    write_selig_to(&mut text, &naca.name(), &points)?;
+    Target::parse(&args.output).write(&text)
+}
