@@ -10,6 +10,7 @@ use bezchain::geometry::{
 use bezchain::Error;
 use geometry_common::{airfoil, crate_root, scratch};
 use glam::{DVec2, DVec3};
+use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
 const RADII: [f64; 12] = [
@@ -322,6 +323,26 @@ fn a_single_file_aerofoil_keeps_its_points_unless_asked() {
         })
         .unwrap();
     assert_eq!(cloud.points.len(), 400);
+    // A coarse file needs an explicit count, and is then resampled through its points.
+    std::fs::write(
+        path.with_file_name("clarky.dat"),
+        "COARSE\n1 0.001\n0.5 0.05\n0 0\n0.5 -0.05\n",
+    )
+    .unwrap();
+    let blade = Blade::from_file(&path).unwrap();
+    let e = blade.loft(&LoftOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("only 4 points"), "{e}");
+    let cloud = blade
+        .loft(&LoftOptions {
+            points_per_section: Some(9),
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(
+        cloud.points[4].truncate(),
+        DVec2::ZERO,
+        "the middle point is the leading edge"
+    );
 }
 
 #[test]
@@ -486,4 +507,78 @@ fn million_point_noisy_shuffled_cloud() {
     assert_eq!(cloud.points.len(), 1_000_000);
     assert_eq!(back.points, cloud.points);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A blade file with the given column values (any numbers, any lengths).
+fn columns_json(radius: &[f64], chord: &[f64], twist: &[f64], extra: &str) -> String {
+    let list = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ");
+    format!(
+        r#"{{"radius": [{}], "chord": [{}], "twist_deg": [{}], "aerofoil": "NACA 4413"{extra}}}"#,
+        list(radius),
+        list(chord),
+        list(twist)
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_blades_loft_or_fail_cleanly(
+        radius in proptest::collection::vec(prop_oneof![-1.0..3.0, Just(1.0), Just(1e300), Just(0.0)], 0..6),
+        chord in proptest::collection::vec(prop_oneof![-0.1..0.5, Just(0.0), Just(1e300)], 0..6),
+        twist in proptest::collection::vec(prop_oneof![-90.0..90.0, Just(1e300)], 0..6),
+        extra in prop_oneof![
+            Just(String::new()),
+            Just(r#", "pitch_axis": 1"#.to_string()),
+            Just(r#", "prebend": [0, 0.1]"#.to_string()),
+            Just(r#", "sweep": 1e300"#.to_string()),
+            Just(r#", "pitch_axis": null"#.to_string()),
+        ],
+        sections in prop_oneof![Just(None), (0usize..30).prop_map(Some)],
+        points in prop_oneof![Just(None), (0usize..120).prop_map(Some)],
+        noise in prop_oneof![Just(0.0), 0.0..0.1, Just(f64::INFINITY)],
+        shuffle in any::<bool>(),
+    ) {
+        let json = columns_json(&radius, &chord, &twist, &extra);
+        match Blade::from_json(&json, Path::new("fuzz.json")) {
+            Err(e) => prop_assert!(e.is_user_error() && e.to_string().starts_with("fuzz.json"), "{e}"),
+            Ok(blade) => {
+                prop_assert!(blade.stations.len() >= 2);
+                prop_assert!(blade.stations.windows(2).all(|w| w[0].radius < w[1].radius));
+                let opts = LoftOptions { points_per_section: points, sections, noise, shuffle, seed: 1 };
+                match blade.loft(&opts) {
+                    Err(e) => prop_assert!(matches!(e, Error::Invalid(_)), "{e}"),
+                    Ok(cloud) => {
+                        let n = blade.points_per_section(&opts);
+                        prop_assert_eq!(cloud.points.len(), n * blade.section_radii(&opts).len());
+                        prop_assert!(cloud.points.iter().all(|p| p.is_finite()));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mutated_blade_files_never_panic(
+        text in "[\\[\\]{}:,\"a-z0-9. _-]{0,120}",
+        at in 0usize..1000,
+        with in "[\\[\\]{}:,\"a-z0-9. _-]{0,3}",
+    ) {
+        let paper = std::fs::read_to_string(crate_root().join("data/blade_paper.json")).unwrap();
+        let at = (0..=at.min(paper.len())).rev().find(|&i| paper.is_char_boundary(i)).unwrap_or(0);
+        let end = (at + with.len()).min(paper.len());
+        let end = (end..=paper.len()).find(|&i| paper.is_char_boundary(i)).unwrap_or(paper.len());
+        let mutated = format!("{}{with}{}", &paper[..at], &paper[end..]);
+        for json in [text.as_str(), mutated.as_str()] {
+            match Blade::from_json(json, Path::new("fuzz.json")) {
+                Err(e) => prop_assert!(e.is_user_error(), "{e}"),
+                Ok(blade) => {
+                    if let Err(e) = blade.loft(&LoftOptions::default()) {
+                        prop_assert!(matches!(e, Error::Invalid(_)), "{e}");
+                    }
+                }
+            }
+        }
+    }
 }

@@ -198,9 +198,13 @@ impl Blade {
     pub fn loft(&self, opts: &LoftOptions) -> Result<Cloud> {
         let n = self.points_per_section(opts);
         if n < MIN_SECTION_POINTS {
-            return Err(Error::invalid(format!(
-                "points_per_section must be at least {MIN_SECTION_POINTS} (got {n})"
-            )));
+            return Err(Error::invalid(match opts.points_per_section {
+                Some(_) => format!("points_per_section must be at least {MIN_SECTION_POINTS} (got {n})"),
+                None => format!(
+                    "the aerofoils have only {n} points; ask for at least {MIN_SECTION_POINTS} points per \
+                     section to resample them"
+                ),
+            }));
         }
         if opts.sections.is_some_and(|m| m < 2) {
             return Err(Error::invalid(format!(
@@ -296,6 +300,12 @@ impl Blade {
                 }
             },
         );
+        if let Some(k) = points.iter().position(|p| !p.is_finite()) {
+            return Err(Error::invalid(format!(
+                "section {} of the lofted blade is not finite (station values too large or too close?)",
+                k / n
+            )));
+        }
         if opts.shuffle {
             let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
             rng.set_stream(0);
