@@ -174,10 +174,9 @@ impl Blade {
     #[must_use]
     pub fn section_radii(&self, opts: &LoftOptions) -> Vec<f64> {
         let r: Vec<f64> = self.stations.iter().map(|s| s.radius).collect();
-        match opts.sections {
-            None => r,
-            Some(m) => {
-                let (a, b) = (r[0], r[r.len() - 1]);
+        match (opts.sections, r.first(), r.last()) {
+            (None, ..) | (_, None, _) | (_, _, None) => r,
+            (Some(m), Some(&a), Some(&b)) => {
                 let last = m.saturating_sub(1).max(1) as f64;
                 (0..m)
                     .map(|i| {
