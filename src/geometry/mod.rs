@@ -1,13 +1,18 @@
 //! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
-//! readers and writers, blade lofting.
+//! readers and writers, blade definitions and lofting.
 
+mod blade;
 mod dat;
+mod interp;
 mod io;
+mod loft;
 mod naca;
 mod points;
 
+pub use blade::{Aerofoil, Blade, Station, DEFAULT_NACA_POINTS, DEFAULT_PITCH_AXIS};
 pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
 pub use io::write_atomic;
+pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};
 pub use naca::{Naca, NacaOptions, Spacing};
 pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,

@@ -1,0 +1,319 @@
+//! Lofting a blade into a 3D point cloud: sections at the stations or interpolated between
+//! them (monotone cubic), placed by chord, pitch axis, twist and offsets, with optional
+//! seeded Gaussian noise and shuffling to imitate an unordered scan.
+//!
+//! Axes: z is the span (radius), x runs along the chord (leading edge → trailing edge at zero
+//! twist), y is the thickness direction (upper surface towards +y). A unit-chord section point
+//! `(u, v)` of station `(r, c, θ, a, prebend, sweep)` goes to
+//! `x = sweep + c (u - a) cos θ + c v sin θ`, `y = prebend - c (u - a) sin θ + c v cos θ`,
+//! `z = r`: scaled by the chord about the pitch axis `(a, 0)`, then turned by the twist θ so that
+//! a positive twist raises the leading edge (a rotation by -θ about +z), then offset.
+
+use super::blade::Blade;
+use super::interp::{Pchip, ShapePchip};
+use super::points::{Cloud, Grid};
+use crate::error::{Error, Result};
+use glam::{DVec2, DVec3};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+
+/// The largest cloud `loft` builds (24 bytes a point: 2.4 GB).
+pub const MAX_CLOUD_POINTS: usize = 100_000_000;
+
+/// The fewest points a lofted section may have.
+pub const MIN_SECTION_POINTS: usize = 5;
+
+/// How to loft a blade.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoftOptions {
+    /// Points per section. Default `None`: 82 for NACA sections, a file aerofoil's own count
+    /// (the largest of them when stations use different aerofoils). At least 5.
+    pub points_per_section: Option<usize>,
+    /// Number of sections, spaced uniformly in radius from the first station to the last.
+    /// Default `None`: one section at every station. At least 2.
+    pub sections: Option<usize>,
+    /// Standard deviation of the Gaussian noise added to every coordinate, as a fraction of
+    /// the largest chord. Default 0 (no noise).
+    pub noise: f64,
+    /// Randomise the order of the points (the cloud then has no grid). Default false.
+    pub shuffle: bool,
+    /// Seed of the noise and the shuffle. Default 0.
+    pub seed: u64,
+}
+
+impl Default for LoftOptions {
+    fn default() -> Self {
+        LoftOptions {
+            points_per_section: None,
+            sections: None,
+            noise: 0.0,
+            shuffle: false,
+            seed: 0,
+        }
+    }
+}
+
+/// Everything that places one section.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Placement {
+    radius: f64,
+    chord: f64,
+    twist_deg: f64,
+    pitch_axis: f64,
+    prebend: f64,
+    sweep: f64,
+}
+
+impl Placement {
+    /// Place the unit-chord `shape` in space (see the module doc for the formula).
+    fn place(&self, shape: &[DVec2], out: &mut [DVec3]) {
+        let (s, c) = self.twist_deg.to_radians().sin_cos();
+        for (o, q) in out.iter_mut().zip(shape) {
+            let u = (q.x - self.pitch_axis) * self.chord;
+            let v = q.y * self.chord;
+            *o = DVec3::new(
+                self.sweep + u * c + v * s,
+                self.prebend - u * s + v * c,
+                self.radius,
+            );
+        }
+    }
+}
+
+/// Spanwise interpolants of the placement values.
+struct Profile {
+    chord: Pchip,
+    twist_deg: Pchip,
+    pitch_axis: Pchip,
+    prebend: Pchip,
+    sweep: Pchip,
+}
+
+impl Profile {
+    fn new(blade: &Blade) -> Profile {
+        let r: Vec<f64> = blade.stations.iter().map(|s| s.radius).collect();
+        let col = |f: fn(&super::blade::Station) -> f64| {
+            Pchip::new(&r, &blade.stations.iter().map(f).collect::<Vec<_>>())
+        };
+        Profile {
+            chord: col(|s| s.chord),
+            twist_deg: col(|s| s.twist_deg),
+            pitch_axis: col(|s| s.pitch_axis),
+            prebend: col(|s| s.prebend),
+            sweep: col(|s| s.sweep),
+        }
+    }
+
+    fn at(&self, radius: f64) -> Placement {
+        Placement {
+            radius,
+            // PCHIP never overshoots, so the chord stays >= 0; the max guards the last ulp.
+            chord: self.chord.eval(radius).max(0.0),
+            twist_deg: self.twist_deg.eval(radius),
+            pitch_axis: self.pitch_axis.eval(radius),
+            prebend: self.prebend.eval(radius),
+            sweep: self.sweep.eval(radius),
+        }
+    }
+}
+
+/// Where each section's shape comes from.
+enum Shapes {
+    /// Every section uses this one.
+    One(Vec<DVec2>),
+    /// Section `k` is station `k`'s shape.
+    PerStation(Vec<Vec<DVec2>>),
+    /// Interpolated over radius between the stations' shapes.
+    Blend(ShapePchip),
+}
+
+impl Blade {
+    /// The number of points per section `opts` gives for this blade.
+    #[must_use]
+    pub fn points_per_section(&self, opts: &LoftOptions) -> usize {
+        opts.points_per_section.unwrap_or_else(|| {
+            let used = |a: usize| self.stations.iter().any(|s| s.aerofoil == a);
+            (0..self.aerofoils.len())
+                .filter(|&a| used(a))
+                .map(|a| self.aerofoils[a].native_points())
+                .max()
+                .unwrap_or(super::blade::DEFAULT_NACA_POINTS)
+        })
+    }
+
+    /// Re-check what [`Blade::from_json`] validated, for blades built or edited in code.
+    fn check(&self) -> Result<()> {
+        let st = &self.stations;
+        let finite = st.iter().all(|s| {
+            [s.radius, s.chord, s.twist_deg, s.pitch_axis, s.prebend, s.sweep]
+                .iter()
+                .all(|v| v.is_finite())
+        });
+        let ok = st.len() >= 2
+            && finite
+            && st.windows(2).all(|w| w[0].radius < w[1].radius)
+            && st
+                .iter()
+                .all(|s| s.chord >= 0.0 && s.aerofoil < self.aerofoils.len())
+            && self.max_chord() > 0.0;
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                "a blade needs at least 2 stations with finite values, increasing radii, \
+                 chords >= 0 (not all zero) and known aerofoils",
+            ))
+        }
+    }
+
+    /// The radii of the sections `opts` asks for: the stations', or `sections` uniformly
+    /// spaced from the first station to the last (both included exactly).
+    #[must_use]
+    pub fn section_radii(&self, opts: &LoftOptions) -> Vec<f64> {
+        let r: Vec<f64> = self.stations.iter().map(|s| s.radius).collect();
+        match (opts.sections, r.first(), r.last()) {
+            (None, ..) | (_, None, _) | (_, _, None) => r,
+            (Some(m), Some(&a), Some(&b)) => {
+                let last = m.saturating_sub(1).max(1) as f64;
+                (0..m)
+                    .map(|i| {
+                        if i + 1 == m {
+                            b
+                        } else {
+                            a + (b - a) * i as f64 / last
+                        }
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Loft the blade into a cloud of `sections × points_per_section` points, section-major
+    /// with a [`Grid`] unless shuffled. Noise and shuffle are reproducible from the seed
+    /// (the same cloud on any number of threads).
+    pub fn loft(&self, opts: &LoftOptions) -> Result<Cloud> {
+        let n = self.points_per_section(opts);
+        if n < MIN_SECTION_POINTS {
+            return Err(Error::invalid(match opts.points_per_section {
+                Some(_) => format!("points_per_section must be at least {MIN_SECTION_POINTS} (got {n})"),
+                None => format!(
+                    "the aerofoils have only {n} points; ask for at least {MIN_SECTION_POINTS} points per \
+                     section to resample them"
+                ),
+            }));
+        }
+        if opts.sections.is_some_and(|m| m < 2) {
+            return Err(Error::invalid(format!(
+                "sections must be at least 2 (got {})",
+                opts.sections.unwrap_or(0)
+            )));
+        }
+        if !(opts.noise.is_finite() && opts.noise >= 0.0) {
+            return Err(Error::invalid(format!(
+                "noise must be a finite fraction >= 0 of the largest chord (got {})",
+                opts.noise
+            )));
+        }
+        self.check()?;
+        let radii = self.section_radii(opts);
+        let m = radii.len();
+        let total = m
+            .checked_mul(n)
+            .filter(|&t| t <= MAX_CLOUD_POINTS)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "{m} sections x {n} points is more than the {MAX_CLOUD_POINTS} points a cloud may have"
+                ))
+            })?;
+
+        let alike = self.aerofoils.len() > 1;
+        let sampled = self
+            .aerofoils
+            .iter()
+            .map(|a| a.sample(n, alike))
+            .collect::<Result<Vec<_>>>()?;
+        let shapes = if self.aerofoils.len() == 1 {
+            Shapes::One(sampled[0].clone())
+        } else {
+            let per_station: Vec<Vec<DVec2>> = self
+                .stations
+                .iter()
+                .map(|s| sampled[s.aerofoil].clone())
+                .collect();
+            match opts.sections {
+                None => Shapes::PerStation(per_station),
+                Some(_) => {
+                    let r: Vec<f64> = self.stations.iter().map(|s| s.radius).collect();
+                    Shapes::Blend(ShapePchip::new(&r, per_station))
+                }
+            }
+        };
+        let placements: Vec<Placement> = match opts.sections {
+            None => self
+                .stations
+                .iter()
+                .map(|s| Placement {
+                    radius: s.radius,
+                    chord: s.chord,
+                    twist_deg: s.twist_deg,
+                    pitch_axis: s.pitch_axis,
+                    prebend: s.prebend,
+                    sweep: s.sweep,
+                })
+                .collect(),
+            Some(_) => {
+                let profile = Profile::new(self);
+                radii.iter().map(|&r| profile.at(r)).collect()
+            }
+        };
+
+        let sigma = opts.noise * self.max_chord();
+        let normal = Normal::new(0.0, sigma).map_err(|e| Error::invalid(format!("noise: {e}")))?;
+        let mut points = vec![DVec3::ZERO; total];
+        points.par_chunks_mut(n).enumerate().for_each_init(
+            || vec![DVec2::ZERO; n],
+            |buf, (k, out)| {
+                let shape: &[DVec2] = match &shapes {
+                    Shapes::One(s) => s,
+                    Shapes::PerStation(s) => &s[k],
+                    Shapes::Blend(b) => {
+                        b.eval_into(placements[k].radius, buf);
+                        buf
+                    }
+                };
+                placements[k].place(shape, out);
+                if sigma > 0.0 {
+                    // One stream per section: the same noise whatever the thread count.
+                    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+                    rng.set_stream(k as u64 + 1);
+                    for p in out.iter_mut() {
+                        *p += DVec3::new(
+                            normal.sample(&mut rng),
+                            normal.sample(&mut rng),
+                            normal.sample(&mut rng),
+                        );
+                    }
+                }
+            },
+        );
+        if let Some(k) = points.iter().position(|p| !p.is_finite()) {
+            return Err(Error::invalid(format!(
+                "section {} of the lofted blade is not finite (station values too large or too close?)",
+                k / n
+            )));
+        }
+        if opts.shuffle {
+            let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+            rng.set_stream(0);
+            points.shuffle(&mut rng);
+        }
+        let grid = (!opts.shuffle).then_some(Grid {
+            sections: m,
+            per_section: n,
+        });
+        Ok(Cloud { points, grid })
+    }
+}
