@@ -18,12 +18,15 @@ struct Cli {
 enum Command {
     /// Generate a NACA 4- or 5-digit aerofoil in Selig format.
     Naca(cli::naca::Args),
+    /// Loft a blade definition (JSON) into a 3D point cloud.
+    Blade(cli::blade::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
+        Command::Blade(args) => cli::blade::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
