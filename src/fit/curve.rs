@@ -3,10 +3,10 @@
 
 use super::bfgs::{bfgs, BfgsOptions};
 use super::foot::FootOptions;
-use super::lsq::{lsq_from, LsqOptions};
+use super::lsq::{lsq_each, pick, HasReport, LsqFit, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
-use super::offset::{corresponding_stats, exponent_params, offset_stats, Metric, OffsetStats};
+use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
 use super::problem::CurveProblem;
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
@@ -73,13 +73,17 @@ pub struct FitOptions {
     /// [`FitProblem`](super::FitProblem)). Reported offsets are true closest-point offsets
     /// either way. Default true.
     pub anchor_ends: bool,
-    /// The least-squares method starts from each of these parameterisations of the data and
-    /// keeps the best fit: exponents `alpha` of [`exponent_params`] (1 chord length, 0.5
-    /// centripetal, 0 uniform). The closest-point objective has many local minima and each
-    /// start reaches one; on the paper's cases and the shared aerofoil files the best of these
-    /// three was within 10 % of the best of eleven exponents. The starts run in parallel.
-    /// Default `[1.0, 0.5, 0.25]`.
+    /// The least-squares method starts from a linear solve at each of these
+    /// parameterisations of the data: exponents `alpha` of [`exponent_params`] (1 chord
+    /// length, 0.5 centripetal, 0 uniform). For the closest-point metric it also starts from
+    /// the paper's start (design points picked from the data). The closest-point objective has
+    /// many local minima and each start reaches one; the starts run in parallel. Default
+    /// `[1.0, 0.5, 0.25]`.
     pub parametrizations: &'static [f64],
+    /// Of the least-squares starts, those whose chain has a [`span_ratio`] at most this
+    /// compete on the sum of squares; a chain above it has a stretch that loops away from the
+    /// data or folds back (if every start has one, the lowest ratio wins). Default 3.
+    pub max_span_ratio: f64,
     /// Foot-point search during the fit. Defaults: 32 samples per segment, 40 Newton steps.
     pub foot: FootOptions,
     /// Options of the least-squares method.
@@ -97,6 +101,7 @@ impl Default for FitOptions {
             metric: Metric::default(),
             anchor_ends: true,
             parametrizations: &[1.0, 0.5, 0.25],
+            max_span_ratio: 3.0,
             foot: FootOptions::default(),
             lsq: LsqOptions::default(),
             nelder_mead: NelderMeadOptions::default(),
@@ -119,6 +124,10 @@ pub struct CurveFit<P: Vector> {
     pub method: Method,
     /// The metric minimised.
     pub metric: Metric,
+    /// [`span_ratio`] of the chain at the data's foot points (the ends anchored as in the fit):
+    /// near 1 when the chain follows the data, far above it when a stretch of chain loops away
+    /// or folds back.
+    pub span_ratio: f64,
     /// Iterations and evaluations of the solver; `seconds` covers the whole fit, from the
     /// data to the final offsets.
     pub report: SolveReport,
@@ -126,7 +135,8 @@ pub struct CurveFit<P: Vector> {
 
 /// Fit a chain with `layout` to `points` (ordered along the curve, e.g. a Selig contour).
 ///
-/// `lsq` starts from each of `opts.parametrizations` with a linear solve and keeps the best;
+/// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the
+/// paper's start, and keeps the best loop-free fit (see [`FitOptions::max_span_ratio`]);
 /// `nelder-mead` and `bfgs`
 /// start as the paper does, from design points picked from the data at an even increment
 /// ([`super::increment_start`]), and minimise the metric's sum of squares over the flattened
@@ -136,13 +146,41 @@ pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions
     let problem = CurveProblem::curve_with(layout, points, opts.metric, opts.foot, opts.anchor_ends)?;
     let (design, mut report) = match opts.method {
         Method::Lsq => {
-            let starts = opts
+            let mut starts = opts
                 .parametrizations
                 .iter()
-                .map(|&alpha| Ok(exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect()))
-                .collect::<Result<Vec<Vec<[f64; 1]>>>>()?;
-            let fit = lsq_from(&problem, &starts, &opts.lsq)?;
-            (fit.design, fit.report)
+                .map(|&alpha| {
+                    Ok(Start::Params(
+                        exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
+                    ))
+                })
+                .collect::<Result<Vec<Start<P, 1>>>>()?;
+            if opts.metric == Metric::Closest {
+                starts.push(Start::Design(
+                    problem.increment_start()?,
+                    problem.params().to_vec(),
+                ));
+            }
+            let fits = lsq_each(&problem, &starts, &opts.lsq)?;
+            // Rank by (has a loop, sum of squares), loops by their span ratio.
+            let scored = fits
+                .into_iter()
+                .map(|fit| {
+                    let chain = problem.chain(&fit.design)?;
+                    let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
+                    let ratio = span_ratio(&chain, points, &t);
+                    Ok(Scored { fit, ratio })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let limit = opts.max_span_ratio;
+            let best = pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
+                (true, false) => true,
+                (false, true) => false,
+                (true, true) => a.fit.sum_sq < b.fit.sum_sq,
+                (false, false) => a.ratio < b.ratio,
+            })
+            .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
+            (best.fit.design, best.fit.report)
         }
         Method::NelderMead => {
             let x0 = CurveProblem::<P>::to_flat(&problem.increment_start()?);
@@ -163,6 +201,8 @@ pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions
     }
     let chain = problem.chain(&design)?;
     let closest = offset_stats(&chain, points)?;
+    let feet = problem.feet(&design, None);
+    let span = span_ratio(&chain, points, &feet.iter().map(|f| f.t[0]).collect::<Vec<f64>>());
     let offset = match opts.metric {
         Metric::Closest => closest,
         Metric::Corresponding => corresponding_stats(&chain, points)?,
@@ -174,8 +214,24 @@ pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions
         closest,
         method: opts.method,
         metric: opts.metric,
+        span_ratio: span,
         report,
     })
+}
+
+/// A least-squares fit with its chain's span ratio.
+struct Scored<P> {
+    fit: LsqFit<P, 1>,
+    ratio: f64,
+}
+
+impl<P> HasReport for Scored<P> {
+    fn report(&self) -> &SolveReport {
+        &self.fit.report
+    }
+    fn report_mut(&mut self) -> &mut SolveReport {
+        &mut self.fit.report
+    }
 }
 
 #[cfg(test)]

@@ -59,7 +59,8 @@ pub struct LsqOptions {
     /// of the data extent. Default 1e-13.
     pub xtol: f64,
     /// Initial damping `λ`, relative to the diagonal of the normal equations (Marquardt's
-    /// scaling). Default 1e-3.
+    /// scaling). A large value makes the first steps short, gradient-like ones, which on the
+    /// aerofoil files led to better local minima than bold first steps. Default 10.
     pub initial_damping: f64,
     /// How often a global foot-point search may restart the iteration after convergence, when
     /// it finds closer foot points elsewhere on the shape. Default 3.
@@ -72,7 +73,7 @@ impl Default for LsqOptions {
             max_iterations: 300,
             ftol: 1e-7,
             xtol: 1e-13,
-            initial_damping: 1e-3,
+            initial_damping: 10.0,
             global_checks: 3,
         }
     }
@@ -501,28 +502,32 @@ pub fn lsq<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     opts: &LsqOptions,
 ) -> Result<LsqFit<S::Point, K>> {
-    lsq_from(problem, &[problem.params().to_vec()], opts)
+    lsq_from(problem, &[Start::Params(problem.params().to_vec())], opts)
 }
 
-/// [`lsq`] from several parameter starts (one parameter per data point each), run in
-/// parallel; the fit with the least sum of squares wins (the first on ties). The closest-point
-/// objective has many local minima on real data, and different parameterisations of the data
-/// (chord length, centripetal, ...) reach different ones. The report sums the iterations and
-/// evaluations of all starts; `seconds` is the wall-clock time of the whole call.
-///
-/// For the corresponding-points metric only the problem's own parameters matter: one linear
-/// solve.
-pub fn lsq_from<S: Shape<K>, const K: usize>(
+/// Where a least-squares fit starts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Start<P, const K: usize> {
+    /// One parameter per data point; the design is the linear least-squares fit at them.
+    Params(Vec<[f64; K]>),
+    /// A design, with one parameter per data point from which the local foot points are
+    /// found.
+    Design(Vec<P>, Vec<[f64; K]>),
+}
+
+/// [`lsq`] from several starts, run in parallel: one fit per start, in order. For the
+/// corresponding-points metric only the problem's own parameters matter: one linear solve.
+pub fn lsq_each<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    starts: &[Vec<[f64; K]>],
+    starts: &[Start<S::Point, K>],
     opts: &LsqOptions,
-) -> Result<LsqFit<S::Point, K>> {
+) -> Result<Vec<LsqFit<S::Point, K>>> {
     let clock = Instant::now();
     if problem.metric() == Metric::Corresponding {
         let params = problem.params().to_vec();
         let design = problem.linear_fit(&params)?;
         let sum_sq = problem.sum_sq_at(&design, &params);
-        return Ok(LsqFit {
+        return Ok(vec![LsqFit {
             design,
             params,
             sum_sq,
@@ -532,22 +537,21 @@ pub fn lsq_from<S: Shape<K>, const K: usize>(
                 seconds: clock.elapsed().as_secs_f64(),
                 stop: StopReason::Exact,
             },
-        });
+        }]);
     }
     if starts.is_empty() {
-        return Err(Error::invalid("lsq: at least one parameter start is needed"));
+        return Err(Error::invalid("lsq: at least one start is needed"));
     }
-    let run = |start: &Vec<[f64; K]>| -> Result<LsqFit<S::Point, K>> {
-        if start.len() != problem.points().len() {
+    let n = problem.points().len();
+    // Anchored points keep the problem's parameters whatever the start says.
+    let own = |t: &[[f64; K]]| -> Result<Vec<[f64; K]>> {
+        if t.len() != n {
             return Err(Error::invalid(format!(
-                "lsq: a start has {} parameters for {} data points",
-                start.len(),
-                problem.points().len()
+                "lsq: a start has {} parameters for {n} data points",
+                t.len()
             )));
         }
-        // Anchored points keep the problem's parameters whatever the start says.
-        let params: Vec<[f64; K]> = start
-            .iter()
+        Ok(t.iter()
             .enumerate()
             .map(|(j, &t)| {
                 if problem.is_anchored(j) {
@@ -556,30 +560,80 @@ pub fn lsq_from<S: Shape<K>, const K: usize>(
                     clamp01(t)
                 }
             })
-            .collect();
-        let design = problem.linear_fit(&params)?;
+            .collect())
+    };
+    let run = |start: &Start<S::Point, K>| -> Result<LsqFit<S::Point, K>> {
+        let (design, params) = match start {
+            Start::Params(t) => {
+                let params = own(t)?;
+                (problem.linear_fit(&params)?, params)
+            }
+            Start::Design(x, t) => (x.clone(), own(t)?),
+        };
         levenberg_marquardt(problem, design, params, opts)
     };
-    let fits: Vec<Result<LsqFit<S::Point, K>>> = if starts.len() == 1 {
-        vec![run(&starts[0])]
-    } else {
-        starts.par_iter().map(run).collect()
-    };
-    let mut best: Option<LsqFit<S::Point, K>> = None;
+    if starts.len() == 1 {
+        return Ok(vec![run(&starts[0])?]);
+    }
+    starts.par_iter().map(run).collect()
+}
+
+/// [`lsq`] from several starts, run in parallel; the fit with the least sum of squares wins
+/// (the first on ties). The closest-point objective has many local minima on real data, and
+/// different parameterisations of the data (chord length, centripetal, ...) reach different
+/// ones. The report sums the iterations and evaluations of all starts; `seconds` is the
+/// wall-clock time of the whole call.
+pub fn lsq_from<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    starts: &[Start<S::Point, K>],
+    opts: &LsqOptions,
+) -> Result<LsqFit<S::Point, K>> {
+    let clock = Instant::now();
+    let fits = lsq_each(problem, starts, opts)?;
+    let mut best = pick(fits, |a, b| a.sum_sq < b.sum_sq)
+        .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
+    best.report.seconds = clock.elapsed().as_secs_f64();
+    Ok(best)
+}
+
+/// The fit that `better` prefers (the first on ties), its report carrying the summed
+/// iterations and evaluations of all.
+pub(crate) fn pick<F, T>(fits: Vec<T>, better: F) -> Option<T>
+where
+    F: Fn(&T, &T) -> bool,
+    T: HasReport,
+{
     let (mut iterations, mut evaluations) = (0, 0);
+    let mut best: Option<T> = None;
     for fit in fits {
-        let fit = fit?;
-        iterations += fit.report.iterations;
-        evaluations += fit.report.evaluations;
-        if best.as_ref().is_none_or(|b| fit.sum_sq < b.sum_sq) {
+        iterations += fit.report().iterations;
+        evaluations += fit.report().evaluations;
+        if best.as_ref().is_none_or(|b| better(&fit, b)) {
             best = Some(fit);
         }
     }
-    let mut best = best.ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
-    best.report.iterations = iterations;
-    best.report.evaluations = evaluations;
-    best.report.seconds = clock.elapsed().as_secs_f64();
-    Ok(best)
+    best.map(|mut b| {
+        b.report_mut().iterations = iterations;
+        b.report_mut().evaluations = evaluations;
+        b
+    })
+}
+
+/// Access to a result's solver report.
+pub(crate) trait HasReport {
+    /// The report.
+    fn report(&self) -> &SolveReport;
+    /// The report, to amend.
+    fn report_mut(&mut self) -> &mut SolveReport;
+}
+
+impl<P, const K: usize> HasReport for LsqFit<P, K> {
+    fn report(&self) -> &SolveReport {
+        &self.report
+    }
+    fn report_mut(&mut self) -> &mut SolveReport {
+        &mut self.report
+    }
 }
 
 /// The baseline the joint method replaces: `rounds` alternations of a linear least-squares

@@ -11,6 +11,10 @@
 //! - [`nelder_mead`], [`bfgs`]: general minimisers of an [`Objective`].
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 
+// Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
+// also true for NaN.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod bfgs;
 pub mod curve;
 pub mod foot;
@@ -24,12 +28,12 @@ pub mod shape;
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
-pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_from, LsqFit, LsqOptions};
+pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_each, lsq_from, LsqFit, LsqOptions, Start};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
-    offset_stats, shape_offsets, Metric, OffsetStats,
+    offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
 };
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};
