@@ -210,8 +210,13 @@ fn model_at<S: Shape<K>, const K: usize>(
 }
 
 /// The reduced normal equations, accumulated per cell over the cell's support.
+///
+/// The cell's block of `S` is `Σ_j (a_j a_jᵀ) ⊗ P_j`; it is kept as one `s x s` matrix
+/// `G_c1c2 = Σ_j P_j[c1][c2] a_j a_jᵀ` per coordinate pair `c1 ≤ c2` (`s` the support size),
+/// so each point adds `D (D + 1) / 2` contiguous rank-one updates.
 struct Normal {
-    /// Per cell, row-major `(s D) x (s D)` with `s` the support size.
+    /// Per cell, the `D (D + 1) / 2` matrices `G_c1c2`, each row-major `s x s`, pairs in the
+    /// order of [`pair`].
     blocks: Vec<Vec<f64>>,
     /// Per cell, `s D`.
     rhs: Vec<Vec<f64>>,
@@ -223,8 +228,9 @@ impl Normal {
     fn new<S: Shape<K>, const K: usize>(shape: &S) -> Self {
         let dim = S::Point::DIM;
         let sizes: Vec<usize> = (0..shape.cell_count()).map(|c| shape.support(c).len()).collect();
+        let pairs = dim * (dim + 1) / 2;
         Normal {
-            blocks: sizes.iter().map(|&s| vec![0.0; s * s * dim * dim]).collect(),
+            blocks: sizes.iter().map(|&s| vec![0.0; pairs * s * s]).collect(),
             rhs: sizes.iter().map(|&s| vec![0.0; s * dim]).collect(),
             diag: sizes.iter().map(|&s| vec![0.0; s]).collect(),
         }
@@ -241,6 +247,14 @@ impl Normal {
         add(&mut self.diag, other.diag);
         self
     }
+}
+
+/// Index of the coordinate pair `(c1, c2)`, `c1 <= c2 < dim`, in row-major upper-triangle
+/// order.
+#[inline]
+fn pair(c1: usize, c2: usize, dim: usize) -> usize {
+    debug_assert!(c1 <= c2 && c2 < dim, "pair: ({c1}, {c2}) not ordered in {dim}");
+    c1 * dim - c1 * (c1 + 1) / 2 + c2
 }
 
 /// Accumulate the reduced system at `(design, params)` with damping `lambda`.
@@ -264,17 +278,24 @@ fn assemble<S: Shape<K>, const K: usize>(
                     *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
                 }
                 let (cell, s) = (b.cell, b.value.len());
-                let nd = s * dim;
                 let (block, rhs, diag) = (&mut acc.blocks[cell], &mut acc.rhs[cell], &mut acc.diag[cell]);
                 for (a, &wa) in b.value.iter().enumerate() {
                     diag[a] += wa * wa;
                     for c1 in 0..dim {
                         rhs[a * dim + c1] += wa * pr[c1];
-                        let row = &mut block[(a * dim + c1) * nd..(a * dim + c1 + 1) * nd];
-                        for (bb, &wb) in b.value.iter().enumerate() {
-                            let w = wa * wb;
-                            for c2 in 0..dim {
-                                row[bb * dim + c2] += w * proj[c1][c2];
+                    }
+                }
+                for c1 in 0..dim {
+                    for c2 in c1..dim {
+                        let w = proj[c1][c2];
+                        if w == 0.0 {
+                            continue;
+                        }
+                        let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
+                        for (row, &wa) in g.chunks_exact_mut(s).zip(&b.value) {
+                            let wa = w * wa;
+                            for (x, &wb) in row.iter_mut().zip(&b.value) {
+                                *x += wa * wb;
                             }
                         }
                     }
@@ -301,7 +322,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
     let mut dx = vec![0.0; m];
     for cell in 0..shape.cell_count() {
         let support = shape.support(cell);
-        let nd = support.len() * dim;
+        let n = support.len();
         let block = &normal.blocks[cell];
         for (a, &ia) in support.iter().enumerate() {
             dx[ia as usize] += normal.diag[cell][a];
@@ -310,7 +331,9 @@ fn solve_step<S: Shape<K>, const K: usize>(
                 b[row] += normal.rhs[cell][a * dim + c1];
                 for (bb, &ib) in support.iter().enumerate() {
                     for c2 in 0..dim {
-                        s[(row, ib as usize * dim + c2)] += block[(a * dim + c1) * nd + bb * dim + c2];
+                        // G_c1c2 is symmetric in the support indices, and P in the coordinates.
+                        let g = pair(c1.min(c2), c1.max(c2), dim);
+                        s[(row, ib as usize * dim + c2)] += block[g * n * n + a * n + bb];
                     }
                 }
             }
