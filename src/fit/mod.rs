@@ -7,8 +7,8 @@
 //! - [`offset`]: the metrics ([`Metric`]), [`OffsetStats`], chord-length parameters.
 //! - [`problem`]: [`FitProblem`], the one problem every solver consumes (objective, gradient,
 //!   residual blocks, linear least squares, the paper's start).
-//! - [`lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
-//! - [`nelder_mead`], [`bfgs`]: general minimisers of an [`Objective`].
+//! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
+//! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
