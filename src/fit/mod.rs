@@ -1,2 +1,39 @@
 //! Fitting chains and grids to data: offset metrics, foot points, least squares with
 //! parameter correction, Nelder-Mead, BFGS and the evolutionary methods.
+//!
+//! - [`shape`]: the [`Shape`] trait (a chain or grid as a map linear in its design points),
+//!   [`CurveShape`] (parameter dimension 1) and [`GridShape`] (dimension 2).
+//! - [`foot`]: closest points by sampling and Newton's method.
+//! - [`offset`]: the metrics ([`Metric`]), [`OffsetStats`], chord-length parameters.
+//! - [`problem`]: [`FitProblem`], the one problem every solver consumes (objective, gradient,
+//!   residual blocks, linear least squares, the paper's start).
+//! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
+//! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
+//! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
+
+// Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
+// also true for NaN.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod bfgs;
+pub mod curve;
+pub mod foot;
+pub mod lsq;
+pub mod nelder_mead;
+pub mod objective;
+pub mod offset;
+pub mod problem;
+pub mod shape;
+
+pub use bfgs::{bfgs, BfgsOptions};
+pub use curve::{fit_curve, CurveFit, FitOptions, Method};
+pub use foot::{Foot, FootOptions};
+pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_each, lsq_from, LsqFit, LsqOptions, Start};
+pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
+pub use objective::{Objective, SolveReport, StopReason};
+pub use offset::{
+    chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
+    offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
+};
+pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
+pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};

@@ -1,0 +1,249 @@
+//! `fit_curve`: one call from data points and a chain layout to a fitted chain, by any method
+//! and metric, with the offsets and the solver's effort (what the CLI's `fit` reports).
+
+use super::bfgs::{bfgs, BfgsOptions};
+use super::foot::FootOptions;
+use super::lsq::{lsq_each, pick, HasReport, LsqFit, LsqOptions, Start};
+use super::nelder_mead::{nelder_mead, NelderMeadOptions};
+use super::objective::SolveReport;
+use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
+use super::problem::CurveProblem;
+use crate::bezier::Vector;
+use crate::chain::{ChainLayout, CurveChain};
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// A fitting method.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Method {
+    /// Least squares: a linear solve at chord-length parameters, then Levenberg-Marquardt
+    /// over the design points and foot points together (closest metric). The default.
+    #[default]
+    Lsq,
+    /// Nelder-Mead on the design variables from the paper's start.
+    NelderMead,
+    /// BFGS with the analytic gradient from the paper's start.
+    Bfgs,
+}
+
+impl Method {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Lsq => "lsq",
+            Method::NelderMead => "nelder-mead",
+            Method::Bfgs => "bfgs",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "lsq" => Ok(Method::Lsq),
+            "nelder-mead" | "neldermead" | "nm" => Ok(Method::NelderMead),
+            "bfgs" => Ok(Method::Bfgs),
+            _ => Err(Error::invalid(format!(
+                "unknown method '{s}' (expected lsq, nelder-mead or bfgs)"
+            ))),
+        }
+    }
+}
+
+/// Everything `fit_curve` needs besides the data and the layout.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitOptions {
+    /// The method. Default least squares.
+    pub method: Method,
+    /// The offset metric minimised and reported. Default closest point.
+    pub metric: Metric,
+    /// Anchor the first and last data points at the chain's ends (`t = 0` and `t = 1`) in
+    /// the objective, so the chain spans the data instead of running past it (see
+    /// [`FitProblem`](super::FitProblem)). Reported offsets are true closest-point offsets
+    /// either way. Default true.
+    pub anchor_ends: bool,
+    /// The least-squares method starts from a linear solve at each of these
+    /// parameterisations of the data: exponents `alpha` of [`exponent_params`] (1 chord
+    /// length, 0.5 centripetal, 0 uniform). For the closest-point metric it also starts from
+    /// the paper's start (design points picked from the data). The closest-point objective has
+    /// many local minima and each start reaches one; the starts run in parallel. Default
+    /// `[1.0, 0.5, 0.25]`.
+    pub parametrizations: &'static [f64],
+    /// Of the least-squares starts, those whose chain has a [`span_ratio`] at most this
+    /// compete on the sum of squares; a chain above it has a stretch that loops away from the
+    /// data or folds back (if every start has one, the lowest ratio wins). Default 3.
+    pub max_span_ratio: f64,
+    /// Foot-point search during the fit. Defaults: 32 samples per segment, 40 Newton steps.
+    pub foot: FootOptions,
+    /// Options of the least-squares method.
+    pub lsq: LsqOptions,
+    /// Options of Nelder-Mead.
+    pub nelder_mead: NelderMeadOptions,
+    /// Options of BFGS.
+    pub bfgs: BfgsOptions,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            method: Method::default(),
+            metric: Metric::default(),
+            anchor_ends: true,
+            parametrizations: &[1.0, 0.5, 0.25],
+            max_span_ratio: 3.0,
+            foot: FootOptions::default(),
+            lsq: LsqOptions::default(),
+            nelder_mead: NelderMeadOptions::default(),
+            bfgs: BfgsOptions::default(),
+        }
+    }
+}
+
+/// A fitted chain with its offsets and the effort it took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveFit<P: Vector> {
+    /// The fitted chain (design and expanded control points).
+    pub chain: CurveChain<P>,
+    /// Offsets under the fit's metric.
+    pub offset: OffsetStats<P>,
+    /// Closest-point offsets (the same as `offset` for the closest metric), measured afresh
+    /// with 48 samples per segment and Newton's method.
+    pub closest: OffsetStats<P>,
+    /// The method used.
+    pub method: Method,
+    /// The metric minimised.
+    pub metric: Metric,
+    /// [`span_ratio`] of the chain at the data's foot points (the ends anchored as in the fit):
+    /// near 1 when the chain follows the data, far above it when a stretch of chain loops away
+    /// or folds back.
+    pub span_ratio: f64,
+    /// Iterations and evaluations of the solver; `seconds` covers the whole fit, from the
+    /// data to the final offsets.
+    pub report: SolveReport,
+}
+
+/// Fit a chain with `layout` to `points` (ordered along the curve, e.g. a Selig contour).
+///
+/// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the
+/// paper's start, and keeps the best loop-free fit (see [`FitOptions::max_span_ratio`]).
+/// `nelder-mead` and `bfgs` start as the paper does, from design points picked from the data
+/// at an even increment ([`super::increment_start`]), and minimise the metric's sum of squares
+/// over the flattened design points `x0, y0, x1, y1, …`. With `anchor_ends` (the default) all
+/// three minimise the closest-point sum with the first and last data points tied to the
+/// chain's ends; the reported offsets are always true closest-point offsets.
+pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions) -> Result<CurveFit<P>> {
+    let clock = Instant::now();
+    let problem = CurveProblem::curve_with(layout, points, opts.metric, opts.foot, opts.anchor_ends)?;
+    let (design, mut report) = match opts.method {
+        Method::Lsq => {
+            let mut starts = opts
+                .parametrizations
+                .iter()
+                .map(|&alpha| {
+                    Ok(Start::Params(
+                        exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
+                    ))
+                })
+                .collect::<Result<Vec<Start<P, 1>>>>()?;
+            if opts.metric == Metric::Closest {
+                starts.push(Start::Design(
+                    problem.increment_start()?,
+                    problem.params().to_vec(),
+                ));
+            }
+            let fits = lsq_each(&problem, &starts, &opts.lsq)?;
+            // Rank by (has a loop, sum of squares), loops by their span ratio.
+            let scored = fits
+                .into_iter()
+                .map(|fit| {
+                    let chain = problem.chain(&fit.design)?;
+                    let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
+                    let ratio = span_ratio(&chain, points, &t);
+                    Ok(Scored { fit, ratio })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let limit = opts.max_span_ratio;
+            let best = pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
+                (true, false) => true,
+                (false, true) => false,
+                (true, true) => a.fit.sum_sq < b.fit.sum_sq,
+                (false, false) => a.ratio < b.ratio,
+            })
+            .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
+            (best.fit.design, best.fit.report)
+        }
+        Method::NelderMead => {
+            let x0 = CurveProblem::<P>::to_flat(&problem.increment_start()?);
+            let m = nelder_mead(&mut problem.objective_fn(), &x0, &opts.nelder_mead);
+            (CurveProblem::<P>::from_flat(&m.x), m.report)
+        }
+        Method::Bfgs => {
+            let x0 = CurveProblem::<P>::to_flat(&problem.increment_start()?);
+            let m = bfgs(&mut problem.objective_fn(), &x0, &opts.bfgs);
+            (CurveProblem::<P>::from_flat(&m.x), m.report)
+        }
+    };
+    if design.iter().any(|p| !p.is_finite_point()) {
+        return Err(Error::Numerical(format!(
+            "{} produced non-finite design points",
+            opts.method
+        )));
+    }
+    let chain = problem.chain(&design)?;
+    let closest = offset_stats(&chain, points)?;
+    let feet = problem.feet(&design, None);
+    let span = span_ratio(&chain, points, &feet.iter().map(|f| f.t[0]).collect::<Vec<f64>>());
+    let offset = match opts.metric {
+        Metric::Closest => closest,
+        Metric::Corresponding => corresponding_stats(&chain, points)?,
+    };
+    report.seconds = clock.elapsed().as_secs_f64();
+    Ok(CurveFit {
+        chain,
+        offset,
+        closest,
+        method: opts.method,
+        metric: opts.metric,
+        span_ratio: span,
+        report,
+    })
+}
+
+/// A least-squares fit with its chain's span ratio.
+struct Scored<P> {
+    fit: LsqFit<P, 1>,
+    ratio: f64,
+}
+
+impl<P> HasReport for Scored<P> {
+    fn report(&self) -> &SolveReport {
+        &self.fit.report
+    }
+    fn report_mut(&mut self) -> &mut SolveReport {
+        &mut self.fit.report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_names_round_trip() {
+        for m in [Method::Lsq, Method::NelderMead, Method::Bfgs] {
+            assert_eq!(m.to_string().parse::<Method>().unwrap(), m);
+        }
+        assert!("ga".parse::<Method>().is_err());
+    }
+}

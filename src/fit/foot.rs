@@ -1,0 +1,685 @@
+//! Foot points: the closest point of a shape to a data point, by sampling every cell and
+//! refining with Newton's method kept inside the parameter domain `[0, 1]^K`.
+
+use super::shape::{Basis, Jet, Shape};
+use crate::bezier::Vector;
+use rayon::prelude::*;
+
+/// Point counts from which the per-point loops run on rayon's thread pool.
+pub(crate) const PARALLEL_MIN: usize = 4096;
+/// Points per rayon task.
+pub(crate) const CHUNK: usize = 1024;
+
+/// Options of the closest-point search.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FootOptions {
+    /// Samples per cell and direction in the global search: `samples + 1` parameters per
+    /// segment, `(samples + 1)²` per patch. Default 32.
+    pub samples: usize,
+    /// Newton iterations at most from one start. Default 40.
+    pub max_newton: usize,
+}
+
+impl Default for FootOptions {
+    fn default() -> Self {
+        FootOptions {
+            samples: 32,
+            max_newton: 40,
+        }
+    }
+}
+
+/// A foot point: its global parameter and the squared distance to the data point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Foot<const K: usize> {
+    /// Global parameter of the closest point, in `[0, 1]^K`.
+    pub t: [f64; K],
+    /// Squared distance from the data point to the shape at `t`.
+    pub dist_sq: f64,
+}
+
+/// Newton's method stops once a step moves the parameter by less than this.
+const PARAM_TOL: f64 = 1e-15;
+/// Newton's method also stops after an accepted step shorter than this: convergence is
+/// quadratic there, so the next step would be below `1e-15`.
+const QUADRATIC_TOL: f64 = 1e-9;
+
+/// Solve `A s = -g` over the coordinates marked `free` (the others get 0) by Cholesky.
+/// `None` when `A` restricted to them is not positive definite.
+pub(crate) fn solve_spd<const K: usize>(
+    a: &[[f64; K]; K],
+    g: &[f64; K],
+    free: &[bool; K],
+) -> Option<[f64; K]> {
+    let mut idx = [0usize; K];
+    let mut n = 0;
+    for (k, &f) in free.iter().enumerate() {
+        if f {
+            idx[n] = k;
+            n += 1;
+        }
+    }
+    let idx = &idx[..n];
+    let mut l = [[0.0; K]; K];
+    let scale = idx.iter().map(|&k| a[k][k].abs()).fold(0.0, f64::max);
+    if !(scale > 0.0) || !scale.is_finite() {
+        return None;
+    }
+    for i in 0..n {
+        for j in 0..=i {
+            let mut s = a[idx[i]][idx[j]];
+            for p in 0..j {
+                s -= l[i][p] * l[j][p];
+            }
+            if i == j {
+                if s <= 1e-13 * scale {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = [0.0; K];
+    for i in 0..n {
+        let mut s = -g[idx[i]];
+        for p in 0..i {
+            s -= l[i][p] * y[p];
+        }
+        y[i] = s / l[i][i];
+    }
+    let mut x = [0.0; K];
+    for i in (0..n).rev() {
+        let mut s = y[i];
+        for p in i + 1..n {
+            s -= l[p][i] * x[p];
+        }
+        x[i] = s / l[i][i];
+    }
+    let mut out = [0.0; K];
+    for i in 0..n {
+        out[idx[i]] = x[i];
+    }
+    Some(out)
+}
+
+/// Clamp every coordinate to `[0, 1]`.
+#[inline]
+pub(crate) fn clamp01<const K: usize>(mut t: [f64; K]) -> [f64; K] {
+    for x in &mut t {
+        *x = x.clamp(0.0, 1.0);
+    }
+    t
+}
+
+/// Which parameters are not held at a bound of `[0, 1]` by a gradient `g` pointing outwards.
+#[inline]
+pub(crate) fn free_params<const K: usize>(t: &[f64; K], g: &[f64; K]) -> [bool; K] {
+    let mut free = [true; K];
+    for k in 0..K {
+        if (t[k] <= 0.0 && g[k] > 0.0) || (t[k] >= 1.0 && g[k] < 0.0) {
+            free[k] = false;
+        }
+    }
+    free
+}
+
+/// The local closest point to `q` from the start `t0`: Newton's method on the squared distance
+/// (Gauss-Newton where the Hessian is not positive definite), with backtracking so that the
+/// distance never grows by more than rounding, and each parameter held at 0 or 1 where the distance decreases
+/// outwards. Stops when a step moves the parameter by less than `1e-15`, or after a full
+/// Newton step shorter than `1e-9` (the next one would be below `1e-15`).
+///
+/// `scratch` is left holding the basis at the last parameter tried, not necessarily the result.
+pub fn refine<S: Shape<K>, const K: usize>(
+    shape: &S,
+    design: &[S::Point],
+    q: S::Point,
+    t0: [f64; K],
+    max_iter: usize,
+    scratch: &mut Basis<K>,
+) -> Foot<K> {
+    let mut t = clamp01(t0);
+    shape.basis(t, 2, scratch);
+    let mut jet = shape.jet(scratch, design, 2);
+    let mut r = jet.point - q;
+    let mut f = r.length_squared();
+    for _ in 0..max_iter {
+        let (g, h, gn) = local_model(&jet, r);
+        let free = free_params(&t, &g);
+        if !free.iter().any(|&x| x) {
+            break;
+        }
+        let (step, gauss_newton) = match solve_spd(&h, &g, &free) {
+            Some(s) => (s, false),
+            None => match solve_spd(&gn, &g, &free) {
+                Some(s) => (s, true),
+                None => break,
+            },
+        };
+        let size = step.iter().fold(0.0_f64, |m, s| m.max(s.abs()));
+        if !(size > PARAM_TOL) {
+            break;
+        }
+        let mut alpha = 1.0;
+        let mut moved = 0.0;
+        while alpha * size > PARAM_TOL {
+            let mut tn = t;
+            for k in 0..K {
+                tn[k] = (t[k] + alpha * step[k]).clamp(0.0, 1.0);
+            }
+            shape.basis(tn, 2, scratch);
+            let jn = shape.jet(scratch, design, 2);
+            let rn = jn.point - q;
+            let fn_ = rn.length_squared();
+            // Rounding tolerance: near the foot point the squared distance changes by less
+            // than its last bits, and a correct Newton step must not be refused for that.
+            if fn_ <= f + 4.0 * f64::EPSILON * f {
+                moved = (0..K).fold(0.0_f64, |m, k| m.max((tn[k] - t[k]).abs()));
+                t = tn;
+                jet = jn;
+                r = rn;
+                f = fn_;
+                break;
+            }
+            alpha *= 0.5;
+        }
+        // A full Newton step (no backtracking) this short is in the quadratic regime.
+        if !(moved > PARAM_TOL) || (alpha == 1.0 && moved < QUADRATIC_TOL && !gauss_newton) {
+            break;
+        }
+    }
+    Foot { t, dist_sq: f }
+}
+
+/// Gradient `J^T r`, Hessian `J^T J + r · C''` and Gauss-Newton matrix `J^T J` of
+/// `|C(t) - q|² / 2`.
+#[inline]
+fn local_model<P: Vector, const K: usize>(jet: &Jet<P, K>, r: P) -> ([f64; K], [[f64; K]; K], [[f64; K]; K]) {
+    let mut g = [0.0; K];
+    let mut h = [[0.0; K]; K];
+    let mut gn = [[0.0; K]; K];
+    for k in 0..K {
+        g[k] = jet.d1[k].dot(r);
+        for l in 0..K {
+            gn[k][l] = jet.d1[k].dot(jet.d1[l]);
+            h[k][l] = gn[k][l] + r.dot(jet.d2[k][l]);
+        }
+    }
+    (g, h, gn)
+}
+
+/// The sample parameters of a shape (a regular grid in every cell) and their basis values,
+/// built once per shape so that sampling a design costs one pass over the samples.
+#[derive(Clone, Debug)]
+pub struct SampleGrid<const K: usize> {
+    /// Samples per direction and cell, plus one.
+    side: usize,
+    /// Samples per cell, `side^K`.
+    per_cell: usize,
+    /// Parameter of every sample, cell-major.
+    params: Vec<[f64; K]>,
+    /// The basis cell of every sample (a sample on a border may belong to the neighbour).
+    cells: Vec<u32>,
+    /// Start of every sample's basis values in `values`.
+    offsets: Vec<usize>,
+    values: Vec<f64>,
+}
+
+/// The shape sampled at one design: sample positions and, per cell, the longest distance
+/// between neighbouring samples (which bounds how much closer than the nearest sample the
+/// cell can come to any point) and the bounding box of its samples.
+#[derive(Clone, Debug)]
+pub struct Sampled<P> {
+    positions: Vec<P>,
+    spacing: Vec<f64>,
+    /// Per cell, the lower and upper corners of the samples' bounding box (`DIM` coordinates).
+    bbox: Vec<([f64; 3], [f64; 3])>,
+}
+
+impl<P: Vector> Sampled<P> {
+    /// A lower bound on the distance from `q` to cell `cell`: the distance to the samples'
+    /// bounding box less 1.5 sample spacings.
+    fn lower_bound(&self, cell: usize, q: P) -> f64 {
+        let (lo, hi) = &self.bbox[cell];
+        let mut d2 = 0.0;
+        for c in 0..P::DIM {
+            let x = q.coord(c);
+            let e = (lo[c] - x).max(x - hi[c]).max(0.0);
+            d2 += e * e;
+        }
+        d2.sqrt() - 1.5 * self.spacing[cell]
+    }
+}
+
+impl<const K: usize> SampleGrid<K> {
+    /// The sample grid of `shape` with `samples` intervals per cell and direction.
+    #[must_use]
+    pub fn new<S: Shape<K>>(shape: &S, samples: usize) -> Self {
+        let side = samples.max(1) + 1;
+        let per_cell = side.pow(K as u32);
+        let cells_n = shape.cell_count();
+        let mut grid = SampleGrid {
+            side,
+            per_cell,
+            params: Vec::with_capacity(cells_n * per_cell),
+            cells: Vec::with_capacity(cells_n * per_cell),
+            offsets: Vec::with_capacity(cells_n * per_cell),
+            values: Vec::new(),
+        };
+        let mut b = Basis::new();
+        for c in 0..cells_n {
+            let (lo, hi) = shape.cell_box(c);
+            for s in 0..per_cell {
+                let digits = grid.digits(s);
+                let mut t = [0.0; K];
+                for k in 0..K {
+                    let w = digits[k] as f64 / (side - 1) as f64;
+                    t[k] = if digits[k] + 1 == side {
+                        hi[k]
+                    } else {
+                        lo[k] + w * (hi[k] - lo[k])
+                    };
+                }
+                shape.basis(t, 0, &mut b);
+                grid.params.push(t);
+                grid.cells.push(b.cell as u32);
+                grid.offsets.push(grid.values.len());
+                grid.values.extend_from_slice(&b.value);
+            }
+        }
+        grid
+    }
+
+    /// Number of samples.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+
+    /// True when there are no samples.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
+    fn digits(&self, s: usize) -> [usize; K] {
+        let mut d = [0; K];
+        let mut rest = s;
+        for x in &mut d {
+            *x = rest % self.side;
+            rest /= self.side;
+        }
+        d
+    }
+
+    /// Sample the shape at `design`.
+    #[must_use]
+    pub fn sample<S: Shape<K>>(&self, shape: &S, design: &[S::Point]) -> Sampled<S::Point> {
+        let positions: Vec<S::Point> = (0..self.len())
+            .map(|s| {
+                let support = shape.support(self.cells[s] as usize);
+                let vals = &self.values[self.offsets[s]..self.offsets[s] + support.len()];
+                let mut p = S::Point::ZERO;
+                for (&i, &w) in support.iter().zip(vals) {
+                    p += design[i as usize] * w;
+                }
+                p
+            })
+            .collect();
+        let mut stride = [1usize; K];
+        for k in 1..K {
+            stride[k] = stride[k - 1] * self.side;
+        }
+        let spacing = (0..self.params.len() / self.per_cell)
+            .map(|c| {
+                let base = c * self.per_cell;
+                let mut h: f64 = 0.0;
+                for s in 0..self.per_cell {
+                    let d = self.digits(s);
+                    for k in 0..K {
+                        if d[k] + 1 < self.side {
+                            let (a, b) = (positions[base + s], positions[base + s + stride[k]]);
+                            h = h.max((a - b).length());
+                        }
+                    }
+                }
+                h
+            })
+            .collect();
+        let bbox = positions
+            .chunks_exact(self.per_cell)
+            .map(|cell| {
+                let mut lo = [f64::INFINITY; 3];
+                let mut hi = [f64::NEG_INFINITY; 3];
+                for p in cell {
+                    for c in 0..S::Point::DIM {
+                        lo[c] = lo[c].min(p.coord(c));
+                        hi[c] = hi[c].max(p.coord(c));
+                    }
+                }
+                (lo, hi)
+            })
+            .collect();
+        Sampled {
+            positions,
+            spacing,
+            bbox,
+        }
+    }
+
+    /// True when no in-cell neighbour of sample `s` is closer than it.
+    fn is_local_min(&self, s: usize, d2: &[f64]) -> bool {
+        let base = s - s % self.per_cell;
+        let d = self.digits(s % self.per_cell);
+        let mut stride = 1;
+        for k in 0..K {
+            if d[k] > 0 && d2[s - stride] < d2[s] {
+                return false;
+            }
+            if d[k] + 1 < self.side && d2[s + stride] < d2[s] {
+                return false;
+            }
+            stride *= self.side;
+        }
+        debug_assert!(s >= base, "sample index below its cell");
+        true
+    }
+
+    /// The closest point of the shape to `q`, over the whole domain.
+    ///
+    /// Newton's method starts from the warm start (when given); then the cells are visited in
+    /// order of a lower bound on their distance (distance to the bounding box of their samples
+    /// less 1.5 sample spacings), and a cell is measured only while that bound is below the
+    /// best distance found. Newton's method then starts from every measured sample that is a
+    /// local minimum within its cell and that could still hold a closer point (its distance
+    /// less 1.5 sample spacings is below the best). Samples next to the warm start are skipped.
+    #[allow(clippy::too_many_arguments)]
+    pub fn closest<S: Shape<K>>(
+        &self,
+        shape: &S,
+        sampled: &Sampled<S::Point>,
+        design: &[S::Point],
+        q: S::Point,
+        warm: Option<[f64; K]>,
+        opts: &FootOptions,
+        scratch: &mut FootScratch<K>,
+    ) -> Foot<K> {
+        let mut best = Foot {
+            t: [0.0; K],
+            dist_sq: f64::INFINITY,
+        };
+        if let Some(w) = warm {
+            best = refine(shape, design, q, w, opts.max_newton, &mut scratch.basis);
+        }
+        let cells = self.len() / self.per_cell;
+        scratch.order.clear();
+        scratch
+            .order
+            .extend((0..cells).map(|c| (sampled.lower_bound(c, q), c)));
+        scratch.order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        scratch.d2.resize(self.len(), f64::INFINITY);
+        scratch.cands.clear();
+        let steps = 1.0 / (self.side - 1) as f64;
+        // The best sampled distance is an upper bound on the shape's distance as well.
+        let mut bound = best.dist_sq.sqrt();
+        for oi in 0..scratch.order.len() {
+            let (lb, cell) = scratch.order[oi];
+            if lb > bound {
+                break;
+            }
+            let range = cell * self.per_cell..(cell + 1) * self.per_cell;
+            let mut cell_best = f64::INFINITY;
+            for s in range.clone() {
+                let d = (sampled.positions[s] - q).length_squared();
+                scratch.d2[s] = d;
+                if d < cell_best {
+                    cell_best = d;
+                }
+            }
+            bound = bound.min(cell_best.sqrt());
+            // sqrt(d2) - 1.5 h > bound  <=>  d2 > (bound + 1.5 h)²
+            let limit = (bound + 1.5 * sampled.spacing[cell]).powi(2);
+            for s in range {
+                let ds = scratch.d2[s];
+                if ds > limit || !self.is_local_min(s, &scratch.d2) {
+                    continue;
+                }
+                if let Some(w) = warm {
+                    let (lo, hi) = shape.cell_box(cell);
+                    let near = (0..K)
+                        .all(|k| (self.params[s][k] - w[k]).abs() <= steps * (hi[k] - lo[k]) * 1.000001);
+                    if near {
+                        continue;
+                    }
+                }
+                scratch.cands.push((ds, s));
+            }
+        }
+        scratch.cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for ci in 0..scratch.cands.len().min(16) {
+            let (ds, s) = scratch.cands[ci];
+            let cell = s / self.per_cell;
+            if best.dist_sq.is_finite() && ds.sqrt() - 1.5 * sampled.spacing[cell] > best.dist_sq.sqrt() {
+                continue;
+            }
+            let f = refine(
+                shape,
+                design,
+                q,
+                self.params[s],
+                opts.max_newton,
+                &mut scratch.basis,
+            );
+            if f.dist_sq < best.dist_sq {
+                best = f;
+            }
+        }
+        if !best.dist_sq.is_finite() {
+            // Non-finite design: report the first sample, never a parameter outside [0, 1].
+            best.t = self.params.first().copied().unwrap_or([0.0; K]);
+        }
+        best
+    }
+}
+
+/// Reusable buffers of the closest-point search.
+#[derive(Clone, Debug, Default)]
+pub struct FootScratch<const K: usize> {
+    /// Basis buffer for Newton's method.
+    pub basis: Basis<K>,
+    d2: Vec<f64>,
+    cands: Vec<(f64, usize)>,
+    order: Vec<(f64, usize)>,
+}
+
+impl<const K: usize> FootScratch<K> {
+    /// Empty buffers.
+    #[must_use]
+    pub fn new() -> Self {
+        FootScratch {
+            basis: Basis::new(),
+            d2: Vec::new(),
+            cands: Vec::new(),
+            order: Vec::new(),
+        }
+    }
+}
+
+/// The closest points of every data point, written to `feet`; `warm` (when given) holds a
+/// start parameter per point. Runs on rayon's pool for large point sets.
+#[allow(clippy::too_many_arguments)]
+pub fn closest_all<S: Shape<K>, const K: usize>(
+    shape: &S,
+    grid: &SampleGrid<K>,
+    design: &[S::Point],
+    points: &[S::Point],
+    warm: Option<&[[f64; K]]>,
+    opts: &FootOptions,
+    feet: &mut [Foot<K>],
+) {
+    debug_assert_eq!(points.len(), feet.len(), "closest_all: one foot per point");
+    let sampled = grid.sample(shape, design);
+    let run = |offset: usize, pts: &[S::Point], out: &mut [Foot<K>]| {
+        let mut scratch = FootScratch::new();
+        for (j, (q, f)) in pts.iter().zip(out.iter_mut()).enumerate() {
+            let w = warm.map(|w| w[offset + j]);
+            *f = grid.closest(shape, &sampled, design, *q, w, opts, &mut scratch);
+        }
+    };
+    if points.len() < PARALLEL_MIN {
+        run(0, points, feet);
+    } else {
+        points
+            .par_chunks(CHUNK)
+            .zip(feet.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, (pts, out))| run(c * CHUNK, pts, out));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
+    use crate::fit::shape::{CurveShape, GridShape};
+    use glam::{DVec2, DVec3};
+
+    fn wavy_chain() -> CurveChain<DVec2> {
+        let layout = ChainLayout::uniform(3, 4, Continuity::C1).unwrap();
+        let design = (0..layout.design_count())
+            .map(|i| DVec2::new(i as f64 * 0.25, 0.4 * (2.1 * i as f64).sin()))
+            .collect();
+        CurveChain::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn closest_matches_a_dense_scan() {
+        let chain = wavy_chain();
+        let shape = CurveShape::<DVec2>::new(chain.layout().clone());
+        let grid = SampleGrid::new(&shape, 16);
+        let sampled = grid.sample(&shape, chain.design());
+        let mut scratch = FootScratch::new();
+        let dense: Vec<DVec2> = (0..=20000).map(|i| chain.eval(i as f64 / 20000.0)).collect();
+        for i in 0..60 {
+            let q = DVec2::new(-0.3 + i as f64 * 0.05, 0.7 * (i as f64 * 0.9).cos());
+            let f = grid.closest(
+                &shape,
+                &sampled,
+                chain.design(),
+                q,
+                None,
+                &FootOptions::default(),
+                &mut scratch,
+            );
+            let scan = dense
+                .iter()
+                .map(|p| (*p - q).length_squared())
+                .fold(f64::MAX, f64::min);
+            assert!(f.dist_sq <= scan + 1e-15, "q={q}: {} vs scan {scan}", f.dist_sq);
+            assert!(f.dist_sq >= scan - 1e-6, "scan is dense enough to be close");
+            assert!(((chain.eval(f.t[0]) - q).length_squared() - f.dist_sq).abs() < 1e-15);
+            // A warm start from anywhere gives the same answer.
+            let w = grid.closest(
+                &shape,
+                &sampled,
+                chain.design(),
+                q,
+                Some([0.93]),
+                &FootOptions::default(),
+                &mut scratch,
+            );
+            assert!((w.dist_sq - f.dist_sq).abs() <= 1e-14 * (1.0 + f.dist_sq));
+        }
+    }
+
+    #[test]
+    fn interior_feet_are_orthogonal_and_outside_points_clamp() {
+        let chain = wavy_chain();
+        let shape = CurveShape::<DVec2>::new(chain.layout().clone());
+        let mut b = Basis::new();
+        let q = DVec2::new(1.3, 0.9);
+        let f = refine(&shape, chain.design(), q, [0.6], 40, &mut b);
+        if f.t[0] > 0.0 && f.t[0] < 1.0 {
+            let r = chain.eval(f.t[0]) - q;
+            let d = chain.deriv(f.t[0]);
+            assert!(
+                r.dot(d).abs() < 1e-12 * r.length() * d.length(),
+                "t={} r={r} d={d} dot={}",
+                f.t[0],
+                r.dot(d)
+            );
+        }
+        // Far beyond the first point along the reversed tangent: the foot is t = 0.
+        let p0 = chain.eval(0.0);
+        let q = p0 - chain.deriv(0.0) * 3.0;
+        let grid = SampleGrid::new(&shape, 16);
+        let sampled = grid.sample(&shape, chain.design());
+        let mut scratch = FootScratch::new();
+        let opts = FootOptions::default();
+        let f = grid.closest(
+            &shape,
+            &sampled,
+            chain.design(),
+            q,
+            Some([0.2]),
+            &opts,
+            &mut scratch,
+        );
+        assert_eq!(f.t[0], 0.0);
+        assert!((f.dist_sq - (p0 - q).length_squared()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn surface_feet_recover_the_sampling_parameters() {
+        let layout = GridLayout::new(
+            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
+            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
+        );
+        let (nu, nv) = layout.design_shape();
+        let design: Vec<DVec3> = (0..nu * nv)
+            .map(|i| {
+                let (a, b) = (
+                    (i / nv) as f64 / (nu - 1) as f64,
+                    (i % nv) as f64 / (nv - 1) as f64,
+                );
+                DVec3::new(a, b, 0.2 * (3.0 * a).sin() * (2.0 * b).cos())
+            })
+            .collect();
+        let grid_surface = PatchGrid::new(layout.clone(), design.clone()).unwrap();
+        let shape = GridShape::<DVec3>::new(layout);
+        let grid = SampleGrid::new(&shape, 6);
+        let sampled = grid.sample(&shape, &design);
+        let mut scratch = FootScratch::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                let t = [0.05 + 0.1 * i as f64, 0.03 + 0.1 * j as f64];
+                let q = grid_surface.eval(t[0], t[1]);
+                let f = grid.closest(
+                    &shape,
+                    &sampled,
+                    &design,
+                    q,
+                    None,
+                    &FootOptions::default(),
+                    &mut scratch,
+                );
+                assert!(f.dist_sq < 1e-26, "{t:?}: {}", f.dist_sq);
+                assert!((f.t[0] - t[0]).abs() < 1e-9 && (f.t[1] - t[1]).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn spd_solve_respects_fixed_coordinates() {
+        let a = [[4.0, 1.0], [1.0, 3.0]];
+        let g = [1.0, 2.0];
+        let s = solve_spd(&a, &g, &[true, true]).unwrap();
+        assert!((4.0 * s[0] + s[1] + 1.0).abs() < 1e-15 && (s[0] + 3.0 * s[1] + 2.0).abs() < 1e-15);
+        let s = solve_spd(&a, &g, &[false, true]).unwrap();
+        assert_eq!(s[0], 0.0);
+        assert!((s[1] + 2.0 / 3.0).abs() < 1e-15);
+        assert!(solve_spd(&[[1.0, 2.0], [2.0, 1.0]], &g, &[true, true]).is_none());
+    }
+}

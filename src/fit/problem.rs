@@ -1,0 +1,802 @@
+//! `FitProblem`: data points, a shape layout and an offset metric; the objective every solver
+//! minimises (sum of squared offsets), its gradient, and the per-point residual blocks of the
+//! Gauss-Newton solver.
+
+use super::foot::{closest_all, refine, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
+use super::objective::Objective;
+use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
+use super::shape::{Basis, CurveShape, GridShape, Shape};
+use crate::bezier::Vector;
+use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
+use crate::error::{Error, Result};
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+/// A fitting problem: data points `q_j`, a shape (chain or grid layout) and a metric.
+///
+/// The objective is `Σ_j |C(t_j) - q_j|²` over the design points, with `t_j` the foot point
+/// (closest point) of `q_j` for [`Metric::Closest`], or the fixed parameter `params()[j]` for
+/// [`Metric::Corresponding`]. The fixed parameters also start the closest-point fit.
+///
+/// *Anchored* points keep their fixed parameter under both metrics. Curve problems anchor the
+/// first and last data points at `t = 0` and `t = 1` by default: the chain then spans the
+/// data. Without anchors the closest-point objective lets the chain's ends run past the data
+/// (the points there only see the part of the chain near them), and on aerofoils the fit
+/// drifts towards end segments that loop far outside the contour while the offsets shrink
+/// by a few per cent; the optimum is then not a usable shape.
+#[derive(Clone, Debug)]
+pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
+    shape: S,
+    points: &'a [S::Point],
+    metric: Metric,
+    params: Vec<[f64; K]>,
+    anchored: Vec<bool>,
+    foot: FootOptions,
+    grid: SampleGrid<K>,
+    extent: f64,
+}
+
+/// A fitting problem for a chain of curves.
+pub type CurveProblem<'a, P> = FitProblem<'a, CurveShape<P>, 1>;
+/// A fitting problem for a grid of patches.
+pub type GridProblem<'a, P> = FitProblem<'a, GridShape<P>, 2>;
+
+/// The residual of one data point at parameter `t` and its derivatives.
+///
+/// With `basis` the shape's basis at `t`, the Jacobian block of `r` is `∂r/∂x_i = φ_i I` for
+/// each design point `x_i` of the support, and `∂r/∂t_k = tangents[k]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Residual<P, const K: usize> {
+    /// `C(t) - q`.
+    pub r: P,
+    /// `∂C/∂t_k` at `t`.
+    pub tangents: [P; K],
+}
+
+/// Sum `body` over chunks of `0..n`, on rayon's pool when `n` is large.
+pub(crate) fn chunked_sum<T: Send>(
+    n: usize,
+    init: impl Fn() -> T + Sync + Send,
+    body: impl Fn(&mut T, std::ops::Range<usize>) + Sync + Send,
+    merge: impl Fn(T, T) -> T + Sync + Send,
+) -> T {
+    if n < PARALLEL_MIN {
+        let mut acc = init();
+        body(&mut acc, 0..n);
+        return acc;
+    }
+    let chunks = n.div_ceil(CHUNK);
+    (0..chunks)
+        .into_par_iter()
+        .fold(&init, |mut acc, c| {
+            body(&mut acc, c * CHUNK..((c + 1) * CHUNK).min(n));
+            acc
+        })
+        .reduce(&init, &merge)
+}
+
+impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
+    /// A problem from a shape, data points, one parameter per point in `[0, 1]^K` (the
+    /// corresponding parameters, also the start of a closest-point fit), a metric and the
+    /// foot-point search options.
+    pub fn new(
+        shape: S,
+        points: &'a [S::Point],
+        params: Vec<[f64; K]>,
+        metric: Metric,
+        foot: FootOptions,
+    ) -> Result<Self> {
+        check_points(points)?;
+        let m = shape.design_count();
+        if points.len() < m {
+            return Err(Error::invalid(format!(
+                "{} data points cannot determine {m} design points: at least {m} are needed",
+                points.len()
+            )));
+        }
+        if params.len() != points.len() {
+            return Err(Error::invalid(format!(
+                "{} parameters given for {} data points",
+                params.len(),
+                points.len()
+            )));
+        }
+        if params.iter().flatten().any(|t| !(0.0..=1.0).contains(t)) {
+            return Err(Error::invalid("data point parameters must lie in [0, 1]"));
+        }
+        if foot.samples == 0 {
+            return Err(Error::invalid(
+                "foot-point search needs at least one sample per cell",
+            ));
+        }
+        let mut extent: f64 = 0.0;
+        for c in 0..S::Point::DIM {
+            let (lo, hi) = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+                (lo.min(p.coord(c)), hi.max(p.coord(c)))
+            });
+            extent = extent.max(hi - lo);
+        }
+        let grid = SampleGrid::new(&shape, foot.samples);
+        let anchored = vec![false; points.len()];
+        Ok(FitProblem {
+            shape,
+            points,
+            metric,
+            params,
+            anchored,
+            foot,
+            grid,
+            extent: if extent > 0.0 { extent } else { 1.0 },
+        })
+    }
+
+    /// The problem with the given data points anchored at their fixed parameters (replacing
+    /// any earlier anchors).
+    pub fn with_anchors(mut self, anchors: &[usize]) -> Result<Self> {
+        self.anchored.fill(false);
+        for &j in anchors {
+            match self.anchored.get_mut(j) {
+                Some(a) => *a = true,
+                None => {
+                    return Err(Error::invalid(format!(
+                        "anchor {j} is not a data point index (there are {})",
+                        self.points.len()
+                    )))
+                }
+            }
+        }
+        Ok(self)
+    }
+
+    /// True when data point `j` keeps its fixed parameter.
+    #[must_use]
+    pub fn is_anchored(&self, j: usize) -> bool {
+        self.anchored[j]
+    }
+
+    /// The shape.
+    #[must_use]
+    pub fn shape(&self) -> &S {
+        &self.shape
+    }
+
+    /// The data points.
+    #[must_use]
+    pub fn points(&self) -> &'a [S::Point] {
+        self.points
+    }
+
+    /// The offset metric.
+    #[must_use]
+    pub fn metric(&self) -> Metric {
+        self.metric
+    }
+
+    /// The fixed parameter of every data point.
+    #[must_use]
+    pub fn params(&self) -> &[[f64; K]] {
+        &self.params
+    }
+
+    /// The foot-point search options.
+    #[must_use]
+    pub fn foot_options(&self) -> &FootOptions {
+        &self.foot
+    }
+
+    /// The largest side of the data's bounding box, in model units (1 for a single point).
+    #[must_use]
+    pub fn extent(&self) -> f64 {
+        self.extent
+    }
+
+    /// Number of design points.
+    #[must_use]
+    pub fn design_count(&self) -> usize {
+        self.shape.design_count()
+    }
+
+    /// Number of scalar design variables: design points times coordinates.
+    #[must_use]
+    pub fn dim(&self) -> usize {
+        self.design_count() * S::Point::DIM
+    }
+
+    /// Design points as a flat vector `x0, y0, (z0,) x1, …`.
+    #[must_use]
+    pub fn to_flat(design: &[S::Point]) -> Vec<f64> {
+        design
+            .iter()
+            .flat_map(|p| (0..S::Point::DIM).map(move |c| p.coord(c)))
+            .collect()
+    }
+
+    /// Design points from a flat vector `x0, y0, (z0,) x1, …`.
+    #[must_use]
+    pub fn from_flat(x: &[f64]) -> Vec<S::Point> {
+        x.chunks_exact(S::Point::DIM).map(S::Point::from_coords).collect()
+    }
+
+    /// The residual of data point `j` at parameter `t`, leaving the basis at `t` (with first
+    /// derivatives) in `basis`.
+    pub fn residual(
+        &self,
+        design: &[S::Point],
+        j: usize,
+        t: [f64; K],
+        basis: &mut Basis<K>,
+    ) -> Residual<S::Point, K> {
+        self.shape.basis(t, 1, basis);
+        let jet = self.shape.jet(basis, design, 1);
+        Residual {
+            r: jet.point - self.points[j],
+            tangents: jet.d1,
+        }
+    }
+
+    /// The objective's foot point of every data point: the closest point (global search;
+    /// `warm` holds optional starts), or the fixed parameter for anchored points.
+    #[must_use]
+    pub fn feet(&self, design: &[S::Point], warm: Option<&[[f64; K]]>) -> Vec<Foot<K>> {
+        let mut feet = self.true_feet(design, warm);
+        let mut b = Basis::new();
+        for (j, f) in feet.iter_mut().enumerate() {
+            if self.anchored[j] {
+                let t = self.params[j];
+                self.shape.basis(t, 0, &mut b);
+                let dist_sq = (self.shape.jet(&b, design, 0).point - self.points[j]).length_squared();
+                *f = Foot { t, dist_sq };
+            }
+        }
+        feet
+    }
+
+    /// The true closest point of every data point, anchors ignored.
+    fn true_feet(&self, design: &[S::Point], warm: Option<&[[f64; K]]>) -> Vec<Foot<K>> {
+        let mut feet = vec![
+            Foot {
+                t: [0.0; K],
+                dist_sq: 0.0
+            };
+            self.points.len()
+        ];
+        closest_all(
+            &self.shape,
+            &self.grid,
+            design,
+            self.points,
+            warm,
+            &self.foot,
+            &mut feet,
+        );
+        feet
+    }
+
+    /// Move every parameter but the anchored ones to the local closest point by Newton's
+    /// method started from it, returning `Σ |C(t_j) - q_j|²` at the new parameters.
+    pub fn project(&self, design: &[S::Point], params: &mut [[f64; K]]) -> f64 {
+        debug_assert_eq!(
+            params.len(),
+            self.points.len(),
+            "project: one parameter per point"
+        );
+        let run = |offset: usize, ts: &mut [[f64; K]]| {
+            let mut b = Basis::new();
+            let mut sum = 0.0;
+            for (j, t) in ts.iter_mut().enumerate() {
+                let q = self.points[offset + j];
+                if self.anchored[offset + j] {
+                    self.shape.basis(*t, 0, &mut b);
+                    sum += (self.shape.jet(&b, design, 0).point - q).length_squared();
+                    continue;
+                }
+                let f = refine(&self.shape, design, q, *t, self.foot.max_newton, &mut b);
+                *t = f.t;
+                sum += f.dist_sq;
+            }
+            sum
+        };
+        if params.len() < PARALLEL_MIN {
+            run(0, params)
+        } else {
+            params
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(c, ts)| run(c * CHUNK, ts))
+                .sum()
+        }
+    }
+
+    /// `Σ |C(t_j) - q_j|²` at the given parameters.
+    #[must_use]
+    pub fn sum_sq_at(&self, design: &[S::Point], params: &[[f64; K]]) -> f64 {
+        chunked_sum(
+            self.points.len(),
+            || (0.0, Basis::new()),
+            |(acc, b), range| {
+                for j in range {
+                    self.shape.basis(params[j], 0, b);
+                    *acc += (self.shape.jet(b, design, 0).point - self.points[j]).length_squared();
+                }
+            },
+            |a, b| (a.0 + b.0, a.1),
+        )
+        .0
+    }
+
+    /// The objective: the sum of squared offsets under the problem's metric.
+    ///
+    /// For the closest-point metric, `cache` holds the foot points of the previous call (empty
+    /// at first) as warm starts and is updated; the result is still the global closest point.
+    pub fn objective(&self, design: &[S::Point], cache: &mut Vec<[f64; K]>) -> f64 {
+        match self.metric {
+            Metric::Corresponding => self.sum_sq_at(design, &self.params),
+            Metric::Closest => {
+                let warm = (cache.len() == self.points.len()).then_some(cache.as_slice());
+                let feet = self.feet(design, warm);
+                cache.clear();
+                cache.extend(feet.iter().map(|f| f.t));
+                feet.iter().map(|f| f.dist_sq).sum()
+            }
+        }
+    }
+
+    /// The objective and its gradient with respect to the design points, written to `grad`.
+    ///
+    /// At the foot points the envelope theorem gives
+    /// `∂/∂x_i Σ_j |C(t_j) - q_j|² = Σ_j 2 φ_i(t_j) (C(t_j) - q_j)` with `t_j` held fixed.
+    pub fn objective_grad(
+        &self,
+        design: &[S::Point],
+        cache: &mut Vec<[f64; K]>,
+        grad: &mut [S::Point],
+    ) -> f64 {
+        debug_assert_eq!(
+            grad.len(),
+            design.len(),
+            "gradient has one entry per design point"
+        );
+        let value = self.objective(design, cache);
+        let params: &[[f64; K]] = match self.metric {
+            Metric::Corresponding => &self.params,
+            Metric::Closest => cache,
+        };
+        let m = design.len();
+        let g = chunked_sum(
+            self.points.len(),
+            || (vec![S::Point::ZERO; m], Basis::new()),
+            |(g, b), range| {
+                for j in range {
+                    self.shape.basis(params[j], 0, b);
+                    let r = self.shape.jet(b, design, 0).point - self.points[j];
+                    for (&i, &w) in self.shape.support(b.cell).iter().zip(&b.value) {
+                        g[i as usize] += r * (2.0 * w);
+                    }
+                }
+            },
+            |mut a, b| {
+                for (x, y) in a.0.iter_mut().zip(b.0) {
+                    *x += y;
+                }
+                a
+            },
+        )
+        .0;
+        grad.copy_from_slice(&g);
+        value
+    }
+
+    /// The best design for fixed parameters: the linear least-squares problem
+    /// `min Σ_j |Σ_i φ_i(t_j) x_i - q_j|²`, solved by Cholesky on the normal equations.
+    ///
+    /// Where the parameters leave design points undetermined (a cell without data), a tiny
+    /// Tikhonov term (`1e-10` of the largest diagonal) pulls them towards the data centroid.
+    pub fn linear_fit(&self, params: &[[f64; K]]) -> Result<Vec<S::Point>> {
+        if params.len() != self.points.len() {
+            return Err(Error::invalid(
+                "linear_fit: one parameter per data point is needed",
+            ));
+        }
+        let m = self.design_count();
+        let dim = S::Point::DIM;
+        let (ata, atq, _) = chunked_sum(
+            self.points.len(),
+            || (vec![0.0; m * m], vec![0.0; m * dim], Basis::new()),
+            |(ata, atq, b), range| {
+                for j in range {
+                    self.shape.basis(params[j], 0, b);
+                    let support = self.shape.support(b.cell);
+                    let q = self.points[j];
+                    for (a, &ia) in support.iter().enumerate() {
+                        let wa = b.value[a];
+                        for (c, &ib) in support.iter().enumerate() {
+                            ata[ia as usize * m + ib as usize] += wa * b.value[c];
+                        }
+                        for k in 0..dim {
+                            atq[ia as usize * dim + k] += wa * q.coord(k);
+                        }
+                    }
+                }
+            },
+            |mut a, b| {
+                a.0.iter_mut().zip(b.0).for_each(|(x, y)| *x += y);
+                a.1.iter_mut().zip(b.1).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
+        let mut a = DMatrix::from_row_slice(m, m, &ata);
+        let mut rhs = DMatrix::from_row_slice(m, dim, &atq);
+        let sol = match a.clone().cholesky() {
+            Some(ch) => ch.solve(&rhs),
+            None => {
+                let mu = 1e-10
+                    * (0..m)
+                        .map(|i| a[(i, i)])
+                        .fold(0.0, f64::max)
+                        .max(f64::MIN_POSITIVE);
+                let n = self.points.len() as f64;
+                for i in 0..m {
+                    a[(i, i)] += mu;
+                    for k in 0..dim {
+                        rhs[(i, k)] += mu * self.points.iter().map(|p| p.coord(k)).sum::<f64>() / n;
+                    }
+                }
+                a.cholesky()
+                    .ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))?
+                    .solve(&rhs)
+            }
+        };
+        let design: Vec<S::Point> = (0..m)
+            .map(|i| {
+                let c: Vec<f64> = (0..dim).map(|k| sol[(i, k)]).collect();
+                S::Point::from_coords(&c)
+            })
+            .collect();
+        if design.iter().any(|p| !p.is_finite_point()) {
+            return Err(Error::Numerical(
+                "the least-squares solution is not finite".into(),
+            ));
+        }
+        Ok(design)
+    }
+
+    /// Offsets of the data from `design` under the problem's metric (closest points by the
+    /// global search), with the parameters they were measured at.
+    #[must_use]
+    pub fn stats(&self, design: &[S::Point]) -> (OffsetStats<S::Point>, Vec<[f64; K]>) {
+        match self.metric {
+            Metric::Closest => self.closest_stats(design, None),
+            Metric::Corresponding => {
+                // Lengths were checked when the problem was built.
+                let stats = corresponding_offsets(&self.shape, design, self.points, &self.params);
+                match stats {
+                    Ok(s) => (s, self.params.clone()),
+                    Err(_) => self.closest_stats(design, None),
+                }
+            }
+        }
+    }
+
+    /// True closest-point offsets of the data from `design` (global search, optional warm
+    /// starts; anchors play no part).
+    #[must_use]
+    pub fn closest_stats(
+        &self,
+        design: &[S::Point],
+        warm: Option<&[[f64; K]]>,
+    ) -> (OffsetStats<S::Point>, Vec<[f64; K]>) {
+        let feet = self.true_feet(design, warm);
+        let d2: Vec<f64> = feet.iter().map(|f| f.dist_sq).collect();
+        (
+            OffsetStats::from_dist_sq(Metric::Closest, &d2, self.points),
+            feet.iter().map(|f| f.t).collect(),
+        )
+    }
+
+    /// This problem as an [`Objective`] over flat design vectors, for the general minimisers.
+    #[must_use]
+    pub fn objective_fn(&self) -> ProblemObjective<'_, 'a, S, K> {
+        ProblemObjective {
+            problem: self,
+            cache: Vec::new(),
+            grad: Vec::new(),
+        }
+    }
+}
+
+/// A [`FitProblem`] seen as an [`Objective`] of the flat design vector; keeps the foot points
+/// of the last evaluation as warm starts.
+#[derive(Debug)]
+pub struct ProblemObjective<'p, 'a, S: Shape<K>, const K: usize> {
+    problem: &'p FitProblem<'a, S, K>,
+    cache: Vec<[f64; K]>,
+    grad: Vec<S::Point>,
+}
+
+impl<S: Shape<K>, const K: usize> Objective for ProblemObjective<'_, '_, S, K> {
+    fn dim(&self) -> usize {
+        self.problem.dim()
+    }
+
+    fn value(&mut self, x: &[f64]) -> f64 {
+        let design = FitProblem::<S, K>::from_flat(x);
+        self.problem.objective(&design, &mut self.cache)
+    }
+
+    fn value_grad(&mut self, x: &[f64], grad: &mut [f64]) -> f64 {
+        let design = FitProblem::<S, K>::from_flat(x);
+        self.grad.resize(design.len(), S::Point::ZERO);
+        let v = self
+            .problem
+            .objective_grad(&design, &mut self.cache, &mut self.grad);
+        for (i, p) in self.grad.iter().enumerate() {
+            for c in 0..S::Point::DIM {
+                grad[i * S::Point::DIM + c] = p.coord(c);
+            }
+        }
+        v
+    }
+}
+
+impl<'a, P: Vector> FitProblem<'a, CurveShape<P>, 1> {
+    /// A chain-fitting problem; every point gets its normalised chord-length parameter (see
+    /// [`chord_length_params`]), the first and last points are anchored at `t = 0` and
+    /// `t = 1`, and the foot-point search has its default options.
+    pub fn curve(layout: ChainLayout, points: &'a [P], metric: Metric) -> Result<Self> {
+        Self::curve_with(layout, points, metric, FootOptions::default(), true)
+    }
+
+    /// [`FitProblem::curve`] with explicit foot-point options, and the ends anchored or not.
+    pub fn curve_with(
+        layout: ChainLayout,
+        points: &'a [P],
+        metric: Metric,
+        foot: FootOptions,
+        anchor_ends: bool,
+    ) -> Result<Self> {
+        check_points(points)?;
+        let m = layout.design_count();
+        if points.len() < m {
+            return Err(Error::invalid(format!(
+                "{} data points cannot determine {m} design points: at least {m} are needed",
+                points.len()
+            )));
+        }
+        let params = chord_length_params(points)?.into_iter().map(|t| [t]).collect();
+        let problem = Self::new(CurveShape::new(layout), points, params, metric, foot)?;
+        if anchor_ends {
+            problem.with_anchors(&[0, points.len() - 1])
+        } else {
+            Ok(problem)
+        }
+    }
+
+    /// The chain with the given design points.
+    pub fn chain(&self, design: &[P]) -> Result<CurveChain<P>> {
+        CurveChain::new(self.shape.layout().clone(), design.to_vec())
+    }
+
+    /// The paper's start: design points picked from the data at an even increment.
+    pub fn increment_start(&self) -> Result<Vec<P>> {
+        increment_start(self.points, self.design_count())
+    }
+}
+
+impl<'a, P: Vector> FitProblem<'a, GridShape<P>, 2> {
+    /// A grid-fitting problem with one `(u, v)` parameter per point and the default foot-point
+    /// options (8 samples per patch side).
+    pub fn grid(layout: GridLayout, points: &'a [P], params: Vec<[f64; 2]>, metric: Metric) -> Result<Self> {
+        let foot = FootOptions {
+            samples: 8,
+            ..FootOptions::default()
+        };
+        Self::new(GridShape::new(layout), points, params, metric, foot)
+    }
+
+    /// The patch grid with the given design net.
+    pub fn patch_grid(&self, design: &[P]) -> Result<PatchGrid<P>> {
+        PatchGrid::new(self.shape.layout(), design.to_vec())
+    }
+}
+
+/// The paper's start for a chain of `count` design points: data points picked at an even
+/// increment along the data, `points[round(i (n - 1) / (count - 1))]` for `i = 0 … count - 1`,
+/// so the first and last data points are always taken.
+pub fn increment_start<P: Vector>(points: &[P], count: usize) -> Result<Vec<P>> {
+    check_points(points)?;
+    let n = points.len();
+    if count < 2 {
+        return Err(Error::invalid("a chain has at least two design points"));
+    }
+    if n < count {
+        return Err(Error::invalid(format!(
+            "{n} data points cannot provide {count} distinct start points"
+        )));
+    }
+    Ok((0..count)
+        .map(|i| points[((i * (n - 1)) as f64 / (count - 1) as f64).round() as usize])
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::Continuity;
+    use glam::{DVec2, DVec3};
+
+    fn sample_chain() -> (CurveChain<DVec2>, Vec<DVec2>) {
+        let layout = ChainLayout::with_breaks(3, vec![0.0, 0.3, 0.55, 1.0], Continuity::C1).unwrap();
+        let design: Vec<DVec2> = (0..layout.design_count())
+            .map(|i| DVec2::new(i as f64 * 0.3, 0.5 * (1.3 * i as f64).sin()))
+            .collect();
+        let chain = CurveChain::new(layout, design).unwrap();
+        let pts = (0..50)
+            .map(|i| {
+                let t = i as f64 / 49.0;
+                chain.eval(t) + DVec2::new(0.02 * (9.0 * t).sin(), 0.03 * (11.0 * t).cos())
+            })
+            .collect();
+        (chain, pts)
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences() {
+        let (chain, pts) = sample_chain();
+        for metric in [Metric::Closest, Metric::Corresponding] {
+            let p = FitProblem::curve(chain.layout().clone(), &pts, metric).unwrap();
+            let mut f = p.objective_fn();
+            let x = CurveProblem::<DVec2>::to_flat(chain.design());
+            let mut g = vec![0.0; x.len()];
+            let v = f.value_grad(&x, &mut g);
+            assert!((v - f.value(&x)).abs() < 1e-15 * v.max(1.0));
+            let h = 1e-6;
+            for i in 0..x.len() {
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[i] += h;
+                xm[i] -= h;
+                let fd = (f.value(&xp) - f.value(&xm)) / (2.0 * h);
+                assert!(
+                    (g[i] - fd).abs() < 1e-7 * (1.0 + fd.abs()),
+                    "{metric} var {i}: {} vs {fd}",
+                    g[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn residual_jacobian_matches_finite_differences() {
+        let (chain, pts) = sample_chain();
+        let p = FitProblem::curve(chain.layout().clone(), &pts, Metric::Closest).unwrap();
+        let design = chain.design().to_vec();
+        let mut b = Basis::new();
+        let h = 1e-6;
+        for j in [0, 7, 23, 49] {
+            let t = [p.params()[j][0].clamp(0.01, 0.99)];
+            let res = p.residual(&design, j, t, &mut b);
+            let support = p.shape().support(b.cell).to_vec();
+            let phi = b.value.clone();
+            // d r / d t
+            let mut bb = Basis::new();
+            let rp = p.residual(&design, j, [t[0] + h], &mut bb).r;
+            let rm = p.residual(&design, j, [t[0] - h], &mut bb).r;
+            assert!((res.tangents[0] - (rp - rm) * (0.5 / h)).length() < 1e-7);
+            // d r / d x_i for every design point: phi_i on the support, zero elsewhere.
+            for i in 0..design.len() {
+                let mut dp = design.clone();
+                dp[i].y += h;
+                let d = (p.residual(&dp, j, t, &mut bb).r - res.r) * (1.0 / h);
+                let expect = support
+                    .iter()
+                    .position(|&s| s as usize == i)
+                    .map_or(0.0, |a| phi[a]);
+                assert!(
+                    (d.y - expect).abs() < 1e-8 && d.x.abs() < 1e-8,
+                    "point {j} design {i}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn linear_fit_reproduces_a_chain_sampled_at_its_parameters() {
+        let (chain, _) = sample_chain();
+        let params: Vec<[f64; 1]> = (0..40).map(|i| [(i as f64 / 39.0).powf(1.3)]).collect();
+        let pts: Vec<DVec2> = params.iter().map(|t| chain.eval(t[0])).collect();
+        let p = FitProblem::new(
+            CurveShape::new(chain.layout().clone()),
+            &pts,
+            params.clone(),
+            Metric::Corresponding,
+            FootOptions::default(),
+        )
+        .unwrap();
+        let design = p.linear_fit(&params).unwrap();
+        for (a, b) in design.iter().zip(chain.design()) {
+            assert!((*a - *b).length() < 1e-11);
+        }
+        assert!(p.objective(&design, &mut Vec::new()) < 1e-24);
+    }
+
+    #[test]
+    fn too_few_points_and_bad_input_are_refused() {
+        let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
+        let pts: Vec<DVec2> = (0..11).map(|i| DVec2::new(i as f64, 0.0)).collect();
+        let err = FitProblem::curve(layout.clone(), &pts, Metric::Closest).unwrap_err();
+        assert!(matches!(err, Error::Invalid(_)));
+        assert!(err.to_string().contains("12 design points"), "{err}");
+        let same = vec![DVec2::new(0.5, 0.5); 30];
+        assert!(matches!(
+            FitProblem::curve(layout.clone(), &same, Metric::Closest),
+            Err(Error::Invalid(_))
+        ));
+        let mut bad: Vec<DVec2> = (0..30).map(|i| DVec2::new(i as f64, 0.0)).collect();
+        bad[4].y = f64::INFINITY;
+        assert!(FitProblem::curve(layout, &bad, Metric::Closest).is_err());
+    }
+
+    #[test]
+    fn increment_start_takes_both_ends() {
+        let pts: Vec<DVec2> = (0..82).map(|i| DVec2::new(i as f64, 0.0)).collect();
+        let s = increment_start(&pts, 12).unwrap();
+        assert_eq!(s.len(), 12);
+        assert_eq!((s[0].x, s[11].x), (0.0, 81.0));
+        assert!(s.windows(2).all(|w| w[1].x > w[0].x));
+        assert!(increment_start(&pts[..5], 12).is_err());
+    }
+
+    #[test]
+    fn grid_gradient_matches_finite_differences() {
+        let layout = GridLayout::new(
+            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
+            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
+        );
+        let (nu, nv) = layout.design_shape();
+        let design: Vec<DVec3> = (0..nu * nv)
+            .map(|i| {
+                let (a, b) = ((i / nv) as f64 / 3.0, (i % nv) as f64 / 3.0);
+                DVec3::new(a, b, 0.3 * (2.0 * a + b).sin())
+            })
+            .collect();
+        // Interior points off the surface, and a few beyond its borders (feet clamped there).
+        // Points exactly on a border with zero offset are avoided: there the squared distance
+        // is only C1 (like max(0, s)²) and central differences are off by O(h).
+        let mut params: Vec<[f64; 2]> = (0..64)
+            .map(|i| {
+                [
+                    0.03 + 0.94 * (i / 8) as f64 / 7.0,
+                    0.04 + 0.93 * (i % 8) as f64 / 7.0,
+                ]
+            })
+            .collect();
+        let grid = PatchGrid::new(layout.clone(), design.clone()).unwrap();
+        let mut pts: Vec<DVec3> = params
+            .iter()
+            .map(|t| grid.eval(t[0], t[1]) + DVec3::new(0.0, 0.0, 0.01 + 0.01 * (t[0] * 13.0).sin()))
+            .collect();
+        for (t, q) in [
+            ([0.0, 0.5], DVec3::new(-0.2, 0.4, 0.1)),
+            ([1.0, 0.2], DVec3::new(1.3, 0.3, -0.1)),
+        ] {
+            params.push(t);
+            pts.push(q);
+        }
+        let p = FitProblem::grid(layout, &pts, params, Metric::Closest).unwrap();
+        let mut f = p.objective_fn();
+        let x = GridProblem::<DVec3>::to_flat(&design);
+        let mut g = vec![0.0; x.len()];
+        f.value_grad(&x, &mut g);
+        let h = 1e-6;
+        for i in 0..x.len() {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[i] += h;
+            xm[i] -= h;
+            let fd = (f.value(&xp) - f.value(&xm)) / (2.0 * h);
+            assert!(
+                (g[i] - fd).abs() < 1e-7 * (1.0 + fd.abs()),
+                "var {i}: {} vs {fd}",
+                g[i]
+            );
+        }
+    }
+}

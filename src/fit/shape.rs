@@ -1,0 +1,574 @@
+//! The `Shape` trait: a chain or a patch grid seen as a map from parameters to points that is
+//! linear in its design points, with the basis and its derivatives that fitting needs.
+//!
+//! A shape of parameter dimension `K` (1 for curves, 2 for patch grids) evaluates as
+//! `C(t) = Σ_i φ_i(t) x_i` over its design points `x_i`. The domain `[0, 1]^K` is cut into
+//! cells (segments or patches); in each cell only a few design points (its *support*) have a
+//! non-zero `φ_i`. Every fitting routine (foot points, least squares, gradients) works through
+//! this trait, so the curve and the surface fits share one implementation.
+
+use crate::bezier::Vector;
+use crate::chain::{ChainLayout, GridLayout};
+use std::marker::PhantomData;
+
+/// Highest degree per direction whose basis fits the fixed scratch arrays.
+const MAX_DEGREE: usize = 16;
+
+/// The basis of a shape at one parameter: the cell holding it and, over that cell's support,
+/// the values `φ_i`, first derivatives `∂φ_i/∂t_k` and second derivatives `∂²φ_i/∂t_k∂t_l`
+/// with respect to the global parameters.
+#[derive(Clone, Debug, Default)]
+pub struct Basis<const K: usize> {
+    /// The cell (segment or patch) that holds the parameter.
+    pub cell: usize,
+    /// `φ_i` over the cell's support.
+    pub value: Vec<f64>,
+    /// `∂φ_i/∂t_k` (filled when the requested order is at least 1).
+    pub d1: Vec<[f64; K]>,
+    /// `∂²φ_i/∂t_k∂t_l` (filled when the requested order is 2).
+    pub d2: Vec<[[f64; K]; K]>,
+}
+
+impl<const K: usize> Basis<K> {
+    /// An empty basis, to be filled by [`Shape::basis`].
+    #[must_use]
+    pub fn new() -> Self {
+        Basis {
+            cell: 0,
+            value: Vec::new(),
+            d1: Vec::new(),
+            d2: Vec::new(),
+        }
+    }
+
+    fn resize(&mut self, len: usize, order: usize) {
+        self.value.resize(len, 0.0);
+        if order >= 1 {
+            self.d1.resize(len, [0.0; K]);
+        }
+        if order >= 2 {
+            self.d2.resize(len, [[0.0; K]; K]);
+        }
+    }
+}
+
+/// A point with its first and second derivatives with respect to the global parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct Jet<P, const K: usize> {
+    /// The point `C(t)`.
+    pub point: P,
+    /// `∂C/∂t_k`.
+    pub d1: [P; K],
+    /// `∂²C/∂t_k∂t_l`.
+    pub d2: [[P; K]; K],
+}
+
+/// A parametric shape linear in its design points (see the module docs).
+pub trait Shape<const K: usize>: Sync {
+    /// The point type, `DVec2` or `DVec3`.
+    type Point: Vector;
+
+    /// Number of design points.
+    fn design_count(&self) -> usize;
+
+    /// Number of cells (segments or patches).
+    fn cell_count(&self) -> usize;
+
+    /// The design indices supporting cell `cell`, ascending.
+    fn support(&self, cell: usize) -> &[u32];
+
+    /// The box `[lo, hi]` of global parameters covered by cell `cell`.
+    fn cell_box(&self, cell: usize) -> ([f64; K], [f64; K]);
+
+    /// The basis at global parameter `t` (each coordinate clamped to `[0, 1]`), with
+    /// derivatives up to `order` (0, 1 or 2).
+    fn basis(&self, t: [f64; K], order: usize, out: &mut Basis<K>);
+
+    /// Evaluate the shape from its basis at some parameter and the design points.
+    #[must_use]
+    fn jet(&self, basis: &Basis<K>, design: &[Self::Point], order: usize) -> Jet<Self::Point, K> {
+        let zero = Self::Point::ZERO;
+        let mut jet = Jet {
+            point: zero,
+            d1: [zero; K],
+            d2: [[zero; K]; K],
+        };
+        let support = self.support(basis.cell);
+        for (a, &i) in support.iter().enumerate() {
+            let x = design[i as usize];
+            jet.point += x * basis.value[a];
+            if order >= 1 {
+                for k in 0..K {
+                    jet.d1[k] += x * basis.d1[a][k];
+                }
+            }
+            if order >= 2 {
+                for k in 0..K {
+                    for l in 0..K {
+                        jet.d2[k][l] += x * basis.d2[a][k][l];
+                    }
+                }
+            }
+        }
+        jet
+    }
+}
+
+/// The one-dimensional basis of a chain layout: per segment, the design points it depends on
+/// and the local block of the extraction map, with its first and second differences, so that
+/// the basis and its derivatives cost one Bernstein recurrence and three small products.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChainBasis {
+    layout: ChainLayout,
+    supports: Vec<Vec<u32>>,
+    /// Per segment, `L`: the extraction map restricted to the segment's `d + 1` control
+    /// points and its `n` supporting design points, stored `n x (d + 1)` (row `a` holds
+    /// design point `a`'s weights in the control points).
+    local: Vec<Vec<f64>>,
+    /// Per segment, `n x d`: the hodograph's weights `d (L[r+1] - L[r])`.
+    local_d1: Vec<Vec<f64>>,
+    /// Per segment, `n x (d - 1)`: `d (d - 1) (L[r+2] - 2 L[r+1] + L[r])`.
+    local_d2: Vec<Vec<f64>>,
+    /// `1 / h[k]` per segment.
+    inv_len: Vec<f64>,
+    /// True when the breaks are uniform, so the segment is found by one multiplication.
+    uniform: bool,
+}
+
+impl ChainBasis {
+    /// The basis of `layout` (degree at most 16).
+    #[must_use]
+    pub fn new(layout: ChainLayout) -> Self {
+        let d = layout.degree();
+        debug_assert!(d <= MAX_DEGREE, "ChainBasis: degree {d} above {MAX_DEGREE}");
+        let map = layout.map();
+        let segments = layout.segments();
+        let mut basis = ChainBasis {
+            supports: Vec::with_capacity(segments),
+            local: Vec::with_capacity(segments),
+            local_d1: Vec::with_capacity(segments),
+            local_d2: Vec::with_capacity(segments),
+            inv_len: (0..segments).map(|k| 1.0 / layout.segment_length(k)).collect(),
+            uniform: layout
+                .breaks()
+                .iter()
+                .enumerate()
+                .all(|(k, &b)| (b - k as f64 / segments as f64).abs() <= 4.0 * f64::EPSILON),
+            layout: layout.clone(),
+        };
+        for k in 0..segments {
+            let mut support: Vec<u32> = (k * d..=(k + 1) * d)
+                .flat_map(|r| map.row(r).0.to_vec())
+                .collect();
+            support.sort_unstable();
+            support.dedup();
+            // A B-spline segment depends on exactly d + 1 control points; should rounding have
+            // dropped a weight, pad with zero-weight neighbours so every segment has d + 1.
+            let cols = map.cols() as u32;
+            let mut next = 0;
+            while support.len() < d + 1 && next < cols {
+                if support.binary_search(&next).is_err() {
+                    support.push(next);
+                    support.sort_unstable();
+                }
+                next += 1;
+            }
+            let n = support.len();
+            let mut block = vec![0.0; (d + 1) * n];
+            for (r, row) in block.chunks_mut(n).enumerate() {
+                let (idx, w) = map.row(k * d + r);
+                for (&j, &wj) in idx.iter().zip(w) {
+                    // `support` holds every index of these rows, so the search always succeeds.
+                    if let Ok(a) = support.binary_search(&j) {
+                        row[a] += wj;
+                    }
+                }
+            }
+            let df = d as f64;
+            let d1: Vec<f64> = (0..d * n).map(|i| df * (block[i + n] - block[i])).collect();
+            let d2: Vec<f64> = (0..d.saturating_sub(1) * n)
+                .map(|i| df * (df - 1.0) * (block[i + 2 * n] - 2.0 * block[i + n] + block[i]))
+                .collect();
+            // Stored transposed, one row per support point, so each basis function is one
+            // contiguous dot product with the Bernstein values.
+            let transpose = |m: &[f64], rows: usize| -> Vec<f64> {
+                let mut t = vec![0.0; m.len()];
+                for r in 0..rows {
+                    for a in 0..n {
+                        t[a * rows + r] = m[r * n + a];
+                    }
+                }
+                t
+            };
+            basis.local.push(transpose(&block, d + 1));
+            basis.local_d1.push(transpose(&d1, d));
+            basis.local_d2.push(transpose(&d2, d.saturating_sub(1)));
+            basis.supports.push(support);
+        }
+        basis
+    }
+
+    /// The layout.
+    #[must_use]
+    pub fn layout(&self) -> &ChainLayout {
+        &self.layout
+    }
+
+    /// Design indices supporting segment `k`.
+    #[must_use]
+    pub fn support(&self, k: usize) -> &[u32] {
+        &self.supports[k]
+    }
+
+    /// Number of design points supporting each segment (the same for every segment).
+    #[must_use]
+    pub fn support_len(&self) -> usize {
+        self.supports.first().map_or(0, Vec::len)
+    }
+
+    /// The segment holding global parameter `t` (clamped to `[0, 1]`) and the local parameter,
+    /// as [`ChainLayout::locate`] finds them.
+    #[inline]
+    fn locate(&self, t: f64) -> (usize, f64) {
+        let s = self.inv_len.len();
+        if !self.uniform {
+            return self.layout.locate(t);
+        }
+        let t = t.clamp(0.0, 1.0);
+        let k = ((t * s as f64) as usize).min(s - 1);
+        let breaks = self.layout.breaks();
+        // Rounding of t * s can put a parameter next to a break in the wrong segment.
+        let k = if t < breaks[k] {
+            k - 1
+        } else if k + 1 < s && t >= breaks[k + 1] {
+            k + 1
+        } else {
+            k
+        };
+        (k, ((t - breaks[k]) * self.inv_len[k]).clamp(0.0, 1.0))
+    }
+
+    /// The basis at global parameter `t`: fills `value`, and up to `order` derivatives with
+    /// respect to `t`, over the support of the returned segment (each slice at least as long
+    /// as the support; derivative slices of orders not asked for are left alone).
+    pub fn eval(&self, t: f64, order: usize, value: &mut [f64], d1: &mut [f64], d2: &mut [f64]) -> usize {
+        let (k, u) = self.locate(t);
+        // Fixed-size paths for the usual degrees keep every buffer on the stack, unrolled.
+        match self.layout.degree() {
+            1 => self.eval_fixed::<2>(k, u, order, value, d1, d2),
+            2 => self.eval_fixed::<3>(k, u, order, value, d1, d2),
+            3 => self.eval_fixed::<4>(k, u, order, value, d1, d2),
+            4 => self.eval_fixed::<5>(k, u, order, value, d1, d2),
+            5 => self.eval_fixed::<6>(k, u, order, value, d1, d2),
+            6 => self.eval_fixed::<7>(k, u, order, value, d1, d2),
+            7 => self.eval_fixed::<8>(k, u, order, value, d1, d2),
+            _ => self.eval_fixed::<{ MAX_DEGREE + 1 }>(k, u, order, value, d1, d2),
+        }
+        k
+    }
+
+    /// [`ChainBasis::eval`] in segment `k` at local `u`, with buffers of `N >= degree + 1`.
+    #[inline]
+    fn eval_fixed<const N: usize>(
+        &self,
+        k: usize,
+        u: f64,
+        order: usize,
+        value: &mut [f64],
+        d1: &mut [f64],
+        d2: &mut [f64],
+    ) {
+        let d = self.layout.degree();
+        debug_assert!(d < N, "eval_fixed: buffer of {N} too small for degree {d}");
+        let v = 1.0 - u;
+        // Bernstein polynomials of degree d - 2, d - 1 and d by the triangular recurrence,
+        // each level kept for the derivatives.
+        let mut levels = [[0.0; N]; 3];
+        levels[0][0] = 1.0;
+        let mut cur = 0;
+        for j in 1..=d {
+            let (prev, next) = (cur, (cur + 1) % 3);
+            let mut saved = 0.0;
+            for i in 0..j {
+                let tmp = levels[prev][i];
+                levels[next][i] = saved + v * tmp;
+                saved = u * tmp;
+            }
+            levels[next][j] = saved;
+            cur = next;
+        }
+        // After the loop `cur` holds degree d, the one before it d - 1, before that d - 2.
+        let (ld, ld1, ld2) = (cur, (cur + 2) % 3, (cur + 1) % 3);
+        let n = self.supports[k].len();
+        let dot = |m: &[f64], w: &[f64], out: &mut [f64], scale: f64| {
+            let len = w.len();
+            for (x, row) in out[..n].iter_mut().zip(m.chunks_exact(len.max(1))) {
+                *x = scale * row.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
+            }
+        };
+        dot(&self.local[k], &levels[ld][..=d], value, 1.0);
+        if order >= 1 {
+            if d >= 1 {
+                dot(&self.local_d1[k], &levels[ld1][..d], d1, self.inv_len[k]);
+            } else {
+                d1[..n].fill(0.0);
+            }
+        }
+        if order >= 2 {
+            if d >= 2 {
+                dot(
+                    &self.local_d2[k],
+                    &levels[ld2][..d - 1],
+                    d2,
+                    self.inv_len[k] * self.inv_len[k],
+                );
+            } else {
+                d2[..n].fill(0.0);
+            }
+        }
+    }
+}
+
+/// A chain of Bezier curves as a [`Shape`] of parameter dimension 1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveShape<P> {
+    chain: ChainBasis,
+    _point: PhantomData<fn() -> P>,
+}
+
+impl<P: Vector> CurveShape<P> {
+    /// The shape of chains with this layout.
+    #[must_use]
+    pub fn new(layout: ChainLayout) -> Self {
+        CurveShape {
+            chain: ChainBasis::new(layout),
+            _point: PhantomData,
+        }
+    }
+
+    /// The layout.
+    #[must_use]
+    pub fn layout(&self) -> &ChainLayout {
+        self.chain.layout()
+    }
+}
+
+impl<P: Vector> Shape<1> for CurveShape<P> {
+    type Point = P;
+
+    fn design_count(&self) -> usize {
+        self.chain.layout().design_count()
+    }
+
+    fn cell_count(&self) -> usize {
+        self.chain.layout().segments()
+    }
+
+    fn support(&self, cell: usize) -> &[u32] {
+        self.chain.support(cell)
+    }
+
+    fn cell_box(&self, cell: usize) -> ([f64; 1], [f64; 1]) {
+        let b = self.chain.layout().breaks();
+        ([b[cell]], [b[cell + 1]])
+    }
+
+    fn basis(&self, t: [f64; 1], order: usize, out: &mut Basis<1>) {
+        let n = self.chain.support_len();
+        out.resize(n, order);
+        let d1: &mut [f64] = bytemuck::cast_slice_mut(&mut out.d1[..]);
+        let d2: &mut [f64] = bytemuck::cast_slice_mut(&mut out.d2[..]);
+        out.cell = self.chain.eval(t[0], order, &mut out.value, d1, d2);
+        debug_assert_eq!(
+            self.chain.support(out.cell).len(),
+            n,
+            "segments share a support size"
+        );
+    }
+}
+
+/// A grid of tensor-product Bezier patches as a [`Shape`] of parameter dimension 2.
+///
+/// Design point `(i, j)` of the row-major design net has index `i * nv + j`; cell `(a, b)`
+/// (patch `a` along u, `b` along v) has index `a * pv + b`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridShape<P> {
+    u: ChainBasis,
+    v: ChainBasis,
+    supports: Vec<Vec<u32>>,
+    _point: PhantomData<fn() -> P>,
+}
+
+impl<P: Vector> GridShape<P> {
+    /// The shape of patch grids with this layout.
+    #[must_use]
+    pub fn new(layout: GridLayout) -> Self {
+        let u = ChainBasis::new(layout.u);
+        let v = ChainBasis::new(layout.v);
+        let nv = v.layout().design_count() as u32;
+        let mut supports = Vec::new();
+        for a in 0..u.layout().segments() {
+            for b in 0..v.layout().segments() {
+                let s: Vec<u32> = u
+                    .support(a)
+                    .iter()
+                    .flat_map(|&i| v.support(b).iter().map(move |&j| i * nv + j))
+                    .collect();
+                supports.push(s);
+            }
+        }
+        GridShape {
+            u,
+            v,
+            supports,
+            _point: PhantomData,
+        }
+    }
+
+    /// The layout.
+    #[must_use]
+    pub fn layout(&self) -> GridLayout {
+        GridLayout::new(self.u.layout().clone(), self.v.layout().clone())
+    }
+}
+
+impl<P: Vector> Shape<2> for GridShape<P> {
+    type Point = P;
+
+    fn design_count(&self) -> usize {
+        self.u.layout().design_count() * self.v.layout().design_count()
+    }
+
+    fn cell_count(&self) -> usize {
+        self.supports.len()
+    }
+
+    fn support(&self, cell: usize) -> &[u32] {
+        &self.supports[cell]
+    }
+
+    fn cell_box(&self, cell: usize) -> ([f64; 2], [f64; 2]) {
+        let pv = self.v.layout().segments();
+        let (a, b) = (cell / pv, cell % pv);
+        let (bu, bv) = (self.u.layout().breaks(), self.v.layout().breaks());
+        ([bu[a], bv[b]], [bu[a + 1], bv[b + 1]])
+    }
+
+    fn basis(&self, t: [f64; 2], order: usize, out: &mut Basis<2>) {
+        let (mut vu, mut du, mut ddu) = (
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+        );
+        let (mut vv, mut dv, mut ddv) = (
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+        );
+        let a = self.u.eval(t[0], order, &mut vu, &mut du, &mut ddu);
+        let b = self.v.eval(t[1], order, &mut vv, &mut dv, &mut ddv);
+        let (nu, nv) = (self.u.support(a).len(), self.v.support(b).len());
+        out.cell = a * self.v.layout().segments() + b;
+        out.resize(nu * nv, order);
+        for i in 0..nu {
+            for j in 0..nv {
+                let s = i * nv + j;
+                out.value[s] = vu[i] * vv[j];
+                if order >= 1 {
+                    out.d1[s] = [du[i] * vv[j], vu[i] * dv[j]];
+                }
+                if order >= 2 {
+                    let cross = du[i] * dv[j];
+                    out.d2[s] = [[ddu[i] * vv[j], cross], [cross, vu[i] * ddv[j]]];
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::{Continuity, CurveChain, PatchGrid};
+    use glam::{DVec2, DVec3};
+
+    fn chain(c: Continuity) -> CurveChain<DVec2> {
+        let layout = ChainLayout::with_breaks(4, vec![0.0, 0.15, 0.5, 0.8, 1.0], c).unwrap();
+        let design = (0..layout.design_count())
+            .map(|i| DVec2::new(i as f64 * 0.3, (1.7 * i as f64).sin()))
+            .collect();
+        CurveChain::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn curve_basis_reproduces_the_chain_and_its_derivatives() {
+        for c in [Continuity::C0, Continuity::C1, Continuity::C2] {
+            let chain = chain(c);
+            let shape = CurveShape::<DVec2>::new(chain.layout().clone());
+            let mut b = Basis::new();
+            for cell in 0..shape.cell_count() {
+                assert_eq!(
+                    shape.support(cell).len(),
+                    5,
+                    "a B-spline segment has d + 1 supports"
+                );
+            }
+            let h = 1e-6;
+            for i in 1..200 {
+                let t = i as f64 / 200.0 + 1e-3;
+                shape.basis([t], 2, &mut b);
+                let jet = shape.jet(&b, chain.design(), 2);
+                assert!((jet.point - chain.eval(t)).length() < 1e-13, "{c} t={t}");
+                assert!((jet.d1[0] - chain.deriv(t)).length() < 1e-11);
+                let sum: f64 = b.value.iter().sum();
+                assert!((sum - 1.0).abs() < 1e-13, "partition of unity");
+                // Second derivative against central differences of the first, inside a segment.
+                let (k, u) = chain.layout().locate(t);
+                if u > 1e-4 && u < 1.0 - 1e-4 {
+                    let fd = (chain.deriv(t + h) - chain.deriv(t - h)) * (0.5 / h);
+                    assert!(
+                        (jet.d2[0][0] - fd).length() < 1e-5 * (1.0 + fd.length()),
+                        "{c} seg {k}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn grid_basis_reproduces_the_grid_and_its_partials() {
+        let u = ChainLayout::with_breaks(3, vec![0.0, 0.4, 1.0], Continuity::C1).unwrap();
+        let v = ChainLayout::uniform(2, 3, Continuity::C1).unwrap();
+        let layout = GridLayout::new(u, v);
+        let (nu, nv) = layout.design_shape();
+        let design: Vec<DVec3> = (0..nu * nv)
+            .map(|i| {
+                let (a, b) = ((i / nv) as f64, (i % nv) as f64);
+                DVec3::new(a, b, (a * 0.7 + b * 1.3).sin())
+            })
+            .collect();
+        let grid = PatchGrid::new(layout.clone(), design.clone()).unwrap();
+        let shape = GridShape::<DVec3>::new(layout);
+        let mut b = Basis::new();
+        let h = 1e-6;
+        for i in 0..17 {
+            for j in 0..13 {
+                let t = [0.01 + i as f64 / 17.3, 0.02 + j as f64 / 13.1];
+                shape.basis(t, 2, &mut b);
+                let jet = shape.jet(&b, &design, 2);
+                let (p, pu, pv) = grid.partials(t[0], t[1]);
+                assert!((jet.point - p).length() < 1e-13);
+                assert!((jet.d1[0] - pu).length() < 1e-11 && (jet.d1[1] - pv).length() < 1e-11);
+                let (_, pu_v, pv_v) = grid.partials(t[0], t[1] + h);
+                let (_, pu_m, pv_m) = grid.partials(t[0], t[1] - h);
+                let fd_uv = (pu_v - pu_m) * (0.5 / h);
+                let fd_vv = (pv_v - pv_m) * (0.5 / h);
+                assert!((jet.d2[0][1] - fd_uv).length() < 1e-5 * (1.0 + fd_uv.length()));
+                assert!((jet.d2[1][0] - fd_uv).length() < 1e-5 * (1.0 + fd_uv.length()));
+                if (t[1] * 3.0 - (t[1] * 3.0).round()).abs() > 1e-3 {
+                    assert!((jet.d2[1][1] - fd_vv).length() < 1e-5 * (1.0 + fd_vv.length()));
+                }
+            }
+        }
+    }
+}
