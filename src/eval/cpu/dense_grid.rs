@@ -12,7 +12,7 @@ fn basis<M: Madd>(n: usize, t: f32) -> ([f32; NB], [f32; NB]) {
     let mut low1 = [0.0f32; NB];
     lvl[0] = 1.0;
     let s = 1.0 - t;
-    for j in 1..=n {
+    for j in 1..n + 1 {
         if j == n {
             low1 = lvl;
         }
@@ -28,7 +28,7 @@ fn basis<M: Madd>(n: usize, t: f32) -> ([f32; NB], [f32; NB]) {
     let nf = n as f32;
     // low1[i - 1], zero before the start.
     let mut l1 = 0.0f32;
-    for i in 0..=n {
+    for i in 0..n + 1 {
         d1[i] = nf * (l1 - low1[i]);
         l1 = low1[i];
     }
@@ -71,10 +71,10 @@ pub(crate) fn dense_grid<M: Madd>(
     let mut s = [0.0f32; DIM];
     let mut su = [0.0f32; DIM];
     let mut sv = [0.0f32; DIM];
-    for a in 0..=du {
+    for a in 0..du + 1 {
         let mut r0 = [0.0f32; DIM];
         let mut r1 = [0.0f32; DIM];
-        for b in 0..=dv {
+        for b in 0..dv + 1 {
             let r = (i * du + a) * config.net_cols as usize + j * dv + b;
             for c in 0..DIM {
                 let p = net[r * DIM + c][lane];

@@ -3,10 +3,11 @@
 //!
 //! Each lane of a [`Lanes`] array is one shader invocation; every step below is the shader's,
 //! in the same order and with the same fused multiply-adds (`M::madd` for `fma`), applied to
-//! all lanes at once. The shader's private `cp` (the held patch, per invocation) is the
-//! `cp[(a * NV + b) * DIM + c][lane]` scratch array here.
+//! all lanes at once. The shader's private `cp[(a * NV + b) * DIM + c]` (the held patch, per
+//! invocation) is `cp[a * NV + b][c][lane]` here: one [`Point`] per control point, so that
+//! every coordinate index is a constant below 3 and the hot loops carry no bounds checks.
 
-use super::{Lanes, Madd, LANES};
+use super::{Lanes, Madd, Point, LANES};
 use crate::eval::kernel::{Config, Partial, Target, MAX_DEGREE, NONE};
 
 /// Basis arrays hold up to this many values (degree `MAX_DEGREE`).
@@ -23,7 +24,8 @@ pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
     breaks: &[f32],
     net: &[Lanes],
     group: usize,
-    cp: &mut [Lanes],
+    cp: &mut [Point],
+    work: &mut NewtonWork,
     partials: &mut [Partial; LANES],
 ) {
     let first = group * config.group_points as usize;
@@ -55,7 +57,7 @@ pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
                 if t.patch_id != run {
                     break;
                 }
-                let e2 = foot_point_sq::<M, DIM>(config, breaks, net, t, cp, &mut held);
+                let e2 = foot_point_sq::<M, DIM>(config, breaks, net, t, cp, &mut held, work);
                 for l in 0..LANES {
                     sum[l] += e2[l];
                     worst[l] = worst[l].max(e2[l]);
@@ -83,36 +85,34 @@ fn net_index(config: &Config, patch: u32, a: usize, b: usize) -> usize {
 
 /// `load_patch` for every lane at once (the start of a run, where all lanes agree).
 #[inline(always)]
-fn load_patch(config: &Config, net: &[Lanes], patch: u32, cp: &mut [Lanes], held: &mut [u32; LANES]) {
+fn load_patch(config: &Config, net: &[Lanes], patch: u32, cp: &mut [Point], held: &mut [u32; LANES]) {
     *held = [patch; LANES];
     let (du, dv, dim) = (
         config.degree_u as usize,
         config.degree_v as usize,
         config.dim as usize,
     );
-    for a in 0..=du {
-        for b in 0..=dv {
+    for a in 0..du + 1 {
+        for b in 0..dv + 1 {
             let r = net_index(config, patch, a, b);
-            let k = a * (dv + 1) + b;
-            cp[k * dim..(k + 1) * dim].copy_from_slice(&net[r * dim..(r + 1) * dim]);
+            cp[a * (dv + 1) + b][..dim].copy_from_slice(&net[r * dim..(r + 1) * dim]);
         }
     }
 }
 
 /// `load_patch` for one lane (Newton steps crossing borders, where lanes part ways).
 #[inline(always)]
-fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: &mut [Lanes]) {
+fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: &mut [Point]) {
     let (du, dv, dim) = (
         config.degree_u as usize,
         config.degree_v as usize,
         config.dim as usize,
     );
-    for a in 0..=du {
-        for b in 0..=dv {
+    for a in 0..du + 1 {
+        for b in 0..dv + 1 {
             let r = net_index(config, patch, a, b);
-            let k = a * (dv + 1) + b;
             for c in 0..dim {
-                cp[k * dim + c][lane] = net[r * dim + c][lane];
+                cp[a * (dv + 1) + b][c][lane] = net[r * dim + c][lane];
             }
         }
     }
@@ -124,7 +124,7 @@ pub(crate) fn bernstein<M: Madd>(n: usize, t: f32) -> [f32; NB] {
     let mut out = [0.0f32; NB];
     out[0] = 1.0;
     let s = 1.0 - t;
-    for j in 1..=n {
+    for j in 1..n + 1 {
         let mut saved = 0.0f32;
         for k in 0..j {
             let tmp = out[k];
@@ -142,7 +142,7 @@ pub(crate) fn bernstein<M: Madd>(n: usize, t: f32) -> [f32; NB] {
 fn offset_sq_fixed<M: Madd, const DIM: usize>(
     config: &Config,
     t: &Target,
-    cp: &[Lanes],
+    cp: &[Point],
     sum: &mut Lanes,
     worst: &mut Lanes,
 ) {
@@ -151,19 +151,23 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
     let bv = bernstein::<M>(dv, t.v);
     // The shader's weights bu[a] * bv[b] in its (a, b) order, computed once for all lanes.
     let mut w = [0.0f32; NB * NB];
-    for a in 0..=du {
-        for b in 0..=dv {
+    for a in 0..du + 1 {
+        for b in 0..dv + 1 {
             w[a * (dv + 1) + b] = bu[a] * bv[b];
         }
     }
     let ncp = (du + 1) * (dv + 1);
+    // Each coordinate accumulates over the control points in the shader's order; running the
+    // coordinates one after the other keeps a single accumulator in registers.
     let mut s = [[0.0f32; LANES]; DIM];
-    for (&wk, p) in w[..ncp].iter().zip(cp.chunks_exact(DIM)) {
-        for c in 0..DIM {
+    for (c, sc) in s.iter_mut().enumerate() {
+        let mut acc = [0.0f32; LANES];
+        for (&wk, p) in w[..ncp].iter().zip(&cp[..ncp]) {
             for l in 0..LANES {
-                s[c][l] = M::madd(wk, p[c][l], s[c][l]);
+                acc[l] = M::madd(wk, p[c][l], acc[l]);
             }
         }
+        *sc = acc;
     }
     let q = [t.x, t.y, t.z];
     for l in 0..LANES {
@@ -177,6 +181,26 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
     }
 }
 
+/// `bernstein` with per-lane t.
+#[inline(always)]
+fn bernstein_lanes<M: Madd>(n: usize, t: &Lanes) -> [Lanes; NB] {
+    let mut out = [[0.0f32; LANES]; NB];
+    out[0] = [1.0; LANES];
+    let s = t.map(|x| 1.0 - x);
+    for j in 1..n + 1 {
+        let mut saved = [0.0f32; LANES];
+        for k in 0..j {
+            for l in 0..LANES {
+                let tmp = out[k][l];
+                out[k][l] = M::madd(s[l], tmp, saved[l]);
+                saved[l] = t[l] * tmp;
+            }
+        }
+        out[j] = saved;
+    }
+    out
+}
+
 /// `offset_sq` with per-lane parameters.
 #[inline(always)]
 fn offset_sq_lanes<M: Madd, const DIM: usize>(
@@ -184,25 +208,24 @@ fn offset_sq_lanes<M: Madd, const DIM: usize>(
     u: &Lanes,
     v: &Lanes,
     q: [f32; 3],
-    cp: &[Lanes],
+    cp: &[Point],
 ) -> Lanes {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
+    let bu = bernstein_lanes::<M>(du, u);
+    let bv = bernstein_lanes::<M>(dv, v);
     let mut e2 = [0.0f32; LANES];
-    for l in 0..LANES {
-        let bu = bernstein::<M>(du, u[l]);
-        let bv = bernstein::<M>(dv, v[l]);
-        let mut s = [0.0f32; DIM];
-        for a in 0..=du {
-            for b in 0..=dv {
-                let w = bu[a] * bv[b];
-                let k = a * (dv + 1) + b;
-                for c in 0..DIM {
-                    s[c] = M::madd(w, cp[k * DIM + c][l], s[c]);
+    for c in 0..DIM {
+        let mut s = [0.0f32; LANES];
+        for a in 0..du + 1 {
+            for b in 0..dv + 1 {
+                let p = &cp[a * (dv + 1) + b][c];
+                for l in 0..LANES {
+                    s[l] = M::madd(bu[a][l] * bv[b][l], p[l], s[l]);
                 }
             }
         }
-        for c in 0..DIM {
-            let d = s[c] - q[c];
+        for l in 0..LANES {
+            let d = s[l] - q[c];
             e2[l] = M::madd(d, d, e2[l]);
         }
     }
@@ -210,6 +233,7 @@ fn offset_sq_lanes<M: Madd, const DIM: usize>(
 }
 
 /// `Basis`: Bernstein values with first and second derivatives, per lane.
+#[derive(Clone, Debug)]
 pub(crate) struct LaneBasis {
     /// Values.
     pub b: [Lanes; NB],
@@ -219,20 +243,69 @@ pub(crate) struct LaneBasis {
     pub d2: [Lanes; NB],
 }
 
-/// `basis`: the degree-n basis at per-lane t with its derivatives.
+/// The Newton path's function-scope arrays (the shader's `lvl`, `low1`, `low2`, the two bases
+/// and the jet), kept per task so that a step neither clears nor copies them whole: only the
+/// entries `0..=n` a degree-n basis uses are written, and read after being written.
+#[derive(Clone, Debug)]
+pub(crate) struct NewtonWork {
+    lvl: [Lanes; NB],
+    low1: [Lanes; NB],
+    low2: [Lanes; NB],
+    bu: LaneBasis,
+    bv: LaneBasis,
+    jet: LaneJet,
+}
+
+impl Default for NewtonWork {
+    fn default() -> Self {
+        let basis = LaneBasis {
+            b: [[0.0; LANES]; NB],
+            d1: [[0.0; LANES]; NB],
+            d2: [[0.0; LANES]; NB],
+        };
+        let zero = [[0.0; LANES]; 3];
+        NewtonWork {
+            lvl: [[0.0; LANES]; NB],
+            low1: [[0.0; LANES]; NB],
+            low2: [[0.0; LANES]; NB],
+            bu: basis.clone(),
+            bv: basis,
+            jet: LaneJet {
+                s: zero,
+                su: zero,
+                sv: zero,
+                suu: zero,
+                suv: zero,
+                svv: zero,
+            },
+        }
+    }
+}
+
+/// `basis`: the degree-n basis at per-lane t with its derivatives, into `out[..=n]`.
 #[inline(always)]
-pub(crate) fn basis_lanes<M: Madd>(n: usize, t: &Lanes) -> LaneBasis {
-    let mut lvl = [[0.0f32; LANES]; NB];
-    let mut low1 = [[0.0f32; LANES]; NB];
-    let mut low2 = [[0.0f32; LANES]; NB];
+fn basis_lanes<M: Madd>(
+    n: usize,
+    t: &Lanes,
+    lvl: &mut [Lanes; NB],
+    low1: &mut [Lanes; NB],
+    low2: &mut [Lanes; NB],
+    out: &mut LaneBasis,
+) {
+    // The shader's zero-initialised arrays, as far as a degree-n basis reads them.
+    for x in [&mut *lvl, &mut *low1, &mut *low2] {
+        for e in &mut x[..=n] {
+            *e = [0.0; LANES];
+        }
+    }
     lvl[0] = [1.0; LANES];
     let s = t.map(|x| 1.0 - x);
-    for j in 1..=n {
+    for j in 1..n + 1 {
         if j + 1 == n {
-            low2 = lvl;
+            low2[..=n].copy_from_slice(&lvl[..=n]);
         }
         if j == n {
-            low1 = lvl;
+            low1[..=n].copy_from_slice(&lvl[..=n]);
         }
         let mut saved = [0.0f32; LANES];
         for k in 0..j {
@@ -244,18 +317,14 @@ pub(crate) fn basis_lanes<M: Madd>(n: usize, t: &Lanes) -> LaneBasis {
         }
         lvl[j] = saved;
     }
-    let mut out = LaneBasis {
-        b: lvl,
-        d1: [[0.0; LANES]; NB],
-        d2: [[0.0; LANES]; NB],
-    };
+    out.b[..=n].copy_from_slice(&lvl[..=n]);
     let nf = n as f32;
     let nn = nf * (nf - 1.0);
     // low1[i - 1], low2[i - 2] and low2[i - 1], zero before the start.
     let mut l1 = [0.0f32; LANES];
     let mut l2a = [0.0f32; LANES];
     let mut l2b = [0.0f32; LANES];
-    for i in 0..=n {
+    for i in 0..n + 1 {
         for l in 0..LANES {
             out.d1[i][l] = nf * (l1[l] - low1[i][l]);
             out.d2[i][l] = nn * ((l2a[l] - 2.0 * l2b[l]) + low2[i][l]);
@@ -264,59 +333,72 @@ pub(crate) fn basis_lanes<M: Madd>(n: usize, t: &Lanes) -> LaneBasis {
             l2b[l] = low2[i][l];
         }
     }
-    out
 }
 
-/// `Jet`: a point with its first and second partials, per coordinate and lane.
-struct LaneJet<const DIM: usize> {
-    s: [Lanes; DIM],
-    su: [Lanes; DIM],
-    sv: [Lanes; DIM],
-    suu: [Lanes; DIM],
-    suv: [Lanes; DIM],
-    svv: [Lanes; DIM],
+/// `Jet`: a point with its first and second partials, per coordinate (the first DIM used)
+/// and lane.
+#[derive(Clone, Debug)]
+struct LaneJet {
+    s: Point,
+    su: Point,
+    sv: Point,
+    suu: Point,
+    suv: Point,
+    svv: Point,
 }
 
-/// `jet`: the held patch and its partials at per-lane local (u, v).
+/// `jet`: the held patch and its partials at per-lane local (u, v), into `work.jet`.
 #[inline(always)]
-fn jet_lanes<M: Madd, const DIM: usize>(config: &Config, u: &Lanes, v: &Lanes, cp: &[Lanes]) -> LaneJet<DIM> {
+fn jet_lanes<M: Madd, const DIM: usize>(
+    config: &Config,
+    u: &Lanes,
+    v: &Lanes,
+    cp: &[Point],
+    work: &mut NewtonWork,
+) {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let bu = basis_lanes::<M>(du, u);
-    let bv = basis_lanes::<M>(dv, v);
-    let zero = [[0.0f32; LANES]; DIM];
-    let mut out = LaneJet {
-        s: zero,
-        su: zero,
-        sv: zero,
-        suu: zero,
-        suv: zero,
-        svv: zero,
-    };
-    for a in 0..=du {
-        let (mut r0, mut r1, mut r2) = (zero, zero, zero);
-        for b in 0..=dv {
-            let k = a * (dv + 1) + b;
-            for c in 0..DIM {
-                let p = &cp[k * DIM + c];
+    let NewtonWork {
+        lvl,
+        low1,
+        low2,
+        bu,
+        bv,
+        jet: out,
+    } = work;
+    basis_lanes::<M>(du, u, lvl, low1, low2, bu);
+    basis_lanes::<M>(dv, v, lvl, low1, low2, bv);
+    // The shader's loops with the coordinate loop outermost: every sum still runs over b, then
+    // over a, in the shader's order, and the six sums of a coordinate stay in registers.
+    for c in 0..DIM {
+        let mut acc = [[0.0f32; LANES]; 6];
+        for a in 0..du + 1 {
+            let mut r0 = [0.0f32; LANES];
+            let mut r1 = [0.0f32; LANES];
+            let mut r2 = [0.0f32; LANES];
+            for b in 0..dv + 1 {
+                let p = &cp[a * (dv + 1) + b][c];
                 for l in 0..LANES {
-                    r0[c][l] = M::madd(bv.b[b][l], p[l], r0[c][l]);
-                    r1[c][l] = M::madd(bv.d1[b][l], p[l], r1[c][l]);
-                    r2[c][l] = M::madd(bv.d2[b][l], p[l], r2[c][l]);
+                    r0[l] = M::madd(bv.b[b][l], p[l], r0[l]);
+                    r1[l] = M::madd(bv.d1[b][l], p[l], r1[l]);
+                    r2[l] = M::madd(bv.d2[b][l], p[l], r2[l]);
                 }
             }
-        }
-        for c in 0..DIM {
             for l in 0..LANES {
-                out.s[c][l] = M::madd(bu.b[a][l], r0[c][l], out.s[c][l]);
-                out.su[c][l] = M::madd(bu.d1[a][l], r0[c][l], out.su[c][l]);
-                out.suu[c][l] = M::madd(bu.d2[a][l], r0[c][l], out.suu[c][l]);
-                out.sv[c][l] = M::madd(bu.b[a][l], r1[c][l], out.sv[c][l]);
-                out.suv[c][l] = M::madd(bu.d1[a][l], r1[c][l], out.suv[c][l]);
-                out.svv[c][l] = M::madd(bu.b[a][l], r2[c][l], out.svv[c][l]);
+                acc[0][l] = M::madd(bu.b[a][l], r0[l], acc[0][l]);
+                acc[1][l] = M::madd(bu.d1[a][l], r0[l], acc[1][l]);
+                acc[2][l] = M::madd(bu.d2[a][l], r0[l], acc[2][l]);
+                acc[3][l] = M::madd(bu.b[a][l], r1[l], acc[3][l]);
+                acc[4][l] = M::madd(bu.d1[a][l], r1[l], acc[4][l]);
+                acc[5][l] = M::madd(bu.b[a][l], r2[l], acc[5][l]);
             }
         }
+        out.s[c] = acc[0];
+        out.su[c] = acc[1];
+        out.suu[c] = acc[2];
+        out.sv[c] = acc[3];
+        out.suv[c] = acc[4];
+        out.svv[c] = acc[5];
     }
-    out
 }
 
 /// `relocate`: move local t of segment k (chain breaks from `breaks[first]`, `count`
@@ -335,14 +417,45 @@ fn relocate<M: Madd>(breaks: &[f32], first: usize, count: usize, k: usize, t: f3
     (m, ((g - b0) / (breaks[first + m + 1] - b0)).clamp(0.0, 1.0))
 }
 
-/// `dot_n`: the dot product over DIM coordinates.
+/// `dot_n` for every lane.
 #[inline(always)]
-fn dot_n<M: Madd, const DIM: usize>(x: &[f32; DIM], y: &[f32; DIM]) -> f32 {
-    let mut acc = 0.0f32;
+fn dot_lanes<M: Madd, const DIM: usize>(x: &Point, y: &Point) -> Lanes {
+    let mut acc = [0.0f32; LANES];
     for c in 0..DIM {
-        acc = M::madd(x[c], y[c], acc);
+        for l in 0..LANES {
+            acc[l] = M::madd(x[c][l], y[c][l], acc[l]);
+        }
     }
     acc
+}
+
+/// The Newton step of `foot_point_sq` from the gradient `(gu, gv)`, the Gauss-Newton matrix
+/// `g..` and the Hessian `h..`: the shader's three branches, with the 2x2 solve written once
+/// over the chosen matrix (the same operations as each branch, so the same result).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn newton_step(gu: f32, gv: f32, guu: f32, guv: f32, gvv: f32, huu: f32, huv: f32, hvv: f32) -> (f32, f32) {
+    let det = huu * hvv - huv * huv;
+    let gdet = guu * gvv - guv * guv;
+    let full = huu > 0.0 && det > SINGULAR * huu * hvv;
+    let gauss = guu > 0.0 && gdet > SINGULAR * guu * gvv;
+    let (d, a, b, c) = if full {
+        (det, huu, huv, hvv)
+    } else {
+        (gdet, guu, guv, gvv)
+    };
+    let pair = ((b * gv - c * gu) / d, (b * gu - a * gv) / d);
+    let cu = if huu > 0.0 { huu } else { guu };
+    let cv = if hvv > 0.0 { hvv } else { gvv };
+    let single = (
+        if cu > 0.0 { -gu / cu } else { 0.0 },
+        if cv > 0.0 { -gv / cv } else { 0.0 },
+    );
+    if full || gauss {
+        pair
+    } else {
+        single
+    }
 }
 
 /// `foot_point_sq` for every lane: `config.newton` (at least 1) Newton steps from the
@@ -353,8 +466,9 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
     breaks: &[f32],
     net: &[Lanes],
     t: &Target,
-    cp: &mut [Lanes],
+    cp: &mut [Point],
     held: &mut [u32; LANES],
+    work: &mut NewtonWork,
 ) -> Lanes {
     let pv = config.patches_v;
     let (pu_count, pv_count) = (config.patches_u as usize, config.patches_v as usize);
@@ -367,47 +481,40 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
     let q = [t.x, t.y, t.z];
     let mut it = 0;
     loop {
-        let e = jet_lanes::<M, DIM>(config, &u, &v, cp);
-        for l in 0..LANES {
-            let pick = |x: &[Lanes; DIM]| -> [f32; DIM] { std::array::from_fn(|c| x[c][l]) };
-            let (s, su, sv) = (pick(&e.s), pick(&e.su), pick(&e.sv));
-            let (suu, suv, svv) = (pick(&e.suu), pick(&e.suv), pick(&e.svv));
-            let r: [f32; DIM] = std::array::from_fn(|c| s[c] - q[c]);
-            best[l] = best[l].min(dot_n::<M, DIM>(&r, &r));
-            let gu = dot_n::<M, DIM>(&r, &su);
-            let gv = dot_n::<M, DIM>(&r, &sv);
-            let guu = dot_n::<M, DIM>(&su, &su);
-            let guv = dot_n::<M, DIM>(&su, &sv);
-            let gvv = dot_n::<M, DIM>(&sv, &sv);
-            let huu = guu + dot_n::<M, DIM>(&r, &suu);
-            let huv = guv + dot_n::<M, DIM>(&r, &suv);
-            let hvv = gvv + dot_n::<M, DIM>(&r, &svv);
-            let mut step_u = 0.0f32;
-            let mut step_v = 0.0f32;
-            let det = huu * hvv - huv * huv;
-            let gdet = guu * gvv - guv * guv;
-            if huu > 0.0 && det > SINGULAR * huu * hvv {
-                step_u = (huv * gv - hvv * gu) / det;
-                step_v = (huv * gu - huu * gv) / det;
-            } else if guu > 0.0 && gdet > SINGULAR * guu * gvv {
-                step_u = (guv * gv - gvv * gu) / gdet;
-                step_v = (guv * gu - guu * gv) / gdet;
-            } else {
-                let cu = if huu > 0.0 { huu } else { guu };
-                let cv = if hvv > 0.0 { hvv } else { gvv };
-                if cu > 0.0 {
-                    step_u = -gu / cu;
-                }
-                if cv > 0.0 {
-                    step_v = -gv / cv;
-                }
+        jet_lanes::<M, DIM>(config, &u, &v, cp, work);
+        let e = &work.jet;
+        let mut r = [[0.0f32; LANES]; 3];
+        for c in 0..DIM {
+            for l in 0..LANES {
+                r[c][l] = e.s[c][l] - q[c];
             }
+        }
+        let rr = dot_lanes::<M, DIM>(&r, &r);
+        let gu = dot_lanes::<M, DIM>(&r, &e.su);
+        let gv = dot_lanes::<M, DIM>(&r, &e.sv);
+        let guu = dot_lanes::<M, DIM>(&e.su, &e.su);
+        let guv = dot_lanes::<M, DIM>(&e.su, &e.sv);
+        let gvv = dot_lanes::<M, DIM>(&e.sv, &e.sv);
+        let ruu = dot_lanes::<M, DIM>(&r, &e.suu);
+        let ruv = dot_lanes::<M, DIM>(&r, &e.suv);
+        let rvv = dot_lanes::<M, DIM>(&r, &e.svv);
+        for l in 0..LANES {
+            best[l] = best[l].min(rr[l]);
+            let (gu, gv, guu, guv, gvv) = (gu[l], gv[l], guu[l], guv[l], gvv[l]);
+            let huu = guu + ruu[l];
+            let huv = guv + ruv[l];
+            let hvv = gvv + rvv[l];
+            let (step_u, step_v) = newton_step(gu, gv, guu, guv, gvv, huu, huv, hvv);
             u[l] += step_u;
             v[l] += step_v;
-            if config.cross == 0 {
+        }
+        if config.cross == 0 {
+            for l in 0..LANES {
                 u[l] = u[l].clamp(0.0, 1.0);
                 v[l] = v[l].clamp(0.0, 1.0);
-            } else {
+            }
+        } else {
+            for l in 0..LANES {
                 if u[l] < 0.0 || u[l] > 1.0 {
                     let (m, t) = relocate::<M>(breaks, 0, pu_count, i[l] as usize, u[l]);
                     i[l] = m as u32;

@@ -20,6 +20,8 @@ use rayon::prelude::*;
 pub(crate) const LANES: usize = 16;
 /// One value per lane of a block.
 pub(crate) type Lanes = [f32; LANES];
+/// The coordinates of one point for every lane (the third unused for curves).
+pub(crate) type Point = [Lanes; 3];
 
 /// How the kernels multiply and add: the shader's `fma(a, b, c)`.
 pub(crate) trait Madd {
@@ -81,64 +83,86 @@ impl Simd {
 pub(crate) struct Scratch {
     pub(crate) design: Vec<Lanes>,
     pub(crate) net: Vec<Lanes>,
-    pub(crate) cp: Vec<Lanes>,
+    pub(crate) cp: Vec<Point>,
+    pub(crate) newton: Box<eval_patch::NewtonWork>,
 }
 
 impl Scratch {
     pub(crate) fn new(problem: &Problem) -> Self {
-        let patch = (problem.du + 1) * (problem.dv + 1) * problem.dim;
+        let patch = (problem.du + 1) * (problem.dv + 1);
         Scratch {
             design: vec![[0.0; LANES]; problem.n_vars],
             net: vec![[0.0; LANES]; problem.n_ctrl * problem.dim],
-            cp: vec![[0.0; LANES]; patch],
+            cp: vec![[[0.0; LANES]; 3]; patch],
+            newton: Box::default(),
         }
     }
 }
 
-/// Expand block `block` and evaluate point group `group` for it.
+/// The `expand` mirror for block `block` into the scratch net.
 #[inline(always)]
-fn block_generic<M: Madd>(
+fn expand_block<M: Madd>(
     config: &Config,
     problem: &Problem,
     population: &[f32],
     block: usize,
-    group: usize,
     scratch: &mut Scratch,
-    partial: &mut [Partial; LANES],
 ) {
-    let Scratch { design, net, cp } = scratch;
     expand::expand::<M>(
         config,
         &problem.map_start,
         &problem.map_entries,
         population,
         block,
-        design,
-        net,
+        &mut scratch.design,
+        &mut scratch.net,
     );
-    let args = (config, &problem.targets[..], &problem.breaks[..], &net[..], group);
-    if problem.dim == 2 {
-        eval_patch::eval_patch::<M, 2>(args.0, args.1, args.2, args.3, args.4, cp, partial);
-    } else {
-        eval_patch::eval_patch::<M, 3>(args.0, args.1, args.2, args.3, args.4, cp, partial);
-    }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn block_avx2(
+/// The `eval_patch` mirror for point group `group` on the scratch net.
+#[inline(always)]
+fn eval_block<M: Madd, const DIM: usize>(
     config: &Config,
     problem: &Problem,
-    population: &[f32],
-    block: usize,
     group: usize,
     scratch: &mut Scratch,
     partial: &mut [Partial; LANES],
 ) {
-    block_generic::<Fused>(config, problem, population, block, group, scratch, partial);
+    let Scratch { net, cp, newton, .. } = scratch;
+    eval_patch::eval_patch::<M, DIM>(
+        config,
+        &problem.targets,
+        &problem.breaks,
+        net,
+        group,
+        cp,
+        newton,
+        partial,
+    );
 }
 
-/// Run one (block, group) task on the kernels `simd` names.
+// The AVX2 + FMA builds: one function per kernel, so that each is optimised on its own.
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn expand_avx2(config: &Config, problem: &Problem, population: &[f32], block: usize, scratch: &mut Scratch) {
+    expand_block::<Fused>(config, problem, population, block, scratch);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn eval_avx2<const DIM: usize>(
+    config: &Config,
+    problem: &Problem,
+    group: usize,
+    scratch: &mut Scratch,
+    partial: &mut [Partial; LANES],
+) {
+    eval_block::<Fused, DIM>(config, problem, group, scratch, partial);
+}
+
+/// Run one (block, group) task, expanding the block and evaluating the group, on the kernels
+/// `simd` names.
 fn run_block(
     simd: Simd,
     config: &Config,
@@ -152,9 +176,23 @@ fn run_block(
     match simd {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `Simd::Avx2Fma` is only produced by `Simd::detect` after it has seen both
-        // AVX2 and FMA on this CPU, which is all `block_avx2` requires.
-        Simd::Avx2Fma => unsafe { block_avx2(config, problem, population, block, group, scratch, partial) },
-        _ => block_generic::<Split>(config, problem, population, block, group, scratch, partial),
+        // AVX2 and FMA on this CPU, which is all these functions require.
+        Simd::Avx2Fma => unsafe {
+            expand_avx2(config, problem, population, block, scratch);
+            if problem.dim == 2 {
+                eval_avx2::<2>(config, problem, group, scratch, partial);
+            } else {
+                eval_avx2::<3>(config, problem, group, scratch, partial);
+            }
+        },
+        _ => {
+            expand_block::<Split>(config, problem, population, block, scratch);
+            if problem.dim == 2 {
+                eval_block::<Split, 2>(config, problem, group, scratch, partial);
+            } else {
+                eval_block::<Split, 3>(config, problem, group, scratch, partial);
+            }
+        }
     }
 }
 
