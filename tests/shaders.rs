@@ -127,7 +127,7 @@ fn check(name: &str, size: usize, offsets: &[(&str, usize)], expect_in: &[&str])
 }
 
 macro_rules! offsets {
-    ($t:ty; $($f:ident),*) => { vec![$((stringify!($f), offset_of!($t, $f))),*] };
+    ($t:ty; $($f:ident),*) => { [$((stringify!($f), offset_of!($t, $f))),*] };
 }
 
 #[test]

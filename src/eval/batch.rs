@@ -57,7 +57,7 @@ fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
     if population.is_empty() {
         return Err(Error::invalid("the population has no individuals"));
     }
-    if population.len() % n_vars != 0 {
+    if !population.len().is_multiple_of(n_vars) {
         return Err(Error::invalid(format!(
             "population of {} values is not a whole number of rows of {n_vars} design variables",
             population.len()

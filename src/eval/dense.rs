@@ -110,7 +110,7 @@ impl DenseEvaluator {
     /// `(iu / (grid_u - 1), iv / (grid_v - 1))`.
     pub fn eval(&mut self, designs: &[f32]) -> Result<Vec<Vertex>> {
         let n_vars = self.problem.n_vars;
-        if designs.is_empty() || designs.len() % n_vars != 0 {
+        if designs.is_empty() || !designs.len().is_multiple_of(n_vars) {
             return Err(Error::invalid(format!(
                 "{} values are not a whole, non-zero number of designs of {n_vars} variables",
                 designs.len()

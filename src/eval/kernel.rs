@@ -321,7 +321,7 @@ impl Problem {
 
     /// Individuals in `population` (a whole number of rows of `n_vars`), checked against `out`.
     pub fn rows(&self, population: &[f32], out_len: usize) -> Result<usize> {
-        if population.len() % self.n_vars != 0 {
+        if !population.len().is_multiple_of(self.n_vars) {
             return Err(Error::invalid(format!(
                 "population of {} values is not a whole number of rows of {} design variables",
                 population.len(),

@@ -18,6 +18,7 @@ const SINGULAR: f32 = 1e-6;
 /// `eval_patch.wgsl` `main` for point group `group` and the block whose expanded nets are in
 /// `net` (`net[r * DIM + c][lane]`); writes the block's partials for that group.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)] // the shader's bindings and private arrays
 pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
     config: &Config,
     targets: &[Target],

@@ -6,6 +6,9 @@
 //! to a fused multiply-add exactly as on the GPU) and portably (SSE2 on x86_64, where `fma` is
 //! a multiply followed by an add, one rounding more).
 
+// The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
+#![allow(clippy::needless_range_loop)]
+
 pub(crate) mod dense_grid;
 pub(crate) mod eval_patch;
 pub(crate) mod expand;
@@ -163,6 +166,7 @@ fn eval_avx2<const DIM: usize>(
 
 /// Run one (block, group) task, expanding the block and evaluating the group, on the kernels
 /// `simd` names.
+#[allow(clippy::too_many_arguments)]
 fn run_block(
     simd: Simd,
     config: &Config,
