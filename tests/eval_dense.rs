@@ -98,4 +98,8 @@ fn several_designs_come_back_in_order() {
         assert!(ev.eval(&designs[1..]).is_err());
     }
     assert!(DenseEvaluator::new(a.layout(), 1, 5, Backend::Cpu).is_err());
+    if let Some(ctx) = gpu() {
+        let mut shared = DenseEvaluator::on_gpu(&ctx, a.layout(), 9, 5).unwrap();
+        check(&a, &shared.eval(&flat(&a)).unwrap(), 9, 5, Backend::Gpu);
+    }
 }

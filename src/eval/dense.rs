@@ -44,6 +44,21 @@ impl DenseEvaluator {
     /// An evaluator of `layout` on `grid_u × grid_v` samples (each at least 2) on `backend`;
     /// Auto falls back to the CPU as [`build_evaluator`](super::build_evaluator) does.
     pub fn new(layout: &GridLayout, grid_u: usize, grid_v: usize, backend: Backend) -> Result<Self> {
+        Self::build(layout, grid_u, grid_v, backend, None)
+    }
+
+    /// The same on the GPU of an existing context (shared with population evaluators).
+    pub fn on_gpu(ctx: &GpuContext, layout: &GridLayout, grid_u: usize, grid_v: usize) -> Result<Self> {
+        Self::build(layout, grid_u, grid_v, Backend::Gpu, Some(ctx))
+    }
+
+    fn build(
+        layout: &GridLayout,
+        grid_u: usize,
+        grid_v: usize,
+        backend: Backend,
+        shared: Option<&GpuContext>,
+    ) -> Result<Self> {
         if grid_u < 2 || grid_v < 2 {
             return Err(Error::invalid("a dense grid needs at least 2 samples each way"));
         }
@@ -66,7 +81,10 @@ impl DenseEvaluator {
             (Engine::Cpu(simd), info)
         };
         let gpu = || -> Result<(Engine, BackendInfo)> {
-            let ctx = GpuContext::new()?;
+            let ctx = match shared {
+                Some(ctx) => ctx.clone(),
+                None => GpuContext::new()?,
+            };
             let gpu = DenseGpu::new(&ctx, &problem)?;
             let info = BackendInfo {
                 backend: Backend::Gpu,

@@ -370,6 +370,12 @@ impl GpuEvaluator {
         })
     }
 
+    /// The context this evaluator runs on (to share it, e.g. with a dense-grid evaluator).
+    #[must_use]
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
     /// Most individuals per chunk with `groups` point groups: the device's binding and
     /// dispatch limits and [`GpuOptions::max_chunk`], in whole workgroups.
     pub fn chunk_size(&self, groups: usize) -> Result<usize> {
