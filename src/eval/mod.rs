@@ -1,2 +1,305 @@
 //! Population evaluation: the `PopulationEvaluator` trait with a rayon CPU path and a wgpu
 //! GPU path that give the same answers.
+//!
+//! An evaluator is built once from a layout (curve chain or patch grid), the target points
+//! with per-point start parameters, a Newton step count and a backend; it then evaluates
+//! population after population (P individuals × design variables, f32, one row each) into one
+//! [`Fitness`] per individual: the sum of squared closest-point offsets and the largest offset.
+//!
+//! The work is four kernels, each a WGSL shader in `shaders/` with a CPU mirror of the same
+//! name in [`cpu`]: `expand` (design variables to control nets through the sparse extraction
+//! map), `eval_patch` (offsets at each point's parameters, optionally refined by clamped
+//! Newton steps), `reduce` (per-individual sum and maximum) and `dense_grid` (a patch grid
+//! sampled on a regular grid, for meshes and renders).
+//!
+//! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
+//! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
+
+pub mod batch;
+pub mod bench;
+pub mod cpu;
+pub mod dense;
+pub mod gpu;
+mod kernel;
+pub mod nearest;
+
+pub use cpu::CpuEvaluator;
+pub use gpu::{GpuContext, GpuEvaluator, GpuOptions};
+pub use kernel::{Config, MapEntry, Partial, Target, Vertex, MAX_DEGREE};
+
+use crate::chain::{ChainLayout, GridLayout};
+use crate::error::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec2, DVec3};
+use serde::Serialize;
+use std::fmt;
+use std::str::FromStr;
+
+/// Where populations are evaluated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// The GPU when wgpu's Vulkan backend finds an adapter (Mesa lavapipe counts), else the CPU.
+    #[default]
+    Auto,
+    /// The GPU; an error when no adapter exists.
+    Gpu,
+    /// The CPU (rayon, SIMD over individuals).
+    Cpu,
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Backend::Auto => "auto",
+            Backend::Gpu => "gpu",
+            Backend::Cpu => "cpu",
+        })
+    }
+}
+
+impl FromStr for Backend {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(Backend::Auto),
+            "gpu" => Ok(Backend::Gpu),
+            "cpu" => Ok(Backend::Cpu),
+            _ => Err(Error::invalid(format!(
+                "unknown backend '{s}' (expected auto, gpu or cpu)"
+            ))),
+        }
+    }
+}
+
+/// Which backend ran, on which adapter, and why Auto chose it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct BackendInfo {
+    /// [`Backend::Cpu`] or [`Backend::Gpu`] (never Auto).
+    pub backend: Backend,
+    /// The adapter: the GPU's name and driver, or a description of the CPU path.
+    pub adapter: String,
+    /// Set when Auto fell back to the CPU: what the GPU request answered.
+    pub fallback: Option<String>,
+}
+
+impl fmt::Display for BackendInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.backend, self.adapter)?;
+        if let Some(why) = &self.fallback {
+            write!(f, " (fell back to the CPU: {why})")?;
+        }
+        Ok(())
+    }
+}
+
+/// The fitness of one individual. Must be kept in sync with `struct Fitness` in
+/// `shaders/reduce.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable, Serialize)]
+pub struct Fitness {
+    /// Sum over the target points of the squared offsets, in model units squared.
+    pub sum_sq: f32,
+    /// The largest offset, in model units.
+    pub max: f32,
+}
+
+/// The shape being evaluated: a curve chain (2D, design rows `x0,y0,x1,y1,…`) or a patch grid
+/// (3D, design rows `x,y,z` per design point of the row-major design net).
+#[derive(Clone, Debug, PartialEq)]
+pub enum EvalLayout {
+    /// A chain of Bezier curves in the plane.
+    Curve(ChainLayout),
+    /// A grid of tensor-product Bezier patches in space.
+    Grid(GridLayout),
+}
+
+impl EvalLayout {
+    /// Design variables per individual: design points times coordinates.
+    #[must_use]
+    pub fn design_variables(&self) -> usize {
+        match self {
+            EvalLayout::Curve(c) => c.design_count() * 2,
+            EvalLayout::Grid(g) => {
+                let (nu, nv) = g.design_shape();
+                nu * nv * 3
+            }
+        }
+    }
+}
+
+/// Target points with their start parameters (global, in `[0, 1]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Targets {
+    points: Vec<DVec3>,
+    params: Vec<DVec2>,
+}
+
+impl Targets {
+    /// Points of a curve with their chain parameters `t`.
+    pub fn curve(points: &[DVec2], t: &[f64]) -> Result<Self> {
+        let params: Vec<DVec2> = t.iter().map(|&t| DVec2::new(t, 0.0)).collect();
+        Self::checked(points.iter().map(|p| p.extend(0.0)).collect(), params)
+    }
+
+    /// Points of a patch grid with their parameters `(u, v)`.
+    pub fn grid(points: &[DVec3], uv: &[DVec2]) -> Result<Self> {
+        Self::checked(points.to_vec(), uv.to_vec())
+    }
+
+    fn checked(points: Vec<DVec3>, params: Vec<DVec2>) -> Result<Self> {
+        if points.len() != params.len() {
+            return Err(Error::invalid(format!(
+                "{} target points but {} parameters",
+                points.len(),
+                params.len()
+            )));
+        }
+        if points.iter().any(|p| !p.is_finite()) {
+            return Err(Error::invalid("target points must be finite"));
+        }
+        Ok(Targets { points, params })
+    }
+
+    /// Number of points.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when there are no points.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The points (z = 0 for a curve).
+    #[must_use]
+    pub fn points(&self) -> &[DVec3] {
+        &self.points
+    }
+
+    /// The start parameters (v = 0 for a curve).
+    #[must_use]
+    pub fn params(&self) -> &[DVec2] {
+        &self.params
+    }
+}
+
+/// How to build an evaluator.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalOptions {
+    /// Where to run. Default: [`Backend::Auto`].
+    pub backend: Backend,
+    /// Foot-point Newton steps per point and individual; 0 holds each point's parameters fixed
+    /// (the offset is then to the point at those parameters). Default: 0.
+    pub newton: u32,
+    /// Whether Newton steps may cross patch (segment) borders, following the foot point
+    /// over the whole domain; otherwise they are clamped to the patch each point starts on,
+    /// which is cheaper on the GPU. Default: false.
+    pub cross_patches: bool,
+    /// GPU settings. Default: [`GpuOptions::default`].
+    pub gpu: GpuOptions,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        EvalOptions {
+            backend: Backend::Auto,
+            newton: 0,
+            cross_patches: false,
+            gpu: GpuOptions::default(),
+        }
+    }
+}
+
+/// Evaluates whole populations of one layout against fixed targets, generation after
+/// generation.
+pub trait PopulationEvaluator: Send {
+    /// Evaluate `population` (rows of [`design_variables`](Self::design_variables) values)
+    /// into `out`, one [`Fitness`] per row, in row order.
+    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()>;
+
+    /// Replace the start parameters: global `(u, v)` per target point in input order (`v` is
+    /// ignored for a curve), clamped to `[0, 1]`.
+    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()>;
+
+    /// Set the number of foot-point Newton steps (0: parameters held fixed).
+    fn set_newton(&mut self, newton: u32);
+
+    /// The backend and adapter that run the evaluations.
+    fn info(&self) -> &BackendInfo;
+
+    /// Design variables per individual.
+    fn design_variables(&self) -> usize;
+
+    /// Number of target points.
+    fn points(&self) -> usize;
+}
+
+/// Build an evaluator on the backend `options` asks for. With [`Backend::Auto`] any failure
+/// to start the GPU path (no adapter, `BEZCHAIN_NO_GPU=1`, a device error) falls back to the
+/// CPU, and [`BackendInfo::fallback`] says why.
+pub fn build_evaluator(
+    layout: &EvalLayout,
+    targets: &Targets,
+    options: &EvalOptions,
+) -> Result<Box<dyn PopulationEvaluator>> {
+    match options.backend {
+        Backend::Cpu => Ok(Box::new(
+            CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches),
+        )),
+        Backend::Gpu => {
+            let ctx = GpuContext::new()?;
+            Ok(Box::new(GpuEvaluator::new(
+                &ctx,
+                layout,
+                targets,
+                options.newton,
+                options.cross_patches,
+                &options.gpu,
+            )?))
+        }
+        Backend::Auto => {
+            // Input errors are the caller's whichever path runs: check them before trying.
+            let cpu = CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches);
+            let gpu = GpuContext::new().and_then(|ctx| {
+                GpuEvaluator::new(
+                    &ctx,
+                    layout,
+                    targets,
+                    options.newton,
+                    options.cross_patches,
+                    &options.gpu,
+                )
+            });
+            match gpu {
+                Ok(g) => Ok(Box::new(g)),
+                Err(e) => Ok(Box::new(cpu.with_fallback(e.to_string()))),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn backends_parse_and_print() {
+        for b in [Backend::Auto, Backend::Gpu, Backend::Cpu] {
+            assert_eq!(b.to_string().parse::<Backend>().unwrap(), b);
+        }
+        assert_eq!("GPU".parse::<Backend>().unwrap(), Backend::Gpu);
+        assert!("cuda".parse::<Backend>().is_err());
+    }
+
+    #[test]
+    fn targets_check_their_sizes() {
+        assert!(Targets::curve(&[DVec2::ZERO], &[0.1, 0.2]).is_err());
+        assert!(Targets::grid(&[DVec3::new(f64::NAN, 0.0, 0.0)], &[DVec2::ZERO]).is_err());
+        let t = Targets::curve(&[DVec2::new(1.0, 2.0)], &[0.3]).unwrap();
+        assert_eq!(t.points()[0], DVec3::new(1.0, 2.0, 0.0));
+        assert_eq!(t.params()[0], DVec2::new(0.3, 0.0));
+    }
+}

@@ -1,0 +1,69 @@
+//! expand.wgsl: design variables to control nets through the sparse extraction map.
+//!
+//! Mirrored by src/eval/cpu/expand.rs. The map (`net = E_u · D · E_vᵀ` for grids, `E · D`
+//! for curves) is uploaded once in compressed-row form; each invocation expands one
+//! individual, applying the same row to every coordinate.
+
+// Specialised at pipeline creation, and `// @unroll` loops unrolled, as in eval_patch.wgsl.
+const DIM: u32 = 3u;
+
+// Must be kept in sync with `Config` in src/eval/kernel.rs and the other shaders.
+struct Config {
+    population: u32,
+    net_stride: u32,
+    n_vars: u32,
+    n_ctrl: u32,
+    n_points: u32,
+    group_points: u32,
+    n_groups: u32,
+    newton: u32,
+    patches_u: u32,
+    patches_v: u32,
+    net_cols: u32,
+    grid_u: u32,
+    grid_v: u32,
+    degree_u: u32,
+    degree_v: u32,
+    dim: u32,
+    cross: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// Must be kept in sync with `MapEntry` in src/eval/kernel.rs.
+struct MapEntry {
+    // Design point index.
+    index: u32,
+    weight: f32,
+}
+
+@group(0) @binding(0) var<uniform> config: Config;
+// Row r of the map holds entries map_start[r] .. map_start[r + 1].
+@group(0) @binding(1) var<storage, read> map_start: array<u32>;
+@group(0) @binding(2) var<storage, read> map_entries: array<MapEntry>;
+// One individual per row of n_vars values: design point k, coordinate c at k * DIM + c.
+@group(0) @binding(3) var<storage, read> population: array<f32>;
+// Output, structure of arrays as read by eval_patch.wgsl: net[(r * DIM + c) * net_stride + i].
+@group(0) @binding(4) var<storage, read_write> net: array<f32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let ind = gid.x;
+    if (ind >= config.population) {
+        return;
+    }
+    let base = ind * config.n_vars;
+    for (var r = 0u; r < config.n_ctrl; r++) {
+        let e0 = map_start[r];
+        let e1 = map_start[r + 1u];
+        for (var c = 0u; c < DIM; c++) { // @unroll
+            var acc = 0.0;
+            for (var e = e0; e < e1; e++) {
+                let m = map_entries[e];
+                acc = fma(m.weight, population[base + m.index * DIM + c], acc);
+            }
+            net[(r * DIM + c) * config.net_stride + ind] = acc;
+        }
+    }
+}

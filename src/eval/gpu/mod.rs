@@ -1,0 +1,561 @@
+//! The GPU path: a wgpu context on the Vulkan backend, the four shaders specialised for a
+//! layout, and `GpuEvaluator`, which keeps its pipelines and buffers from one population to
+//! the next and splits populations beyond the device limits into chunks.
+
+use super::kernel::{point_groups, Problem};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
+use crate::error::{Error, Result};
+use std::sync::{Arc, Mutex};
+use wgpu::util::DeviceExt;
+
+mod unroll;
+pub use unroll::unroll;
+
+/// The WGSL sources, embedded; `tests/shaders.rs` validates them as they stand and specialised.
+pub mod source {
+    /// `shaders/expand.wgsl`.
+    pub const EXPAND: &str = include_str!("../../../shaders/expand.wgsl");
+    /// `shaders/eval_patch.wgsl`.
+    pub const EVAL_PATCH: &str = include_str!("../../../shaders/eval_patch.wgsl");
+    /// `shaders/reduce.wgsl`.
+    pub const REDUCE: &str = include_str!("../../../shaders/reduce.wgsl");
+    /// `shaders/dense_grid.wgsl`.
+    pub const DENSE_GRID: &str = include_str!("../../../shaders/dense_grid.wgsl");
+}
+
+/// The environment variable that makes every GPU request fail as if no adapter existed.
+pub const NO_GPU_ENV: &str = "BEZCHAIN_NO_GPU";
+
+/// Invocations per workgroup along x in every population shader (`@workgroup_size(64)`).
+pub(crate) const WORKGROUP: usize = 64;
+
+/// Replace the line `const NAME: u32 = …;` of `src` by the given value, for every pair.
+///
+/// The shaders declare their degrees and dimension this way so that private arrays get their
+/// exact sizes and every loop a constant trip count, which the driver unrolls into registers.
+pub fn specialise(src: &str, consts: &[(&str, u32)]) -> Result<String> {
+    let mut out = String::with_capacity(src.len());
+    let mut found = vec![false; consts.len()];
+    for line in src.lines() {
+        let hit = consts
+            .iter()
+            .position(|(name, _)| line.starts_with(&format!("const {name}: u32 = ")));
+        match hit {
+            Some(k) => {
+                found[k] = true;
+                out.push_str(&format!("const {}: u32 = {}u;", consts[k].0, consts[k].1));
+            }
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    match found.iter().position(|f| !f) {
+        Some(k) => Err(Error::Gpu(format!(
+            "shader has no line 'const {}: u32 = …;' to specialise",
+            consts[k].0
+        ))),
+        None => Ok(out),
+    }
+}
+
+/// A shader ready for the driver: `consts` specialised, then the `// @unroll` loops unrolled.
+pub fn prepare(src: &str, consts: &[(&str, u32)]) -> Result<String> {
+    unroll(&specialise(src, consts)?)
+}
+
+/// Options of the GPU path.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GpuOptions {
+    /// Most individuals per dispatch, on top of the device limits (storage binding size,
+    /// workgroups per dimension); bounds buffer sizes and the latency of one submission.
+    /// Default: 65 536.
+    pub max_chunk: usize,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions { max_chunk: 1 << 16 }
+    }
+}
+
+/// A wgpu device and queue on the best Vulkan adapter, created once and shared by every
+/// evaluator of a run (cheap to clone).
+#[derive(Clone, Debug)]
+pub struct GpuContext {
+    pub(crate) device: wgpu::Device,
+    pub(crate) queue: wgpu::Queue,
+    adapter: String,
+    errors: Arc<Mutex<Option<String>>>,
+}
+
+impl GpuContext {
+    /// Open the best adapter wgpu's Vulkan backend finds (discrete, integrated, virtual, then
+    /// CPU adapters such as Mesa lavapipe). Fails with [`Error::Gpu`] when there is none or
+    /// when `BEZCHAIN_NO_GPU` is set to anything but `0`.
+    pub fn new() -> Result<Self> {
+        if let Ok(v) = std::env::var(NO_GPU_ENV) {
+            if !v.is_empty() && v != "0" {
+                return Err(Error::Gpu(format!("no adapter: {NO_GPU_ENV}={v} is set")));
+            }
+        }
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN,
+            flags: wgpu::InstanceFlags::empty(),
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Cpu => 3,
+            wgpu::DeviceType::Other => 4,
+        };
+        let adapter = adapters
+            .into_iter()
+            .min_by_key(rank)
+            .ok_or_else(|| Error::Gpu("no adapter: wgpu's Vulkan backend found none".into()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("bezchain"),
+            required_features: wgpu::Features::empty(),
+            // Everything the adapter offers: the chunk size follows the real binding limits.
+            required_limits: adapter.limits(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Gpu(format!("{}: cannot open the device: {e}", info.name)))?;
+        let errors = Arc::new(Mutex::new(None));
+        let sink = Arc::clone(&errors);
+        // Device errors would otherwise panic; keep the first and report it as Error::Gpu.
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert_with(|| e.to_string());
+        }));
+        let adapter = format!(
+            "{} ({:?}, {} {}, {:?})",
+            info.name, info.backend, info.driver, info.driver_info, info.device_type
+        );
+        Ok(GpuContext {
+            device,
+            queue,
+            adapter,
+            errors,
+        })
+    }
+
+    /// The adapter: name, backend, driver and type.
+    #[must_use]
+    pub fn adapter(&self) -> &str {
+        &self.adapter
+    }
+
+    /// The device limits in force.
+    #[must_use]
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// The first device error since the last check, as [`Error::Gpu`].
+    pub(crate) fn check(&self) -> Result<()> {
+        let mut slot = self.errors.lock().unwrap_or_else(|p| p.into_inner());
+        match slot.take() {
+            Some(e) => Err(Error::Gpu(format!("{}: {e}", self.adapter))),
+            None => Ok(()),
+        }
+    }
+
+    /// A compute pipeline from WGSL `source` (entry point `main`, layout from the shader).
+    pub(crate) fn pipeline(&self, label: &str, source: &str) -> Result<wgpu::ComputePipeline> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = self
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("{label}: {e}")));
+        }
+        Ok(pipeline)
+    }
+
+    /// A storage buffer holding `contents` (at least 4 bytes, so empty arrays still bind).
+    pub(crate) fn buffer_init(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        let padded;
+        let contents = if contents.len() < 4 {
+            padded = [0u8; 4];
+            &padded[..]
+        } else {
+            contents
+        };
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    }
+
+    /// An uninitialised (zeroed) buffer of `size` bytes (at least 4).
+    pub(crate) fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(4).next_multiple_of(4),
+            usage,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A bind group for group 0 of `pipeline` with `buffers` at bindings 0, 1, ….
+    pub(crate) fn bind(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    }
+
+    /// Copy the first `out.len()` values of `staging` (mappable) into `out`.
+    pub(crate) fn read<T: bytemuck::Pod>(&self, staging: &wgpu::Buffer, out: &mut [T]) -> Result<()> {
+        let bytes = std::mem::size_of_val(out) as u64;
+        if bytes == 0 {
+            return Ok(());
+        }
+        let slice = staging.slice(0..bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            // The receiver waits below; a send can only fail if it is gone, which it is not.
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("{}: {e}", self.adapter)))?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(Error::Gpu(format!("{}: read-back failed: {e}", self.adapter))),
+            Err(_) => return Err(Error::Gpu(format!("{}: read-back never completed", self.adapter))),
+        }
+        {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| Error::Gpu(format!("{}: {e}", self.adapter)))?;
+            let size = std::mem::size_of::<T>();
+            for (o, chunk) in out.iter_mut().zip(view.chunks_exact(size)) {
+                *o = bytemuck::pod_read_unaligned(chunk);
+            }
+        }
+        staging.unmap();
+        self.check()
+    }
+}
+
+/// Buffers sized for a number of individuals per chunk and of point groups, with their bind
+/// groups; rebuilt only when a larger population arrives.
+#[derive(Debug)]
+struct Work {
+    individuals: usize,
+    groups: usize,
+    population: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    fitness: wgpu::Buffer,
+    bind_expand: wgpu::BindGroup,
+    bind_eval: wgpu::BindGroup,
+    bind_reduce: wgpu::BindGroup,
+}
+
+/// Population evaluation on the GPU: `expand`, `eval_patch` and `reduce` in one submission
+/// per chunk of individuals, with pipelines and buffers built once and reused.
+#[derive(Debug)]
+pub struct GpuEvaluator {
+    ctx: GpuContext,
+    problem: Problem,
+    options: GpuOptions,
+    expand: wgpu::ComputePipeline,
+    eval: wgpu::ComputePipeline,
+    reduce: wgpu::ComputePipeline,
+    config: wgpu::Buffer,
+    targets: wgpu::Buffer,
+    breaks: wgpu::Buffer,
+    map_start: wgpu::Buffer,
+    map_entries: wgpu::Buffer,
+    work: Option<Work>,
+    info: BackendInfo,
+}
+
+const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+
+impl GpuEvaluator {
+    /// Build the pipelines for `layout` and upload `targets`, the breaks and the extraction
+    /// map; population buffers follow on the first evaluation.
+    pub fn new(
+        ctx: &GpuContext,
+        layout: &EvalLayout,
+        targets: &Targets,
+        newton: u32,
+        cross: bool,
+        options: &GpuOptions,
+    ) -> Result<Self> {
+        let mut problem = Problem::new(layout, targets, newton)?;
+        problem.cross = cross;
+        let consts = [
+            ("DIM", problem.dim as u32),
+            ("DU", problem.du as u32),
+            ("DV", problem.dv as u32),
+            ("CROSS", u32::from(problem.cross)),
+        ];
+        let expand = ctx.pipeline("expand", &prepare(source::EXPAND, &consts[..1])?)?;
+        let eval = ctx.pipeline("eval_patch", &prepare(source::EVAL_PATCH, &consts)?)?;
+        let reduce = ctx.pipeline("reduce", source::REDUCE)?;
+        let config = ctx.buffer(
+            "config",
+            std::mem::size_of::<super::Config>() as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let targets_buf = ctx.buffer_init("targets", bytemuck::cast_slice(&problem.targets), STORAGE);
+        let breaks = ctx.buffer_init("breaks", bytemuck::cast_slice(&problem.breaks), STORAGE);
+        let map_start = ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), STORAGE);
+        let map_entries = ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), STORAGE);
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        if std::mem::size_of_val(&problem.targets[..]) as u64 > limit {
+            return Err(Error::invalid(format!(
+                "{} target points exceed the device's storage binding limit of {limit} bytes",
+                problem.n_points()
+            )));
+        }
+        ctx.check()?;
+        let info = BackendInfo {
+            backend: Backend::Gpu,
+            adapter: ctx.adapter().to_owned(),
+            fallback: None,
+        };
+        Ok(GpuEvaluator {
+            ctx: ctx.clone(),
+            problem,
+            options: options.clone(),
+            expand,
+            eval,
+            reduce,
+            config,
+            targets: targets_buf,
+            breaks,
+            map_start,
+            map_entries,
+            work: None,
+            info,
+        })
+    }
+
+    /// The context this evaluator runs on (to share it, e.g. with a dense-grid evaluator).
+    #[must_use]
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Most individuals per chunk with `groups` point groups: the device's binding and
+    /// dispatch limits and [`GpuOptions::max_chunk`], in whole workgroups.
+    pub fn chunk_size(&self, groups: usize) -> Result<usize> {
+        let limits = self.ctx.limits();
+        let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let p = &self.problem;
+        let per_individual = [p.n_vars * 4, p.n_ctrl * p.dim * 4, groups * 8, 8]
+            .into_iter()
+            .max()
+            .unwrap_or(8) as u64;
+        let by_memory = usize::try_from(binding / per_individual).unwrap_or(usize::MAX);
+        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize * WORKGROUP;
+        let chunk = by_memory.min(by_dispatch).min(self.options.max_chunk.max(1));
+        if chunk >= WORKGROUP {
+            Ok(chunk / WORKGROUP * WORKGROUP)
+        } else if by_memory >= WORKGROUP {
+            // A max_chunk below one workgroup: honour it, the net still has whole workgroups.
+            Ok(chunk)
+        } else {
+            Err(Error::invalid(format!(
+                "one workgroup of this layout ({per_individual} bytes per individual) exceeds \
+                 the device's storage binding limit of {binding} bytes"
+            )))
+        }
+    }
+
+    /// Make sure the work buffers hold `individuals` (a multiple of the workgroup size) and
+    /// `groups` point groups.
+    fn ensure_work(&mut self, individuals: usize, groups: usize) {
+        if let Some(w) = &self.work {
+            if w.individuals >= individuals && w.groups >= groups {
+                return;
+            }
+        }
+        let (individuals, groups) = match &self.work {
+            Some(w) => (individuals.max(w.individuals), groups.max(w.groups)),
+            None => (individuals, groups),
+        };
+        let ctx = &self.ctx;
+        let p = &self.problem;
+        let f32s = 4u64;
+        let population = ctx.buffer("population", (individuals * p.n_vars) as u64 * f32s, STORAGE);
+        let net = ctx.buffer(
+            "net",
+            (individuals * p.n_ctrl * p.dim) as u64 * f32s,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let partials = ctx.buffer(
+            "partials",
+            (individuals * groups * 8) as u64,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let fitness = ctx.buffer(
+            "fitness",
+            (individuals * 8) as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let staging = ctx.buffer(
+            "staging",
+            (individuals * 8) as u64,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let bind_expand = ctx.bind(
+            &self.expand,
+            &[
+                &self.config,
+                &self.map_start,
+                &self.map_entries,
+                &population,
+                &net,
+            ],
+        );
+        let bind_eval = ctx.bind(
+            &self.eval,
+            &[&self.config, &self.targets, &self.breaks, &net, &partials],
+        );
+        let bind_reduce = ctx.bind(&self.reduce, &[&self.config, &partials, &fitness]);
+        self.work = Some(Work {
+            individuals,
+            groups,
+            population,
+            staging,
+            fitness,
+            bind_expand,
+            bind_eval,
+            bind_reduce,
+        });
+    }
+}
+
+impl PopulationEvaluator for GpuEvaluator {
+    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
+        let rows = self.problem.rows(population, out.len())?;
+        if rows == 0 {
+            return Ok(());
+        }
+        let groups = point_groups(rows, self.problem.n_points());
+        let chunk = self.chunk_size(groups.1)?;
+        self.ensure_work(rows.min(chunk).next_multiple_of(WORKGROUP), groups.1);
+        let Some(work) = &self.work else {
+            return Err(Error::Gpu("work buffers missing".into()));
+        };
+        let n_vars = self.problem.n_vars;
+        for start in (0..rows).step_by(chunk) {
+            let len = chunk.min(rows - start);
+            // Lanes past `len` in the last workgroup compute on the padding of the net.
+            let config = self.problem.config(len, len.next_multiple_of(WORKGROUP), groups);
+            let queue = &self.ctx.queue;
+            queue.write_buffer(&self.config, 0, bytemuck::bytes_of(&config));
+            queue.write_buffer(
+                &work.population,
+                0,
+                bytemuck::cast_slice(&population[start * n_vars..(start + len) * n_vars]),
+            );
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                let workgroups = len.div_ceil(WORKGROUP) as u32;
+                pass.set_pipeline(&self.expand);
+                pass.set_bind_group(0, &work.bind_expand, &[]);
+                pass.dispatch_workgroups(workgroups, 1, 1);
+                pass.set_pipeline(&self.eval);
+                pass.set_bind_group(0, &work.bind_eval, &[]);
+                pass.dispatch_workgroups(workgroups, groups.1 as u32, 1);
+                pass.set_pipeline(&self.reduce);
+                pass.set_bind_group(0, &work.bind_reduce, &[]);
+                pass.dispatch_workgroups(workgroups, 1, 1);
+            }
+            encoder.copy_buffer_to_buffer(&work.fitness, 0, &work.staging, 0, (len * 8) as u64);
+            queue.submit([encoder.finish()]);
+            self.ctx.read(&work.staging, &mut out[start..start + len])?;
+        }
+        Ok(())
+    }
+
+    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
+        self.problem.set_params(params)?;
+        self.ctx
+            .queue
+            .write_buffer(&self.targets, 0, bytemuck::cast_slice(&self.problem.targets));
+        Ok(())
+    }
+
+    fn set_newton(&mut self, newton: u32) {
+        self.problem.newton = newton;
+    }
+
+    fn info(&self) -> &BackendInfo {
+        &self.info
+    }
+
+    fn design_variables(&self) -> usize {
+        self.problem.n_vars
+    }
+
+    fn points(&self) -> usize {
+        self.problem.n_points()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn specialise_rewrites_the_named_constants_only() {
+        let src = "const DU: u32 = 3u;\nconst DV: u32 = 3u;\nconst DUX: u32 = 1u;\nfn f() {}\n";
+        let out = specialise(src, &[("DU", 5), ("DV", 0)]).unwrap();
+        assert_eq!(
+            out,
+            "const DU: u32 = 5u;\nconst DV: u32 = 0u;\nconst DUX: u32 = 1u;\nfn f() {}\n"
+        );
+        assert!(specialise(src, &[("DIM", 2)]).is_err());
+    }
+
+    #[test]
+    fn every_shader_declares_what_the_evaluator_specialises() {
+        let consts = [("DIM", 3), ("DU", 2), ("DV", 4), ("CROSS", 1)];
+        assert!(prepare(source::EVAL_PATCH, &consts).is_ok());
+        assert!(prepare(source::DENSE_GRID, &consts[..3]).is_ok());
+        assert!(prepare(source::EXPAND, &consts[..1]).is_ok());
+    }
+}

@@ -1,0 +1,245 @@
+//! Population evaluation against the f64 truth and across backends: every test body runs on
+//! the CPU (best and portable kernels) and, where an adapter exists, on the GPU.
+
+mod eval_support;
+
+use bezchain::chain::Continuity;
+use bezchain::eval::{Fitness, GpuOptions};
+use eval_support::*;
+
+/// f32 evaluation against the f64 chain or grid: relative difference of `sum_sq` and `max`.
+const F64_TOL: f64 = 1e-4;
+/// CPU against GPU: relative difference of `sum_sq` (and `max`).
+const PARITY_TOL: f64 = 1e-4;
+
+/// The largest relative difference between two backends' results.
+fn parity(a: &[Fitness], b: &[Fitness]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| rel(x.sum_sq.into(), y.sum_sq.into()).max(rel(x.max.into(), y.max.into())))
+        .fold(0.0, f64::max)
+}
+
+/// Run `case` on every backend; check each against `truth` and all against the first.
+fn check_all(name: &str, case: &Case, newton: u32, cross: bool, truth: &[(f64, f64)], tol: f64) {
+    let ctx = gpu();
+    let mut first: Option<Vec<Fitness>> = None;
+    for (backend, mut ev) in evaluators(case, newton, cross, ctx.as_ref(), &GpuOptions::default()) {
+        let got = run(ev.as_mut(), &case.population);
+        let (s, m) = worst_against(&got, truth);
+        eprintln!("{name} on {backend}: sum_sq within {s:.1e}, max within {m:.1e} of f64");
+        assert!(
+            s <= tol && m <= tol,
+            "{name} on {backend}: {s:e} / {m:e} > {tol:e}"
+        );
+        match &first {
+            None => first = Some(got),
+            Some(f) => {
+                let p = parity(f, &got);
+                assert!(p <= PARITY_TOL, "{name}: {backend} differs from cpu by {p:e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn fixed_parameters_match_the_f64_chain_on_every_backend() {
+    let shapes = [
+        (2, 3, Continuity::C1),
+        (3, 5, Continuity::C1),
+        (4, 3, Continuity::C1),
+        (5, 3, Continuity::C2),
+        (3, 4, Continuity::C0),
+        (7, 2, Continuity::C2),
+    ];
+    for (k, &(degree, segments, continuity)) in shapes.iter().enumerate() {
+        let case = curve_case(10 + k as u64, degree, segments, continuity, 300, 70, 1e-2, 1e-2);
+        let truth = truth_fixed(&case);
+        check_all(
+            &format!("curve d{degree} s{segments} {continuity}"),
+            &case,
+            0,
+            false,
+            &truth,
+            F64_TOL,
+        );
+    }
+}
+
+#[test]
+fn fixed_parameters_match_the_f64_grid_on_every_backend() {
+    let shapes = [
+        ((3, 3), (2, 2), Continuity::C1),
+        ((3, 2), (2, 3), Continuity::C1),
+        ((2, 4), (3, 2), Continuity::C1),
+        ((3, 3), (3, 2), Continuity::C2),
+        ((1, 1), (2, 2), Continuity::C0),
+    ];
+    for (k, &(degrees, patches, continuity)) in shapes.iter().enumerate() {
+        let case = grid_case(20 + k as u64, degrees, patches, continuity, 600, 90, 1e-2, 1e-2);
+        let truth = truth_fixed(&case);
+        let name = format!(
+            "grid {}x{} degree, {}x{} patches, {continuity}",
+            degrees.0, degrees.1, patches.0, patches.1
+        );
+        check_all(&name, &case, 0, false, &truth, F64_TOL);
+    }
+}
+
+#[test]
+fn newton_steps_find_the_closest_points() {
+    // Start parameters from the base shape, as the `eval` door takes them from its first
+    // individual; eight steps free to cross borders reach the f64 closest points.
+    let mut curve = curve_case(31, 3, 5, Continuity::C1, 200, 30, 5e-3, 5e-3);
+    foot_points_on_base(&mut curve);
+    let truth = truth_closest(&curve);
+    check_all("curve, closest points", &curve, 8, true, &truth, F64_TOL);
+
+    let mut grid = grid_case(32, (3, 3), (2, 2), Continuity::C1, 300, 24, 5e-3, 5e-3);
+    foot_points_on_base(&mut grid);
+    let truth = truth_closest(&grid);
+    check_all("grid, closest points", &grid, 8, true, &truth, F64_TOL);
+}
+
+#[test]
+fn clamped_newton_lies_between_the_closest_and_the_fixed_offsets() {
+    let case = grid_case(41, (3, 3), (2, 2), Continuity::C1, 400, 40, 1e-2, 1e-2);
+    let closest = truth_closest(&case);
+    let fixed = truth_fixed(&case);
+    let ctx = gpu();
+    let mut first: Option<Vec<Fitness>> = None;
+    for (backend, mut ev) in evaluators(&case, 3, false, ctx.as_ref(), &GpuOptions::default()) {
+        let got = run(ev.as_mut(), &case.population);
+        for (k, g) in got.iter().enumerate() {
+            let s = f64::from(g.sum_sq);
+            assert!(
+                s >= closest[k].0 * (1.0 - F64_TOL),
+                "{backend}: {s} below the closest {}",
+                closest[k].0
+            );
+            assert!(
+                s <= fixed[k].0 * (1.0 + F64_TOL),
+                "{backend}: {s} above the fixed {}",
+                fixed[k].0
+            );
+        }
+        match &first {
+            None => first = Some(got),
+            Some(f) => assert!(parity(f, &got) <= PARITY_TOL, "{backend} differs from cpu"),
+        }
+    }
+}
+
+#[test]
+fn chunked_populations_match_unchunked_ones() {
+    let Some(ctx) = gpu() else { return };
+    let case = grid_case(51, (3, 3), (2, 2), Continuity::C1, 300, 300, 1e-2, 1e-2);
+    let small = GpuOptions { max_chunk: 64 };
+    let mut evs = evaluators(&case, 0, false, Some(&ctx), &small);
+    let (_, gpu_ev) = evs.pop().unwrap();
+    let mut gpu_ev = gpu_ev;
+    let chunked = run(gpu_ev.as_mut(), &case.population);
+    let (_, mut cpu_ev) = evs.swap_remove(0);
+    let cpu = run(cpu_ev.as_mut(), &case.population);
+    assert!(parity(&cpu, &chunked) <= PARITY_TOL);
+    let (s, _) = worst_against(&chunked, &truth_fixed(&case));
+    assert!(s <= F64_TOL);
+}
+
+#[test]
+fn a_population_of_200000_is_evaluated_in_chunks_on_both_backends() {
+    let case = grid_case(61, (3, 3), (2, 2), Continuity::C1, 64, 200_000, 1e-2, 1e-2);
+    let ctx = gpu();
+    if let Some(ctx) = &ctx {
+        let evaluator = bezchain::eval::GpuEvaluator::new(
+            ctx,
+            &case.layout,
+            &case.targets,
+            0,
+            false,
+            &GpuOptions::default(),
+        )
+        .unwrap();
+        let chunk = evaluator.chunk_size(1).unwrap();
+        eprintln!("200000 individuals in chunks of {chunk}");
+        assert!(chunk < 200_000, "the default options split this population");
+    }
+    let mut results = Vec::new();
+    for (backend, mut ev) in evaluators(&case, 0, false, ctx.as_ref(), &GpuOptions::default()) {
+        if backend == "cpu-portable" {
+            continue;
+        }
+        let got = run(ev.as_mut(), &case.population);
+        assert_eq!(got.len(), 200_000);
+        assert!(got.iter().all(|f| f.sum_sq.is_finite() && f.sum_sq > 0.0));
+        results.push(got);
+    }
+    // Spot-check the f64 truth on a few individuals spread over the chunks.
+    let picks = [0, 65_535, 65_536, 131_072, 199_999];
+    let sub = Case {
+        layout: case.layout.clone(),
+        targets: case.targets.clone(),
+        population: picks
+            .iter()
+            .flat_map(|&k| {
+                let n = case.layout.design_variables();
+                case.population[k * n..(k + 1) * n].to_vec()
+            })
+            .collect(),
+        base: case.base.clone(),
+    };
+    let truth = truth_fixed(&sub);
+    for got in &results {
+        let picked: Vec<Fitness> = picks.iter().map(|&k| got[k]).collect();
+        assert!(worst_against(&picked, &truth).0 <= F64_TOL);
+    }
+    if let [cpu, gpu] = &results[..] {
+        assert!(parity(cpu, gpu) <= PARITY_TOL);
+    }
+}
+
+#[test]
+fn set_params_retargets_every_backend() {
+    let case = grid_case(71, (3, 3), (2, 2), Continuity::C1, 200, 20, 1e-2, 1e-2);
+    let mut moved = grid_case(71, (3, 3), (2, 2), Continuity::C1, 200, 20, 1e-2, 1e-2);
+    foot_points_on_base(&mut moved);
+    let params: Vec<[f64; 2]> = moved.targets.params().iter().map(|p| [p.x, p.y]).collect();
+    let truth = truth_fixed(&moved);
+    let ctx = gpu();
+    for (backend, mut ev) in evaluators(&case, 0, false, ctx.as_ref(), &GpuOptions::default()) {
+        ev.set_params(&params).unwrap();
+        let got = run(ev.as_mut(), &case.population);
+        let (s, m) = worst_against(&got, &truth);
+        assert!(s <= F64_TOL && m <= F64_TOL, "{backend}: {s:e} {m:e}");
+        assert!(ev.set_params(&params[1..]).is_err());
+    }
+}
+
+#[test]
+fn bad_populations_are_errors_not_panics() {
+    let case = curve_case(81, 3, 2, Continuity::C1, 10, 2, 1e-2, 1e-2);
+    let ctx = gpu();
+    for (backend, mut ev) in evaluators(&case, 0, false, ctx.as_ref(), &GpuOptions::default()) {
+        let n = ev.design_variables();
+        let mut out = vec![Fitness::default(); 2];
+        assert!(
+            ev.evaluate(&case.population[..2 * n - 1], &mut out).is_err(),
+            "{backend}: ragged rows"
+        );
+        assert!(
+            ev.evaluate(&case.population, &mut out[..1]).is_err(),
+            "{backend}: short output"
+        );
+        assert!(ev.evaluate(&[], &mut []).is_ok(), "{backend}: empty population");
+        let mut nan = case.population.clone();
+        nan[0] = f32::NAN;
+        assert!(
+            ev.evaluate(&nan, &mut out).is_ok(),
+            "{backend}: NaN designs evaluate"
+        );
+        assert!(
+            out[0].sum_sq.is_nan() && out[1].sum_sq.is_finite(),
+            "{backend}: NaN stays in its row"
+        );
+    }
+}

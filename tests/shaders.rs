@@ -1,0 +1,174 @@
+//! Every `shaders/*.wgsl` parsed and validated by naga with no device, as written and
+//! specialised for a range of layouts, and every Rust mirror struct checked against naga's
+//! layout of its WGSL twin.
+
+use bezchain::eval::gpu::{prepare, source};
+use bezchain::eval::{Config, Fitness, MapEntry, Partial, Target, Vertex};
+use std::mem::{offset_of, size_of};
+
+fn validate(name: &str, src: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{name}: parse error\n{}", e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{name}: invalid\n{}", e.emit_to_string(src)));
+    module
+}
+
+/// `(name, contents)` of every file in `shaders/`.
+fn shader_files() -> Vec<(String, String)> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut files: Vec<(String, String)> = std::fs::read_dir(&dir)
+        .expect("shaders/ is readable")
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "wgsl"))
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read_to_string(&p).expect("shader is readable"))
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_wgsl_file_validates_as_written() {
+    let files = shader_files();
+    let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        ["dense_grid.wgsl", "eval_patch.wgsl", "expand.wgsl", "reduce.wgsl"]
+    );
+    for (name, src) in &files {
+        let module = validate(name, src);
+        let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(entries, ["main"], "{name}: one entry point, `main`");
+    }
+}
+
+#[test]
+fn the_embedded_sources_are_the_files() {
+    let files = shader_files();
+    let embedded = [
+        source::DENSE_GRID,
+        source::EVAL_PATCH,
+        source::EXPAND,
+        source::REDUCE,
+    ];
+    for ((name, src), e) in files.iter().zip(embedded) {
+        assert_eq!(src, e, "{name}");
+    }
+}
+
+#[test]
+fn specialised_shaders_validate_for_every_supported_shape() {
+    // Curves (DV = 0, DIM = 2) and grids (DIM = 3), degrees 1 to 7.
+    let mut shapes = Vec::new();
+    for du in 1..=7u32 {
+        shapes.push((du, 0, 2));
+        for dv in [1, 2, 3, 7] {
+            shapes.push((du, dv, 3));
+        }
+    }
+    for (du, dv, dim) in shapes {
+        for cross in [0, 1] {
+            let consts = [("DIM", dim), ("DU", du), ("DV", dv), ("CROSS", cross)];
+            let eval = prepare(source::EVAL_PATCH, &consts).unwrap();
+            assert!(
+                !eval.lines().any(|l| l.trim_end().ends_with("// @unroll")),
+                "every marked loop is unrolled"
+            );
+            validate(&format!("eval_patch {du}x{dv} dim {dim} cross {cross}"), &eval);
+        }
+        validate("expand", &prepare(source::EXPAND, &[("DIM", dim)]).unwrap());
+        if dim == 3 {
+            let consts = [("DIM", dim), ("DU", du), ("DV", dv)];
+            validate("dense_grid", &prepare(source::DENSE_GRID, &consts).unwrap());
+        }
+    }
+}
+
+/// Size and member offsets of struct `name` in `src`, per naga.
+fn wgsl_layout(src: &str, name: &str) -> Option<(u32, Vec<(String, u32)>)> {
+    let module = naga::front::wgsl::parse_str(src).ok()?;
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).ok()?;
+    let found = module
+        .types
+        .iter()
+        .find_map(|(handle, ty)| match (&ty.name, &ty.inner) {
+            (Some(n), naga::TypeInner::Struct { members, .. }) if n == name => Some((
+                layouter[handle].size,
+                members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                    .collect(),
+            )),
+            _ => None,
+        });
+    found
+}
+
+/// Check `name` in every shader that declares it against the Rust size and offsets.
+fn check(name: &str, size: usize, offsets: &[(&str, usize)], expect_in: &[&str]) {
+    let mut seen = Vec::new();
+    for (file, src) in shader_files() {
+        if let Some((wsize, members)) = wgsl_layout(&src, name) {
+            seen.push(file.clone());
+            assert_eq!(wsize as usize, size, "{name} in {file}: size");
+            let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+            assert_eq!(got, offsets, "{name} in {file}: members and offsets");
+        }
+    }
+    assert_eq!(seen, expect_in, "{name} is declared where expected");
+}
+
+macro_rules! offsets {
+    ($t:ty; $($f:ident),*) => { [$((stringify!($f), offset_of!($t, $f))),*] };
+}
+
+#[test]
+fn rust_structs_match_their_wgsl_twins() {
+    let all = ["dense_grid.wgsl", "eval_patch.wgsl", "expand.wgsl", "reduce.wgsl"];
+    check(
+        "Config",
+        size_of::<Config>(),
+        &offsets!(Config; population, net_stride, n_vars, n_ctrl, n_points, group_points,
+            n_groups, newton, patches_u, patches_v, net_cols, grid_u, grid_v, degree_u, degree_v, dim,
+            cross, _pad0, _pad1, _pad2),
+        &all,
+    );
+    check(
+        "Target",
+        size_of::<Target>(),
+        &offsets!(Target; x, y, z, patch_id, u, v, _pad0, _pad1),
+        &["eval_patch.wgsl"],
+    );
+    check(
+        "Partial",
+        size_of::<Partial>(),
+        &offsets!(Partial; sum_sq, max_sq),
+        &["eval_patch.wgsl", "reduce.wgsl"],
+    );
+    check(
+        "Fitness",
+        size_of::<Fitness>(),
+        &offsets!(Fitness; sum_sq, max),
+        &["reduce.wgsl"],
+    );
+    check(
+        "MapEntry",
+        size_of::<MapEntry>(),
+        &offsets!(MapEntry; index, weight),
+        &["expand.wgsl"],
+    );
+    check(
+        "Vertex",
+        size_of::<Vertex>(),
+        &offsets!(Vertex; px, py, pz, nx, ny, nz),
+        &["dense_grid.wgsl"],
+    );
+}
