@@ -8,13 +8,17 @@
 //! - [`problem`]: [`FitProblem`], the one problem every solver consumes (objective, gradient,
 //!   residual blocks, linear least squares, the paper's start).
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
+//! - [`band`]: banded Cholesky for the large, sparse normal equations of patch grids.
 //! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
+//! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
+//! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod band;
 pub mod bfgs;
 pub mod curve;
 pub mod foot;
@@ -22,18 +26,28 @@ pub mod lsq;
 pub mod nelder_mead;
 pub mod objective;
 pub mod offset;
+pub mod param;
 pub mod problem;
 pub mod shape;
+pub mod surface;
 
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
-pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_each, lsq_from, LsqFit, LsqOptions, Start};
+pub use lsq::{
+    alternate, levenberg_marquardt, levenberg_marquardt_observed, lsq, lsq_each, lsq_from, LsqFit,
+    LsqIterate, LsqOptions, Start,
+};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
     offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
 };
+pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};
+pub use surface::{
+    fit_surface, initial_params, ParamSource, SurfaceFit, SurfaceMethod, SurfaceOptions, SurfaceProgress,
+    SurfaceStage,
+};
