@@ -1,6 +1,8 @@
 //! Shared plumbing of the subcommands: error classification, output targets, warnings.
 
 pub mod blade;
+pub mod compare;
+pub mod fit;
 pub mod naca;
 
 use anyhow::Result;

@@ -22,6 +22,7 @@ pub mod lsq;
 pub mod nelder_mead;
 pub mod objective;
 pub mod offset;
+pub mod paper;
 pub mod problem;
 pub mod shape;
 
@@ -33,7 +34,8 @@ pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
-    offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
+    offset_stats, point_offsets, shape_offsets, span_ratio, Metric, OffsetStats,
 };
+pub use paper::{PaperCase, PAPER_CASES};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};

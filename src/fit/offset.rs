@@ -218,6 +218,18 @@ pub fn shape_offsets<S: Shape<K>, const K: usize>(
     Ok((OffsetStats::from_dist_sq(Metric::Closest, &d2, points), feet))
 }
 
+/// The closest-point offset of every point from a chain, in the points' order (the same
+/// foot-point search as [`offset_stats`]).
+pub fn point_offsets<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<Vec<f64>> {
+    let opts = FootOptions {
+        samples: 48,
+        ..FootOptions::default()
+    };
+    let shape = CurveShape::<P>::new(chain.layout().clone());
+    let (_, feet) = shape_offsets(&shape, chain.design(), points, &opts)?;
+    Ok(feet.iter().map(|f| f.dist_sq.sqrt()).collect())
+}
+
 /// Closest-point offsets of `points` from a chain (true foot points: every segment sampled at
 /// 48 parameters, then Newton's method, parameters clamped to `[0, 1]`).
 pub fn offset_stats<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<OffsetStats<P>> {
