@@ -1,11 +1,11 @@
 //! The shared aerofoil files (`../shared/data/airfoils/`) load and fit, and the Selig and
 //! Lednicer copies of the Clark Y give the same fit.
 
-mod fit_common;
+mod common;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::fit::{fit_curve, offset_stats, FitOptions};
-use fit_common::{independent_offsets, read_dat};
+use common::{independent_offsets, read_airfoil as read_dat};
 use glam::DVec2;
 
 const FILES: [&str; 6] = [

@@ -1,12 +1,12 @@
 //! Fitting degenerate and awkward input: too few points, coincident points, closed contours,
 //! non-finite coordinates, and data that lie exactly on a chain.
 
-mod fit_common;
+mod common;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::fit::{fit_curve, FitOptions, Method};
 use bezchain::Error;
-use fit_common::naca4413;
+use common::naca4413;
 use glam::DVec2;
 
 fn case1() -> ChainLayout {
