@@ -24,6 +24,10 @@ enum Command {
     Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
     Blade(cli::blade::Args),
+    /// Evaluate a population of designs against data (one `sum_sq,max` line each).
+    Eval(cli::eval::Args),
+    /// Time the population evaluator (GA fitness kernel) on one backend.
+    Bench(cli::bench::Args),
 }
 
 fn main() -> ExitCode {
@@ -33,6 +37,8 @@ fn main() -> ExitCode {
         Command::Fit(args) => cli::fit::run(args),
         Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
+        Command::Eval(args) => cli::eval::run(args),
+        Command::Bench(args) => cli::bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
