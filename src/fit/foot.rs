@@ -908,7 +908,10 @@ mod tests {
         let (nu, nv) = layout.design_shape();
         let design: Vec<DVec3> = (0..nu * nv)
             .map(|i| {
-                let (a, b) = ((i / nv) as f64 / (nu - 1) as f64, (i % nv) as f64 / (nv - 1) as f64);
+                let (a, b) = (
+                    (i / nv) as f64 / (nu - 1) as f64,
+                    (i % nv) as f64 / (nv - 1) as f64,
+                );
                 let ang = std::f64::consts::PI * 1.9 * a;
                 DVec3::new(0.5 * ang.cos() + 0.1 * b, 0.05 * ang.sin(), 3.0 * b)
             })
@@ -931,8 +934,15 @@ mod tests {
             let q = p + n * (0.004 * ((k % 7) as f64 - 3.0));
             for warm in [None, Some(t), Some([1.0 - t[0], t[1]])] {
                 let f = grid.closest(&shape, &sampled, &design, q, warm, &opts, &mut scratch);
-                let scan = dense.iter().map(|(_, x)| (*x - q).length_squared()).fold(f64::MAX, f64::min);
-                assert!(f.dist_sq <= scan + 1e-14, "q {q} warm {warm:?}: {} vs scan {scan}", f.dist_sq);
+                let scan = dense
+                    .iter()
+                    .map(|(_, x)| (*x - q).length_squared())
+                    .fold(f64::MAX, f64::min);
+                assert!(
+                    f.dist_sq <= scan + 1e-14,
+                    "q {q} warm {warm:?}: {} vs scan {scan}",
+                    f.dist_sq
+                );
             }
         }
     }

@@ -26,6 +26,7 @@ pub mod lsq;
 pub mod nelder_mead;
 pub mod objective;
 pub mod offset;
+pub mod paper;
 pub mod param;
 pub mod problem;
 pub mod shape;
@@ -35,15 +36,16 @@ pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
 pub use lsq::{
-    alternate, levenberg_marquardt, levenberg_marquardt_observed, lsq, lsq_each, lsq_from, LsqFit,
-    LsqIterate, LsqOptions, Start,
+    alternate, levenberg_marquardt, levenberg_marquardt_guarded, levenberg_marquardt_observed, lsq, lsq_each,
+    lsq_each_guarded, lsq_from, Guard, LsqFit, LsqIterate, LsqOptions, Start,
 };
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
-    offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
+    offset_stats, point_offsets, shape_offsets, span_ratio, Metric, OffsetStats,
 };
+pub use paper::{PaperCase, PAPER_CASES};
 pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};

@@ -815,7 +815,9 @@ mod tests {
     #[test]
     fn large_sums_do_not_depend_on_the_thread_count() {
         let n = 50_000;
-        let x: Vec<f64> = (0..n).map(|i| ((i as f64) * 0.7071).sin() * 1e-3 + 1.0 / (1.0 + i as f64)).collect();
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i as f64) * 0.7071).sin() * 1e-3 + 1.0 / (1.0 + i as f64))
+            .collect();
         let sum = || {
             chunked_sum(
                 n,
@@ -828,8 +830,16 @@ mod tests {
                 |a, b| a + b,
             )
         };
-        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(sum);
-        let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap().install(sum);
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(sum);
+        let three = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap()
+            .install(sum);
         assert_eq!(one.to_bits(), three.to_bits());
     }
 }

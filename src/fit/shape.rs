@@ -745,7 +745,10 @@ mod tests {
                 DVec3::new(a * 0.3, (1.9 * a).sin() * 0.4, b * 0.5 + 0.2 * (a * b).cos())
             })
             .collect();
-        (PatchGrid::new(layout.clone(), design).unwrap(), GridShape::new(layout))
+        (
+            PatchGrid::new(layout.clone(), design).unwrap(),
+            GridShape::new(layout),
+        )
     }
 
     #[test]
@@ -806,9 +809,15 @@ mod tests {
                     }
                 }
             }
-            assert!(worst <= dev, "cell {cell}: deviation {worst} above the bound {dev}");
+            assert!(
+                worst <= dev,
+                "cell {cell}: deviation {worst} above the bound {dev}"
+            );
             // and the bound is not wildly loose
-            assert!(dev < 20.0 * worst.max(1e-12), "cell {cell}: bound {dev} for deviation {worst}");
+            assert!(
+                dev < 20.0 * worst.max(1e-12),
+                "cell {cell}: bound {dev} for deviation {worst}"
+            );
         }
     }
 }
