@@ -24,6 +24,8 @@ enum Command {
     Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
     Blade(cli::blade::Args),
+    /// Fit a grid of chained Bezier patches to a 3D point cloud.
+    FitSurface(cli::fit_surface::Args),
     /// Evaluate a population of designs against data (one `sum_sq,max` line each).
     Eval(cli::eval::Args),
     /// Time the population evaluator (GA fitness kernel) on one backend.
@@ -37,6 +39,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => cli::fit::run(args),
         Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
+        Command::FitSurface(args) => cli::fit_surface::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),
     };

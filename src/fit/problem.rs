@@ -816,7 +816,7 @@ mod tests {
     fn large_sums_do_not_depend_on_the_thread_count() {
         let n = 50_000;
         let x: Vec<f64> = (0..n)
-            .map(|i| ((i as f64) * 0.7071).sin() * 1e-3 + 1.0 / (1.0 + i as f64))
+            .map(|i| ((i as f64) * 0.73).sin() * 1e-3 + 1.0 / (1.0 + i as f64))
             .collect();
         let sum = || {
             chunked_sum(

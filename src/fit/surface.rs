@@ -16,7 +16,7 @@ use super::objective::{SolveReport, StopReason};
 use super::offset::{Metric, OffsetStats};
 use super::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
 use super::problem::GridProblem;
-use crate::chain::{GridLayout, PatchGrid};
+use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use glam::DVec3;
@@ -61,6 +61,124 @@ impl FromStr for SurfaceMethod {
             ))),
             _ => Err(Error::invalid(format!("unknown method '{s}' (surfaces: lsq)"))),
         }
+    }
+}
+
+/// Where the breaks of one direction of a patch grid go.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Breaks {
+    /// Equal patches.
+    Uniform,
+    /// Parameters in `[0, 1]`: the interior breaks (one fewer than the patches), or all of
+    /// them from 0 to 1.
+    Params(Vec<f64>),
+    /// Positions along the span axis in model units (for `v` only, e.g. a blade's station
+    /// radii): the interior breaks, or all of them (the first and last then stand for the
+    /// cloud's ends). They are mapped to `v` the way the data points' initial parameters are.
+    Span(Vec<f64>),
+}
+
+/// A patch-grid layout to fit: degrees, patches, continuity and breaks per direction
+/// (`[u, v]`), with breaks that may depend on the cloud (see [`Breaks::Span`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceLayout {
+    /// `[du, dv]`.
+    pub degree: [usize; 2],
+    /// `[pu, pv]`.
+    pub patches: [usize; 2],
+    /// Continuity across the patch borders along u and along v.
+    pub continuity: [Continuity; 2],
+    /// Breaks along u.
+    pub breaks_u: Breaks,
+    /// Breaks along v.
+    pub breaks_v: Breaks,
+}
+
+impl From<&GridLayout> for SurfaceLayout {
+    fn from(l: &GridLayout) -> Self {
+        SurfaceLayout {
+            degree: [l.u.degree(), l.v.degree()],
+            patches: [l.u.segments(), l.v.segments()],
+            continuity: [l.u.continuity(), l.v.continuity()],
+            breaks_u: Breaks::Params(l.u.breaks().to_vec()),
+            breaks_v: Breaks::Params(l.v.breaks().to_vec()),
+        }
+    }
+}
+
+impl SurfaceLayout {
+    /// Uniform breaks in both directions.
+    #[must_use]
+    pub fn uniform(degree: [usize; 2], patches: [usize; 2], continuity: [Continuity; 2]) -> Self {
+        SurfaceLayout {
+            degree,
+            patches,
+            continuity,
+            breaks_u: Breaks::Uniform,
+            breaks_v: Breaks::Uniform,
+        }
+    }
+
+    /// The grid layout, with span positions mapped to `v` along `axis`.
+    pub fn grid_layout(&self, axis: &SpanAxis) -> Result<GridLayout> {
+        let chain = |k: usize, breaks: &Breaks, name: &str| -> Result<ChainLayout> {
+            let (d, p, c) = (self.degree[k], self.patches[k], self.continuity[k]);
+            if p == 0 {
+                return Err(Error::invalid(format!("patches along {name} must be at least 1")));
+            }
+            let values: Vec<f64> = match breaks {
+                Breaks::Uniform => {
+                    return ChainLayout::uniform(d, p, c)
+                        .map_err(|e| Error::invalid(format!("layout along {name}: {e}")))
+                }
+                Breaks::Params(b) => b.clone(),
+                Breaks::Span(_) if k == 0 => {
+                    return Err(Error::invalid(
+                        "breaks along u cannot be span positions (u runs around the section)",
+                    ))
+                }
+                Breaks::Span(b) => b.iter().map(|&s| (s - axis.lo) / (axis.hi - axis.lo)).collect(),
+            };
+            let full = if values.len() + 1 == p {
+                std::iter::once(0.0)
+                    .chain(values)
+                    .chain(std::iter::once(1.0))
+                    .collect()
+            } else if values.len() == p + 1 {
+                let mut v = values;
+                if matches!(breaks, Breaks::Span(_)) {
+                    v[0] = 0.0;
+                    v[p] = 1.0;
+                }
+                v
+            } else {
+                return Err(Error::invalid(format!(
+                    "breaks along {name}: {} values for {p} patches (give the {} interior breaks, or all {})",
+                    values.len(),
+                    p - 1,
+                    p + 1
+                )));
+            };
+            if full.iter().any(|b| !b.is_finite())
+                || full.windows(2).any(|w| w[1] <= w[0])
+                || full[0] != 0.0
+                || full[p] != 1.0
+            {
+                return Err(Error::invalid(format!(
+                    "breaks along {name} must increase strictly from 0 to 1 (as parameters: {})",
+                    full.iter()
+                        .map(|b| format!("{b:.6}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+            ChainLayout::with_breaks(d, full, c)
+                .map_err(|e| Error::invalid(format!("layout along {name}: {e}")))
+        };
+        Ok(GridLayout::new(
+            chain(0, &self.breaks_u, "u")?,
+            chain(1, &self.breaks_v, "v")?,
+        ))
     }
 }
 
@@ -113,12 +231,14 @@ pub struct SurfaceOptions {
     pub blade: BladeParamOptions,
     /// The Levenberg-Marquardt options of the main fit (the subsample, or the whole cloud when
     /// it is small). Default: at most 100 iterations, converged when 3 iterations gain less
-    /// than 1e-5 of the sum of squares, initial damping 1e-3, one global foot-point check.
+    /// than 1e-4 of the sum of squares (on noisy clouds the iteration then only slides the
+    /// parameters along the surface), initial damping 1e-3, one global foot-point check.
     pub lsq: LsqOptions,
-    /// Clouds with more points than this are fitted on a random subsample of this many first.
-    /// 0 never subsamples. Default 50,000.
+    /// Clouds with more points than this are fitted on a subsample of about this many first
+    /// (an equal share from every patch, plus the points nearest the four edges). 0 never
+    /// subsamples. Default 20,000.
     pub subsample: usize,
-    /// Joint iterations on the whole cloud after a subsample fit. Default 3.
+    /// Joint iterations on the whole cloud after a subsample fit. Default 2.
     pub polish_iterations: usize,
     /// Seed of the subsample. Default 0.
     pub seed: u64,
@@ -132,14 +252,14 @@ impl Default for SurfaceOptions {
             blade: BladeParamOptions::default(),
             lsq: LsqOptions {
                 max_iterations: 100,
-                ftol: 1e-5,
+                ftol: 1e-4,
                 window: 3,
                 initial_damping: 1e-3,
                 global_checks: 1,
                 ..LsqOptions::default()
             },
-            subsample: 50_000,
-            polish_iterations: 3,
+            subsample: 20_000,
+            polish_iterations: 2,
             seed: 0,
         }
     }
@@ -274,11 +394,18 @@ fn subsample(params: &[[f64; 2]], layout: &GridLayout, count: usize, seed: u64) 
 pub fn fit_surface(
     points: &[DVec3],
     grid: Option<Grid>,
-    layout: GridLayout,
+    layout: &SurfaceLayout,
     opts: &SurfaceOptions,
     progress: &mut dyn FnMut(SurfaceProgress),
 ) -> Result<SurfaceFit> {
     let clock = Instant::now();
+    if let Some(j) = points.iter().position(|p| !p.is_finite()) {
+        return Err(Error::invalid(format!(
+            "data point {j} has a non-finite coordinate"
+        )));
+    }
+    let (mut params, axis, source) = initial_params(points, grid, opts)?;
+    let layout = layout.grid_layout(&axis)?;
     let (nu, nv) = layout.design_shape();
     if points.len() < nu * nv {
         return Err(Error::invalid(format!(
@@ -287,7 +414,6 @@ pub fn fit_surface(
             nu * nv
         )));
     }
-    let (mut params, axis, source) = initial_params(points, grid, opts)?;
     progress(SurfaceProgress::Params {
         source,
         seconds: clock.elapsed().as_secs_f64(),
