@@ -19,7 +19,7 @@ enum Command {
     /// Generate a NACA 4- or 5-digit aerofoil in Selig format.
     Naca(cli::naca::Args),
     /// Fit a chain of Bezier curves to a 2D contour.
-    Fit(cli::fit::Args),
+    Fit(Box<cli::fit::Args>),
     /// The paper's optimiser comparison on its three NACA 4413 cases, as one table.
     Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
@@ -34,7 +34,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
-        Command::Fit(args) => cli::fit::run(args),
+        Command::Fit(args) => cli::fit::run(*args),
         Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
         Command::Eval(args) => cli::eval::run(args),

@@ -372,7 +372,7 @@ impl Monitor {
 
     fn finish(&mut self) {
         if let Some(bar) = self.bar.take() {
-            bar.finish();
+            bar.finish_and_clear();
         }
     }
 }
@@ -502,7 +502,7 @@ fn summary(input: &Path, loaded: &Loaded2, fit: &CurveFit<DVec2>) -> String {
     if let Some(evo) = &fit.evolution {
         let r = &evo.run;
         s += &format!(
-            "{}: population {}, {} generations ({}), {} individuals, {:.1} s; best sum_sq {:.4e} (f64)\n",
+            "{}: population {}, {} generations ({}), {} individuals, {:.1} s; objective {:.4e} (f64, ends tied)\n",
             evo.stages[0].method,
             r.size,
             r.report.iterations,

@@ -263,6 +263,8 @@ impl Cmaes {
         let n = problem.dim();
         let st = &self.state;
         let bounds = problem.bounds();
+        // B D, row-major: sample rows are then plain dot products.
+        let bd: Vec<f64> = (0..n * n).map(|k| st.basis[k] * st.scales[k % n]).collect();
         self.samples
             .par_chunks_mut(n)
             .enumerate()
@@ -276,15 +278,11 @@ impl Cmaes {
                             *zi = normal(&mut rng);
                         }
                         let mut inside = true;
-                        for i in 0..n {
-                            // (B D z)_i
-                            let mut y = 0.0;
-                            for j in 0..n {
-                                y += st.basis[i * n + j] * st.scales[j] * z[j];
-                            }
-                            x[i] = st.mean[i] + st.sigma * y;
+                        for (i, (row, xi)) in bd.chunks_exact(n).zip(x.iter_mut()).enumerate() {
+                            let y = row.iter().zip(z.iter()).fold(0.0, |y, (b, z)| y + b * z);
+                            *xi = st.mean[i] + st.sigma * y;
                             let [lo, hi] = bounds[i];
-                            inside &= (lo..=hi).contains(&x[i]);
+                            inside &= (lo..=hi).contains(xi);
                         }
                         if inside || attempt == opts.resample {
                             break;
@@ -344,9 +342,8 @@ impl Cmaes {
                     }
                     for i in 0..n {
                         let wy = w * y[i];
-                        for j in 0..=i {
-                            rank_mu[i * n + j] += wy * y[j];
-                        }
+                        let row = &mut rank_mu[i * n..=i * n + i];
+                        row.iter_mut().zip(&y[..=i]).for_each(|(r, &yj)| *r += wy * yj);
                     }
                 }
                 (yw, rank_mu)

@@ -198,6 +198,7 @@ impl Ga {
             self.next[slot * n..(slot + 1) * n].copy_from_slice(&self.population[k * n..(k + 1) * n]);
         }
         let pm = opts.mutation_rate.unwrap_or(1.0 / n as f64);
+        let spread = Sbx::new(opts.crossover_eta);
         let parents = &self.population;
         let bounds = problem.bounds();
         self.next[elites * n..]
@@ -215,7 +216,7 @@ impl Ga {
                     let [lo, hi] = bounds[i];
                     let (x1, x2) = (f64::from(pa[i]), f64::from(pb[i]));
                     let (y1, y2) = if cross {
-                        sbx(x1, x2, lo, hi, opts.crossover_eta, &mut rng)
+                        sbx(x1, x2, lo, hi, &spread, &mut rng)
                     } else {
                         (x1, x2)
                     };
@@ -250,11 +251,50 @@ fn tournament(scores: &[Score], size: usize, rng: &mut ChaCha8Rng) -> usize {
     best
 }
 
+/// Simulated binary crossover with distribution index `eta`, its constants computed once.
+#[derive(Clone, Copy, Debug)]
+struct Sbx {
+    eta: f64,
+    /// `1 / (η + 1)`.
+    e: f64,
+    /// Above this spread factor `β^-(η+1) < 2^-60`, and `α = 2 - β^-(η+1)` rounds to 2.
+    big: f64,
+}
+
+impl Sbx {
+    fn new(eta: f64) -> Self {
+        Sbx {
+            eta,
+            e: 1.0 / (eta + 1.0),
+            big: 2f64.powf(60.0 / (eta + 1.0)),
+        }
+    }
+
+    /// `α = 2 - β^-(η+1)`; exactly 2 when the bound is far (the common case, without a
+    /// `powf`: the same value the formula rounds to).
+    fn alpha(&self, beta: f64) -> f64 {
+        if beta > self.big {
+            2.0
+        } else {
+            2.0 - beta.powf(-(self.eta + 1.0))
+        }
+    }
+
+    /// The spread `β_q` for the uniform draw `u`.
+    fn betaq(&self, alpha: f64, u: f64) -> f64 {
+        if u <= 1.0 / alpha {
+            (u * alpha).powf(self.e)
+        } else {
+            (1.0 / (2.0 - u * alpha)).powf(self.e)
+        }
+    }
+}
+
 /// Simulated binary crossover of one variable (Deb and Agrawal 1995; the bounded form of
 /// Deb's NSGA-II code): each variable is recombined with probability 1/2, the children's
 /// spread around the parents' mean follows a polynomial of index `eta`, and the bounds reshape
 /// it so no child leaves `[lo, hi]`.
-fn sbx(x1: f64, x2: f64, lo: f64, hi: f64, eta: f64, rng: &mut ChaCha8Rng) -> (f64, f64) {
+fn sbx(x1: f64, x2: f64, lo: f64, hi: f64, sbx: &Sbx, rng: &mut ChaCha8Rng) -> (f64, f64) {
     let swap = uniform(rng) < 0.5;
     let recombine = uniform(rng) < 0.5;
     let u = uniform(rng);
@@ -262,18 +302,13 @@ fn sbx(x1: f64, x2: f64, lo: f64, hi: f64, eta: f64, rng: &mut ChaCha8Rng) -> (f
         return (x1, x2);
     }
     let (y1, y2) = if x1 < x2 { (x1, x2) } else { (x2, x1) };
-    let e = 1.0 / (eta + 1.0);
-    let betaq = |beta: f64| {
-        let alpha = 2.0 - beta.powf(-(eta + 1.0));
-        if u <= 1.0 / alpha {
-            (u * alpha).powf(e)
-        } else {
-            (1.0 / (2.0 - u * alpha)).powf(e)
-        }
-    };
     let d = y2 - y1;
-    let c1 = 0.5 * ((y1 + y2) - betaq(1.0 + 2.0 * (y1 - lo) / d) * d);
-    let c2 = 0.5 * ((y1 + y2) + betaq(1.0 + 2.0 * (hi - y2) / d) * d);
+    let a1 = sbx.alpha(1.0 + 2.0 * (y1 - lo) / d);
+    let a2 = sbx.alpha(1.0 + 2.0 * (hi - y2) / d);
+    let q1 = sbx.betaq(a1, u);
+    let q2 = if a2 == a1 { q1 } else { sbx.betaq(a2, u) };
+    let c1 = 0.5 * ((y1 + y2) - q1 * d);
+    let c2 = 0.5 * ((y1 + y2) + q2 * d);
     let (c1, c2) = (c1.clamp(lo, hi), c2.clamp(lo, hi));
     if swap {
         (c2, c1)
@@ -318,7 +353,7 @@ mod tests {
         let mut r = rng();
         let (mut n, mut spread) = (0, 0.0);
         for _ in 0..20_000 {
-            let (a, b) = sbx(0.3, 0.5, 0.0, 1.0, 15.0, &mut r);
+            let (a, b) = sbx(0.3, 0.5, 0.0, 1.0, &Sbx::new(15.0), &mut r);
             assert!((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b));
             if (a - 0.3).abs() > 1e-15 && (a - 0.5).abs() > 1e-15 {
                 n += 1;
@@ -334,7 +369,7 @@ mod tests {
         assert!((0.15..0.25).contains(&mean_spread), "{mean_spread}");
         // Near a bound the children stay inside it.
         for _ in 0..2_000 {
-            let (a, b) = sbx(0.001, 0.9, 0.0, 1.0, 2.0, &mut r);
+            let (a, b) = sbx(0.001, 0.9, 0.0, 1.0, &Sbx::new(2.0), &mut r);
             assert!(a >= 0.0 && b <= 1.0);
         }
     }
