@@ -248,10 +248,16 @@ fn bad_settings_exit_2_with_a_clear_message() {
         c,
     ]);
     assert_user_error(&other, "another problem");
-    assert_user_error(
-        &fit("ga", &["--population", "16", "--seed", "5", "--resume", c]),
-        "another problem",
+    // A failed resume leaves an existing history file alone.
+    let history = dir.join("keep.csv");
+    std::fs::write(&history, "precious").unwrap();
+    let h = history.to_str().unwrap();
+    let seed5 = fit(
+        "ga",
+        &["--population", "16", "--seed", "5", "--resume", c, "--history", h],
     );
+    assert_user_error(&seed5, "another problem");
+    assert_eq!(std::fs::read_to_string(&history).unwrap(), "precious");
     assert_user_error(&fit("cmaes", &["--population", "16", "--resume", c]), "ga run");
     // Unreadable checkpoints: garbage, truncated, missing.
     let garbage = dir.join("garbage.ckpt");

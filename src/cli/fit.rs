@@ -274,33 +274,27 @@ struct Monitor {
     bar: Option<ProgressBar>,
     plain: bool,
     last_line: Instant,
-    history: Option<(PathBuf, std::io::BufWriter<std::fs::File>)>,
+    /// The history file, created at the first generation (a run that fails before it leaves
+    /// an existing file alone).
+    history_path: Option<PathBuf>,
+    history: Option<std::io::BufWriter<std::fs::File>>,
     written: usize,
     checkpoint: Option<PathBuf>,
     every: u64,
 }
 
 impl Monitor {
-    fn new(args: &EvoArgs) -> Result<Self> {
-        let history = match &args.history {
-            Some(path) => {
-                let file = std::fs::File::create(path)
-                    .with_context(|| format!("{}: cannot create the history file", path.display()))?;
-                let mut w = std::io::BufWriter::new(file);
-                writeln!(w, "generation,best,mean,evaluations,seconds")?;
-                Some((path.clone(), w))
-            }
-            None => None,
-        };
-        Ok(Monitor {
+    fn new(args: &EvoArgs) -> Self {
+        Monitor {
             bar: None,
             plain: !args.quiet && !std::io::stderr().is_terminal(),
             last_line: Instant::now(),
-            history,
+            history_path: args.history.clone(),
+            history: None,
             written: 0,
             checkpoint: args.checkpoint.clone(),
             every: args.checkpoint_every.unwrap_or(10) as u64,
-        })
+        }
     }
 
     fn start_bar(&mut self, run: &Evolution<'_>, quiet: bool) {
@@ -350,7 +344,15 @@ impl Monitor {
             );
             self.last_line = Instant::now();
         }
-        if let Some((path, w)) = &mut self.history {
+        if let Some(path) = &self.history_path {
+            if self.history.is_none() {
+                let file = std::fs::File::create(path).map_err(io(path))?;
+                let mut w = std::io::BufWriter::new(file);
+                writeln!(w, "generation,best,mean,evaluations,seconds").map_err(io(path))?;
+                self.history = Some(w);
+            }
+        }
+        if let (Some(path), Some(w)) = (&self.history_path, &mut self.history) {
             for p in &h[self.written..] {
                 writeln!(
                     w,
@@ -406,7 +408,7 @@ pub fn run(args: Args) -> Result<()> {
         evo,
         ..FitOptions::default()
     };
-    let mut monitor = Monitor::new(&args.evo)?;
+    let mut monitor = Monitor::new(&args.evo);
     let quiet = args.evo.quiet;
     let mut started = false;
     let mut on_generation = |run: &Evolution<'_>| {

@@ -324,7 +324,9 @@ impl Checkpoint {
         }
         match (self.algorithm, &self.cmaes) {
             (Algorithm::Ga, None) => {
-                if self.population.len() != self.size * self.dim || self.scores.len() != self.size {
+                if Some(self.population.len()) != self.size.checked_mul(self.dim)
+                    || self.scores.len() != self.size
+                {
                     return Err("the GA population does not match its size".into());
                 }
             }
