@@ -8,7 +8,11 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn run(args: &[&str]) -> Output {
-    Command::new(bin()).args(args).current_dir(crate_root()).output().expect("run bezchain")
+    Command::new(bin())
+        .args(args)
+        .current_dir(crate_root())
+        .output()
+        .expect("run bezchain")
 }
 
 fn stderr(o: &Output) -> String {
@@ -50,7 +54,11 @@ fn the_papers_cases_pass_the_independent_check() {
     let dir = scratch("cli-fit-paper");
     let data = crate_root().join("data/naca4413.dat");
     // (degree, segments, design points, expanded points, 1/100 of the paper's total offset)
-    for (d, s, design, expanded, bar) in [(3, 5, 12, 16, 2.4e-8), (4, 3, 11, 13, 1.8e-5), (5, 3, 14, 16, 1.3e-6)] {
+    for (d, s, design, expanded, bar) in [
+        (3, 5, 12, 16, 2.4e-8),
+        (4, 3, 11, 13, 1.8e-5),
+        (5, 3, 14, 16, 1.3e-6),
+    ] {
         let json = dir.join(format!("case-d{d}.json"));
         let svg = dir.join(format!("case-d{d}.svg"));
         let out = run(&[
@@ -77,7 +85,10 @@ fn the_papers_cases_pass_the_independent_check() {
         // The report's own figure agrees with the independent one.
         let rep: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
         let ours = rep["offset"]["sum_sq"].as_f64().unwrap();
-        assert!((ours - sum_sq).abs() <= 1e-6 * sum_sq, "report {ours:e} vs verify.py {sum_sq:e}");
+        assert!(
+            (ours - sum_sq).abs() <= 1e-6 * sum_sq,
+            "report {ours:e} vs verify.py {sum_sq:e}"
+        );
         assert_eq!(rep["fit"]["method"], "lsq");
         assert!(rep["fit"]["iterations"].as_u64().unwrap() > 0);
         let plot = std::fs::read_to_string(&svg).unwrap();
@@ -87,7 +98,16 @@ fn the_papers_cases_pass_the_independent_check() {
 
 #[test]
 fn json_to_stdout_is_the_report_alone() {
-    let out = run(&["fit", "data/naca4413.dat", "--degree", "3", "--segments", "5", "--json", "-"]);
+    let out = run(&[
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--json",
+        "-",
+    ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
     assert_eq!(v["kind"], "curve");
@@ -130,7 +150,10 @@ fn bad_input_exits_2_with_one_clear_line() {
     assert_user_error(&fit("no/such/file.dat", "3", "5"), "no/such/file.dat");
     let empty = write("empty.dat", "");
     assert_user_error(&fit(&empty, "3", "5"), "empty.dat");
-    let text = write("text.dat", "NACA 0012\n1.0 0.0\n0.5 0.05\nzero point five 0.1\n0.0 0.0\n");
+    let text = write(
+        "text.dat",
+        "NACA 0012\n1.0 0.0\n0.5 0.05\nzero point five 0.1\n0.0 0.0\n",
+    );
     assert_user_error(&fit(&text, "3", "5"), "text.dat:4");
     let nan = write("nan.dat", "x y\n1.0 0.0\n0.5 NaN\n0.0 0.0\n");
     assert_user_error(&fit(&nan, "3", "5"), "nan.dat:3");
@@ -142,13 +165,31 @@ fn bad_input_exits_2_with_one_clear_line() {
     assert_user_error(&fit("data/naca4413.dat", "3", "0"), "segments");
     assert_user_error(&fit("data/naca4413.dat", "1", "5"), "C1");
     assert_user_error(
-        &run(&["fit", "data/naca4413.dat", "--degree", "3", "--segments", "5", "--method", "simplex"]),
+        &run(&[
+            "fit",
+            "data/naca4413.dat",
+            "--degree",
+            "3",
+            "--segments",
+            "5",
+            "--method",
+            "simplex",
+        ]),
         "simplex",
     );
     // Nothing already written is lost: a failed run leaves an existing report untouched.
     let report = dir.join("keep.json");
     std::fs::write(&report, "precious").unwrap();
-    let out = run(&["fit", &few, "--degree", "3", "--segments", "5", "--json", report.to_str().unwrap()]);
+    let out = run(&[
+        "fit",
+        &few,
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(std::fs::read_to_string(&report).unwrap(), "precious");
 }

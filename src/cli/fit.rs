@@ -434,6 +434,15 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => format!("{}: resuming from {}", args.input.display(), p.display()),
         None => format!("{}: fitting {} points", args.input.display(), loaded.points.len()),
     })?;
+    if fit.span_ratio > FitOptions::default().max_span_ratio {
+        eprintln!(
+            "warning: {}: the fitted chain doubles back on itself (span ratio {:.1}): its closest-point \
+             offsets are small but neighbouring data points are far apart along the chain; try \
+             another degree or number of segments",
+            args.input.display(),
+            fit.span_ratio
+        );
+    }
     let rep = report(&fit, &args.input, loaded.points.len());
     let json_target = args.json.as_deref().map(Target::parse);
     if let Some(target) = &json_target {

@@ -4,7 +4,7 @@
 use super::bfgs::{bfgs, BfgsOptions};
 use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary};
 use super::foot::FootOptions;
-use super::lsq::{lsq_each, pick, HasReport, LsqFit, LsqOptions, Start};
+use super::lsq::{lsq_each_guarded, pick, HasReport, LsqFit, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
 use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
@@ -211,6 +211,16 @@ pub fn fit_curve_with<P: Vector>(
     let clock = Instant::now();
     let problem = CurveProblem::curve_with(layout.clone(), points, opts.metric, opts.foot, opts.anchor_ends)?;
     let mut evolution = None;
+    // Keep every least-squares run free of folds once it is: the closest-point objective
+    // cannot see a stretch of chain that doubles back where the data are nearly straight, and
+    // with uniform breaks such folds can lower the sum of squares (a fold moves a join).
+    let limit = opts.max_span_ratio;
+    let guard = |design: &[P], params: &[[f64; 1]]| -> bool {
+        problem.chain(design).is_ok_and(|chain| {
+            let t: Vec<f64> = params.iter().map(|t| t[0]).collect();
+            span_ratio(&chain, points, &t) <= limit
+        })
+    };
     let (design, mut report) = match opts.method {
         Method::Ga | Method::Cmaes | Method::GaLsq | Method::CmaesLsq => {
             let Some((algorithm, polish_after)) = opts.method.evolutionary() else {
@@ -245,6 +255,7 @@ pub fn fit_curve_with<P: Vector>(
                 polish_after,
                 &opts.evo,
                 &opts.lsq,
+                Some(&guard),
                 hooks,
             )?;
             evolution = Some(summary);
@@ -266,7 +277,7 @@ pub fn fit_curve_with<P: Vector>(
                     problem.params().to_vec(),
                 ));
             }
-            let fits = lsq_each(&problem, &starts, &opts.lsq)?;
+            let fits = lsq_each_guarded(&problem, &starts, &opts.lsq, Some(&guard))?;
             // Rank by (has a loop, sum of squares), loops by their span ratio.
             let scored = fits
                 .into_iter()

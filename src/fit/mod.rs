@@ -32,7 +32,10 @@ pub mod shape;
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
-pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_each, lsq_from, LsqFit, LsqOptions, Start};
+pub use lsq::{
+    alternate, levenberg_marquardt, levenberg_marquardt_guarded, lsq, lsq_each, lsq_each_guarded, lsq_from,
+    Guard, LsqFit, LsqOptions, Start,
+};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{

@@ -3,7 +3,6 @@
 
 #![allow(dead_code)]
 
-
 use std::path::{Path, PathBuf};
 
 /// The crate root.
@@ -74,7 +73,9 @@ pub fn naca4413() -> Vec<glam::DVec2> {
 
 /// One of the shared aerofoil files, read by the library's reader (Selig order).
 pub fn read_airfoil(name: &str) -> Vec<glam::DVec2> {
-    bezchain::geometry::read_curve(&airfoil(name)).unwrap_or_else(|e| panic!("{name}: {e}")).points
+    bezchain::geometry::read_curve(&airfoil(name))
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .points
 }
 
 /// Closest-point `(sum_sq, max)` of `points` from the chain with expanded control points

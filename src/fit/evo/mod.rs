@@ -36,7 +36,7 @@ use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};
 use self::problem::{Fnv, Session, SessionOptions};
 use self::rng::Streams;
-use super::lsq::{lsq_from, LsqOptions, Start};
+use super::lsq::{lsq_each_guarded, Guard, LsqOptions, Start};
 use super::objective::{SolveReport, StopReason};
 use super::offset::{grid_offset_stats, OffsetStats};
 use super::problem::{FitProblem, GridProblem};
@@ -816,19 +816,27 @@ pub struct EvoSummary {
 }
 
 /// The least-squares polish: Levenberg-Marquardt on `problem` from `design` and its foot
-/// points. Returns the polished design and the solver's report.
+/// points, kept where `guard` admits once it holds (see [`levenberg_marquardt_guarded`]).
+/// Returns the polished design and the solver's report.
+///
+/// [`levenberg_marquardt_guarded`]: crate::fit::lsq::levenberg_marquardt_guarded
 pub fn polish<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: Vec<S::Point>,
     opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
 ) -> Result<(Vec<S::Point>, SolveReport)> {
     let params: Vec<[f64; K]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
-    let fit = lsq_from(problem, &[Start::Design(design, params)], opts)?;
+    let fit = lsq_each_guarded(problem, &[Start::Design(design, params)], opts, guard)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::Numerical("lsq: the polish produced no fit".into()))?;
     Ok((fit.design, fit.report))
 }
 
 /// The evolutionary stage on `evo`, then (with `polish_after`) the least-squares polish on
-/// `problem`: the design, the combined report and the summary.
+/// `problem` under `guard`: the design, the combined report and the summary.
+#[allow(clippy::too_many_arguments)]
 pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
     evo: &EvoProblem,
     problem: &FitProblem<'_, S, K>,
@@ -836,6 +844,7 @@ pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
     polish_after: bool,
     options: &EvoOptions,
     lsq: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
     hooks: &mut EvoHooks<'_>,
 ) -> Result<(Vec<S::Point>, SolveReport, EvoSummary)> {
     let run = evolve(evo, algorithm, options, hooks)?;
@@ -847,7 +856,7 @@ pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
     }];
     let mut report = run.report;
     if polish_after {
-        let (polished, r) = polish(problem, design, lsq)?;
+        let (polished, r) = polish(problem, design, lsq, guard)?;
         design = polished;
         stages.push(Stage {
             method: "lsq".to_string(),
@@ -893,7 +902,7 @@ pub fn fit_grid_evo(
     let evo = EvoProblem::grid(points, layout.clone(), start, options.margin)?;
     let problem = GridProblem::grid(layout, points, params, super::offset::Metric::Closest)?;
     let (design, report, summary) =
-        evolve_then_polish(&evo, &problem, algorithm, polish_after, options, lsq, hooks)?;
+        evolve_then_polish(&evo, &problem, algorithm, polish_after, options, lsq, None, hooks)?;
     let grid = problem.patch_grid(&design)?;
     let closest = grid_offset_stats(&grid, points)?;
     Ok(GridEvoFit {
