@@ -531,8 +531,13 @@ fn summary(input: &Path, loaded: &Loaded2, fit: &CurveFit<DVec2>) -> String {
             r.report.seconds
         );
         for st in &evo.stages[1..] {
+            let from = match evo.polish_from_evolved {
+                Some(true) => " (the polish of the evolved design won)",
+                Some(false) => " (one of lsq's own starts beat the polish of the evolved design)",
+                None => "",
+            };
             s += &format!(
-                "{}: {} iterations, {} evaluations, {:.1} ms\n",
+                "{}: {} iterations, {} evaluations, {:.1} ms{from}\n",
                 st.method,
                 st.report.iterations,
                 st.report.evaluations,

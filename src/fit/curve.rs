@@ -2,9 +2,9 @@
 //! and metric, with the offsets and the solver's effort (what the CLI's `fit` reports).
 
 use super::bfgs::{bfgs, BfgsOptions};
-use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary};
+use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary, Stage};
 use super::foot::FootOptions;
-use super::lsq::{lsq_each_guarded, pick, HasReport, LsqFit, LsqOptions, Start};
+use super::lsq::{lsq_each_guarded, pick, Guard, HasReport, LsqFit, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
 use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
@@ -248,54 +248,33 @@ pub fn fit_curve_with<P: Vector>(
                 .map(|p| DVec2::new(p.coord(0), p.coord(1)))
                 .collect();
             let evo = EvoProblem::curve(&plane, layout, opts.anchor_ends, opts.evo.margin)?;
-            let (design, report, summary) = evolve_then_polish(
-                &evo,
-                &problem,
-                algorithm,
-                polish_after,
-                &opts.evo,
-                &opts.lsq,
-                Some(&guard),
-                hooks,
+            let (mut design, mut report, mut summary) = evolve_then_polish(
+                &evo, &problem, algorithm, false, &opts.evo, &opts.lsq, None, hooks,
             )?;
+            if polish_after {
+                // The polish is the least-squares method with the evolved design as one more
+                // start (the first, so it wins ties): the hybrid ends at the better of the
+                // basin the evolution found and the ones lsq's own starts reach.
+                let polish_clock = Instant::now();
+                let feet: Vec<[f64; 1]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
+                let best = best_lsq(&problem, points, opts, &guard, Some(Start::Design(design, feet)))?;
+                let mut r = best.fit.report;
+                r.seconds = polish_clock.elapsed().as_secs_f64();
+                summary.stages.push(Stage {
+                    method: "lsq".to_string(),
+                    report: r,
+                });
+                summary.polish_from_evolved = Some(best.start == 0);
+                report.iterations += r.iterations;
+                report.evaluations += r.evaluations;
+                report.stop = r.stop;
+                design = best.fit.design;
+            }
             evolution = Some(summary);
             (design, report)
         }
         Method::Lsq => {
-            let mut starts = opts
-                .parametrizations
-                .iter()
-                .map(|&alpha| {
-                    Ok(Start::Params(
-                        exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
-                    ))
-                })
-                .collect::<Result<Vec<Start<P, 1>>>>()?;
-            if opts.metric == Metric::Closest {
-                starts.push(Start::Design(
-                    problem.increment_start()?,
-                    problem.params().to_vec(),
-                ));
-            }
-            let fits = lsq_each_guarded(&problem, &starts, &opts.lsq, Some(&guard))?;
-            // Rank by (has a loop, sum of squares), loops by their span ratio.
-            let scored = fits
-                .into_iter()
-                .map(|fit| {
-                    let chain = problem.chain(&fit.design)?;
-                    let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
-                    let ratio = span_ratio(&chain, points, &t);
-                    Ok(Scored { fit, ratio })
-                })
-                .collect::<Result<Vec<_>>>()?;
-            let limit = opts.max_span_ratio;
-            let best = pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
-                (true, false) => true,
-                (false, true) => false,
-                (true, true) => a.fit.sum_sq < b.fit.sum_sq,
-                (false, false) => a.ratio < b.ratio,
-            })
-            .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
+            let best = best_lsq(&problem, points, opts, &guard, None)?;
             (best.fit.design, best.fit.report)
         }
         Method::NelderMead => {
@@ -336,10 +315,55 @@ pub fn fit_curve_with<P: Vector>(
     })
 }
 
-/// A least-squares fit with its chain's span ratio.
+/// The least-squares method: a linear solve at each of `opts.parametrizations` and (closest
+/// metric) the paper's start, each followed by guarded Levenberg-Marquardt, plus `extra` as the
+/// first start when given; the best fold-free fit wins (the lowest span ratio if none is).
+fn best_lsq<P: Vector>(
+    problem: &CurveProblem<'_, P>,
+    points: &[P],
+    opts: &FitOptions,
+    guard: Guard<'_, P, 1>,
+    extra: Option<Start<P, 1>>,
+) -> Result<Scored<P>> {
+    let mut starts: Vec<Start<P, 1>> = extra.into_iter().collect();
+    for &alpha in opts.parametrizations {
+        starts.push(Start::Params(
+            exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
+        ));
+    }
+    if opts.metric == Metric::Closest {
+        starts.push(Start::Design(
+            problem.increment_start()?,
+            problem.params().to_vec(),
+        ));
+    }
+    let fits = lsq_each_guarded(problem, &starts, &opts.lsq, Some(guard))?;
+    // Rank by (has a loop, sum of squares), loops by their span ratio.
+    let scored = fits
+        .into_iter()
+        .enumerate()
+        .map(|(start, fit)| {
+            let chain = problem.chain(&fit.design)?;
+            let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
+            let ratio = span_ratio(&chain, points, &t);
+            Ok(Scored { fit, ratio, start })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let limit = opts.max_span_ratio;
+    pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
+        (true, false) => true,
+        (false, true) => false,
+        (true, true) => a.fit.sum_sq < b.fit.sum_sq,
+        (false, false) => a.ratio < b.ratio,
+    })
+    .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))
+}
+
+/// A least-squares fit with its chain's span ratio and the index of its start.
 struct Scored<P> {
     fit: LsqFit<P, 1>,
     ratio: f64,
+    start: usize,
 }
 
 impl<P> HasReport for Scored<P> {

@@ -813,6 +813,9 @@ pub struct EvoSummary {
     pub run: EvoResult,
     /// The stages: the evolutionary one, then the least-squares polish when asked for.
     pub stages: Vec<Stage>,
+    /// For a curve hybrid's polish (which also tries the least-squares method's own starts):
+    /// whether the fit polished from the evolved design won. `None` without a polish.
+    pub polish_from_evolved: Option<bool>,
 }
 
 /// The least-squares polish: Levenberg-Marquardt on `problem` from `design` and its foot
@@ -868,7 +871,16 @@ pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
     }
     // The run's seconds (with those before a checkpoint it resumed from), then the polish.
     report.seconds = run.report.seconds + clock.elapsed().as_secs_f64();
-    Ok((design, report, EvoSummary { run, stages }))
+    let polish_from_evolved = polish_after.then_some(true);
+    Ok((
+        design,
+        report,
+        EvoSummary {
+            run,
+            stages,
+            polish_from_evolved,
+        },
+    ))
 }
 
 /// A patch grid fitted by an evolutionary method.
