@@ -53,6 +53,10 @@ pub fn run(args: Args) -> Result<()> {
         Target::Stdout => "standard output".to_string(),
         Target::File(path) => path.display().to_string(),
     };
-    eprintln!("{}: {} points ({shape}) → {to}", args.blade.display(), cloud.points.len());
+    eprintln!(
+        "{}: {} points ({shape}) → {to}",
+        args.blade.display(),
+        cloud.points.len()
+    );
     Ok(())
 }
