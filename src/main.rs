@@ -19,7 +19,7 @@ enum Command {
     /// Generate a NACA 4- or 5-digit aerofoil in Selig format.
     Naca(cli::naca::Args),
     /// Fit a chain of Bezier curves to a 2D contour.
-    Fit(cli::fit::Args),
+    Fit(Box<cli::fit::Args>),
     /// The paper's optimiser comparison on its three NACA 4413 cases, as one table.
     Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
@@ -33,10 +33,11 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    give_mesa_a_runtime_dir();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
-        Command::Fit(args) => cli::fit::run(args),
+        Command::Fit(args) => cli::fit::run(*args),
         Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
         Command::FitSurface(args) => cli::fit_surface::run(args),
@@ -50,4 +51,28 @@ fn main() -> ExitCode {
             ExitCode::from(cli::exit_status(&e))
         }
     }
+}
+
+/// Mesa's Vulkan drivers print `error: XDG_RUNTIME_DIR is invalid or not set` when the
+/// variable is missing (headless machines, CI), which reads like one of bezchain's own errors.
+/// Point it at a private directory of the user's in the temporary folder instead (created
+/// once, mode 0700); an existing setting is left alone, and so is a directory we do not own.
+fn give_mesa_a_runtime_dir() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_else(|_| "user".to_string());
+    let dir = std::env::temp_dir().join(format!("bezchain-runtime-{user}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).is_err() {
+            return;
+        }
+    }
+    // Still single-threaded: nothing else reads the environment yet.
+    std::env::set_var("XDG_RUNTIME_DIR", &dir);
 }

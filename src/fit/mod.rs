@@ -10,6 +10,8 @@
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
 //! - [`band`]: banded Cholesky for the large, sparse normal equations of patch grids.
 //! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
+//! - [`evo`]: the genetic algorithm and CMA-ES on the population evaluator, for chains and
+//!   grids, with checkpoints; `ga+lsq` / `cmaes+lsq` polish their result by least squares.
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 //! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
 //! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
@@ -21,6 +23,7 @@
 pub mod band;
 pub mod bfgs;
 pub mod curve;
+pub mod evo;
 pub mod foot;
 pub mod lsq;
 pub mod nelder_mead;
@@ -33,7 +36,7 @@ pub mod shape;
 pub mod surface;
 
 pub use bfgs::{bfgs, BfgsOptions};
-pub use curve::{fit_curve, CurveFit, FitOptions, Method};
+pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
 pub use lsq::{
     alternate, levenberg_marquardt, levenberg_marquardt_guarded, levenberg_marquardt_observed, lsq, lsq_each,
