@@ -2,7 +2,7 @@
 //! the report, meshes and a picture.
 
 use super::fit::{backend_name, EvoArgs, Monitor};
-use super::{parse_pair, usage, warn_all, write_json, Target};
+use super::{parse_pair, usage, warn_all, Target};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
 use bezchain::export::{render, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport};
@@ -260,6 +260,28 @@ pub fn run(args: Args) -> Result<()> {
     if !(16..=16384).contains(&png_w) || !(16..=16384).contains(&png_h) {
         return Err(usage("--png-size must be between 16x16 and 16384x16384"));
     }
+    // Outputs whose folder is missing are refused now, not after a long fit (and not after
+    // some of the other outputs were written).
+    for (flag, path) in [
+        ("--json", &args.json),
+        ("--obj", &args.obj),
+        ("--stl", &args.stl),
+        ("--png", &args.png),
+    ] {
+        if let Some(Target::File(path)) = path.as_deref().map(Target::parse) {
+            let dir = path
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
+            if !dir.is_dir() {
+                return Err(usage(format!(
+                    "{flag} {}: the folder {} does not exist",
+                    path.display(),
+                    dir.display()
+                )));
+            }
+        }
+    }
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let n = loaded.points.len();
@@ -357,20 +379,25 @@ pub fn run(args: Args) -> Result<()> {
 
     let rep = report(&fit, args.method, &args.cloud, n);
     let json_target = args.json.as_deref().map(Target::parse);
-    if let Some(target) = &json_target {
-        write_json(target, &rep)?;
-    }
     let name = args
         .cloud
         .file_stem()
         .map_or_else(|| "surface".to_string(), |s| s.to_string_lossy().into_owned());
+    // Every output is made in memory before the first is written, so a failure while making
+    // one leaves none behind; each file is then written whole or not at all (atomic rename).
+    let mut outputs: Vec<(Target, Vec<u8>)> = Vec::new();
+    if let Some(target) = json_target.clone() {
+        let mut text = serde_json::to_string_pretty(&rep)?;
+        text.push('\n');
+        outputs.push((target, text.into_bytes()));
+    }
     if args.obj.is_some() || args.stl.is_some() {
         let mesh = SurfaceMesh::from_grid(&fit.grid, args.mesh_density)?;
         if let Some(path) = &args.obj {
-            Target::parse(path).write(mesh.to_obj(&name).as_bytes())?;
+            outputs.push((Target::parse(path), mesh.to_obj(&name).into_bytes()));
         }
         if let Some(path) = &args.stl {
-            Target::parse(path).write(&mesh.to_stl(&name))?;
+            outputs.push((Target::parse(path), mesh.to_stl(&name)));
         }
     }
     if let Some(path) = &args.png {
@@ -380,14 +407,14 @@ pub fn run(args: Args) -> Result<()> {
             ..RenderOptions::default()
         };
         // The default views look at a blade along +z; turn them with the span axis.
-        if let Some(v) = &mut ropts.views.first_mut() {
-            v.right = fit.axis.dir;
-        }
-        if let Some(v) = ropts.views.get_mut(1) {
+        for v in ropts.views.iter_mut() {
             v.right = fit.axis.dir;
         }
         let image = render(&fit.grid, &ropts)?;
-        Target::parse(path).write(&image.to_png()?)?;
+        outputs.push((Target::parse(path), image.to_png()?));
+    }
+    for (target, bytes) in &outputs {
+        target.write(bytes)?;
     }
     let text = summary(&args, &fit, n, clock.elapsed().as_secs_f64());
     if matches!(json_target, Some(Target::Stdout)) {
