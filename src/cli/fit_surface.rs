@@ -406,6 +406,9 @@ pub fn run(args: Args) -> Result<()> {
             height: png_h as u32,
             ..RenderOptions::default()
         };
+        // The data as dots: every point of a cloud up to 20,000, an even sample of a larger one.
+        let step = loaded.points.len().div_ceil(20_000).max(1);
+        ropts.cloud = loaded.points.iter().step_by(step).copied().collect();
         // The default views look at a blade along +z; turn them with the span axis.
         for v in ropts.views.iter_mut() {
             v.right = fit.axis.dir;
