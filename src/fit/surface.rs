@@ -441,6 +441,16 @@ pub fn fit_surface(
     fit_surface_with(points, grid, layout, opts, progress, &mut EvoHooks::default())
 }
 
+/// What the main stage ends with.
+struct MainStage {
+    /// The fitted design net.
+    design: Vec<DVec3>,
+    /// The parameters of the stage's points on it.
+    params: Vec<[f64; 2]>,
+    /// The evolutionary run, for the evolutionary methods.
+    evolution: Option<EvoSummary>,
+}
+
 /// The main stage on `problem` (a subsample, or the whole cloud) from its parameters: least
 /// squares, or the evolutionary method from the linear least-squares start (then the polish
 /// when the method has one). Pushes the stages run; returns the design, the parameters on it
@@ -453,7 +463,7 @@ fn main_stage(
     progress: &mut dyn FnMut(SurfaceProgress),
     hooks: &mut EvoHooks<'_>,
     stages: &mut Vec<SurfaceStage>,
-) -> Result<(Vec<DVec3>, Vec<[f64; 2]>, Option<EvoSummary>)> {
+) -> Result<MainStage> {
     let points = problem.points().len();
     let start = problem.linear_fit(problem.params())?;
     let Some((algorithm, polish)) = opts.method.evolutionary() else {
@@ -473,7 +483,11 @@ fn main_stage(
             points,
             report: fit.report,
         });
-        return Ok((fit.design, fit.params, None));
+        return Ok(MainStage {
+            design: fit.design,
+            params: fit.params,
+            evolution: None,
+        });
     };
     progress(SurfaceProgress::Stage {
         name: algorithm.name(),
@@ -500,7 +514,11 @@ fn main_stage(
     let design = fit.grid.design().to_vec();
     let mut params = problem.params().to_vec();
     problem.project(&design, &mut params);
-    Ok((design, params, Some(fit.summary)))
+    Ok(MainStage {
+        design,
+        params,
+        evolution: Some(fit.summary),
+    })
 }
 
 /// [`fit_surface`] with hooks into an evolutionary run (progress, checkpoints, resume).
@@ -541,8 +559,9 @@ pub fn fit_surface_with(
         let sub_points: Vec<DVec3> = idx.iter().map(|&i| points[i]).collect();
         let sub_params: Vec<[f64; 2]> = idx.iter().map(|&i| params[i]).collect();
         let problem = GridProblem::grid(layout.clone(), &sub_points, sub_params, Metric::Closest)?;
-        let (design, _, evolution) =
-            main_stage(&problem, &layout, "subsample", opts, progress, hooks, &mut stages)?;
+        let MainStage {
+            design, evolution, ..
+        } = main_stage(&problem, &layout, "subsample", opts, progress, hooks, &mut stages)?;
         // The whole cloud: Levenberg-Marquardt first moves every point to its own foot point on
         // the subsample's surface (Newton's method from its initial parameters).
         let polish = LsqOptions {
@@ -573,9 +592,9 @@ pub fn fit_surface_with(
             (design, evolution)
         }
     } else {
-        let (design, p, evolution) = main_stage(&full, &layout, "lsq", opts, progress, hooks, &mut stages)?;
-        params = p;
-        (design, evolution)
+        let stage = main_stage(&full, &layout, "lsq", opts, progress, hooks, &mut stages)?;
+        params = stage.params;
+        (stage.design, stage.evolution)
     };
     progress(SurfaceProgress::Offsets { points: n });
     let (stats, feet) = full.closest_stats(&design, Some(&params));
