@@ -111,11 +111,12 @@ fn c1_jump(net: &[Vec<DVec3>], d: [usize; 2], bu: &[f64], bv: &[f64]) -> f64 {
 fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     let dir = scratch("cli-surface");
     let cloud = dir.join("blade.csv");
-    let (json, obj, stl, png) = (
+    let (json, obj, stl, png, svg) = (
         dir.join("r.json"),
         dir.join("b.obj"),
         dir.join("b.stl"),
         dir.join("b.png"),
+        dir.join("b.svg"),
     );
     let out = ok(run(&[
         "blade",
@@ -145,6 +146,8 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
         stl.to_str().unwrap(),
         "--png",
         png.to_str().unwrap(),
+        "--svg",
+        svg.to_str().unwrap(),
         "--png-size",
         "400x240",
     ]));
@@ -275,6 +278,13 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     assert!(
         differing > 400 * 240 / 20,
         "{differing} pixels differ from the background"
+    );
+    // SVG: the same size, every net point drawn (design and generated).
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with(r#"<svg xmlns="http://www.w3.org/2000/svg" width="400" height="240""#));
+    assert!(
+        text.matches("<circle").count() >= 2 * 13 * 7,
+        "two views of the net"
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -5,7 +5,9 @@ use super::fit::{backend_name, EvoArgs, Monitor};
 use super::{parse_pair, usage, warn_all, Target};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{render, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::export::{
+    render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
+};
 use bezchain::fit::evo::{Checkpoint, EvoHooks, EvoOptions, Evolution};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
@@ -81,7 +83,10 @@ pub struct Args {
     /// Write a PNG picture of the surface and its control net (two views) here.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Size of the picture, WxH pixels.
+    /// Write the same views as an SVG drawing (surface iso-curves, control net, points) here.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Size of the picture (PNG and SVG), WxH pixels.
     #[arg(long, default_value = "1600x900", value_parser = parse_pair)]
     pub png_size: [usize; 2],
     #[command(flatten)]
@@ -267,6 +272,7 @@ pub fn run(args: Args) -> Result<()> {
         ("--obj", &args.obj),
         ("--stl", &args.stl),
         ("--png", &args.png),
+        ("--svg", &args.svg),
     ] {
         if let Some(Target::File(path)) = path.as_deref().map(Target::parse) {
             let dir = path
@@ -400,7 +406,7 @@ pub fn run(args: Args) -> Result<()> {
             outputs.push((Target::parse(path), mesh.to_stl(&name)));
         }
     }
-    if let Some(path) = &args.png {
+    if args.png.is_some() || args.svg.is_some() {
         let mut ropts = RenderOptions {
             width: png_w as u32,
             height: png_h as u32,
@@ -413,8 +419,13 @@ pub fn run(args: Args) -> Result<()> {
         for v in ropts.views.iter_mut() {
             v.right = fit.axis.dir;
         }
-        let image = render(&fit.grid, &ropts)?;
-        outputs.push((Target::parse(path), image.to_png()?));
+        if let Some(path) = &args.png {
+            let image = render(&fit.grid, &ropts)?;
+            outputs.push((Target::parse(path), image.to_png()?));
+        }
+        if let Some(path) = &args.svg {
+            outputs.push((Target::parse(path), render_svg(&fit.grid, &ropts)?.into_bytes()));
+        }
     }
     for (target, bytes) in &outputs {
         target.write(bytes)?;

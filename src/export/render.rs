@@ -366,6 +366,136 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     })
 }
 
+/// The views of [`render`] as an SVG drawing (no supersampling, no hidden-line removal):
+/// iso-parameter curves of the surface (eight per patch side, the patch borders darker), the
+/// control net, generated and design points, and up to 3,000 of `opts.cloud` as dots.
+pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<String> {
+    use std::fmt::Write as _;
+    if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
+        return Err(Error::invalid(format!(
+            "picture size {} x {} is outside 16 to 16384 pixels each way",
+            opts.width, opts.height
+        )));
+    }
+    if opts.views.is_empty() {
+        return Err(Error::invalid("a picture needs at least one view"));
+    }
+    let (w, h) = (f64::from(opts.width), f64::from(opts.height));
+    let l = grid.layout();
+    let (mu, mv) = l.net_shape();
+    let net = grid.net();
+    let (bu, bv) = (l.u.breaks(), l.v.breaks());
+    // Iso-curves: eight per patch side, each sampled at 24 points per patch it crosses.
+    let iso = |b: &[f64]| -> Vec<(f64, bool)> {
+        let mut out = Vec::new();
+        for k in 0..b.len() - 1 {
+            for i in 0..8 {
+                out.push((b[k] + (b[k + 1] - b[k]) * f64::from(i) / 8.0, i == 0));
+            }
+        }
+        out.push((1.0, true));
+        out
+    };
+    let samples = |count: usize| (0..=24 * count).map(move |i| i as f64 / (24 * count) as f64);
+    let mut curves: Vec<(Vec<DVec3>, bool)> = Vec::new();
+    for (u, border) in iso(bu) {
+        curves.push((samples(l.v.segments()).map(|v| grid.eval(u, v)).collect(), border));
+    }
+    for (v, border) in iso(bv) {
+        curves.push((samples(l.u.segments()).map(|u| grid.eval(u, v)).collect(), border));
+    }
+    let mut everything: Vec<DVec3> = curves.iter().flat_map(|c| c.0.iter().copied()).collect();
+    everything.extend_from_slice(net);
+    let step = opts.cloud.len().div_ceil(3000).max(1);
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let hex = |c: Rgb| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
+    let panel_h = h / opts.views.len() as f64;
+    for (k, view) in opts.views.iter().enumerate() {
+        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w, panel_h))?;
+        let xy = |p: DVec3| {
+            let (x, y, _) = cam.project(p);
+            format!("{x:.1},{y:.1}")
+        };
+        let _ = writeln!(svg, r#"<g fill="none" stroke-linejoin="round">"#);
+        for (pts, border) in &curves {
+            let (colour, width, opacity) = if *border {
+                (BORDER, 1.3, 0.9)
+            } else {
+                (SURFACE, 0.8, 0.9)
+            };
+            let path: Vec<String> = pts.iter().map(|&p| xy(p)).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"/>"#,
+                path.join(" "),
+                hex(colour)
+            );
+        }
+        for r in 0..mu {
+            let row: Vec<String> = (0..mv).map(|c| xy(net[r * mv + c])).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
+                row.join(" "),
+                hex(NET)
+            );
+        }
+        for c in 0..mv {
+            let col: Vec<String> = (0..mu).map(|r| xy(net[r * mv + c])).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
+                col.join(" "),
+                hex(NET)
+            );
+        }
+        let _ = writeln!(svg, "</g>");
+        let _ = writeln!(svg, r#"<g fill="{}" fill-opacity="0.6">"#, hex(DATA_POINT));
+        for p in opts.cloud.iter().step_by(step) {
+            let (x, y, _) = cam.project(*p);
+            if x.is_finite() && y.is_finite() {
+                let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="0.8"/>"#);
+            }
+        }
+        let _ = writeln!(svg, "</g>");
+        for design in [false, true] {
+            let (colour, radius) = if design {
+                (DESIGN_POINT, 3.0)
+            } else {
+                (GENERATED_POINT, 2.8)
+            };
+            let _ = writeln!(
+                svg,
+                r#"<g fill="{}" stroke="white" stroke-width="0.8">"#,
+                hex(colour)
+            );
+            for r in 0..mu {
+                for c in 0..mv {
+                    if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
+                        let (x, y, _) = cam.project(net[r * mv + c]);
+                        let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
+                    }
+                }
+            }
+            let _ = writeln!(svg, "</g>");
+        }
+        if k > 0 {
+            let y = k as f64 * panel_h;
+            let _ = writeln!(
+                svg,
+                r##"<line x1="0" y1="{y}" x2="{w}" y2="{y}" stroke="#c8c8c8"/>"##
+            );
+        }
+    }
+    svg.push_str("</svg>\n");
+    Ok(svg)
+}
+
 /// Fill a triangle with per-vertex shading (diffuse factor, white highlight), keeping the
 /// nearest surface per pixel.
 fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2]; 3]) {
@@ -520,6 +650,24 @@ mod tests {
             .collect();
         assert!(pixels.iter().any(|&c| reddish(c)), "design points drawn");
         assert!(pixels.iter().any(|&c| bluish(c)), "generated points drawn");
+        // The SVG: one disc per net point in its colour, one polyline per net row and
+        // column and per iso-curve (8 per patch side plus the far edge, both ways).
+        let svg = render_svg(&grid, &opts).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        let (mu, mv) = grid.layout().net_shape();
+        let (nu, nv) = grid.layout().design_shape();
+        let group = |colour: Rgb| {
+            let head = format!(
+                r##"<g fill="#{:02x}{:02x}{:02x}" stroke="white""##,
+                colour[0], colour[1], colour[2]
+            );
+            let start = svg.find(&head).expect("point group");
+            let end = start + svg[start..].find("</g>").unwrap();
+            svg[start..end].matches("<circle").count()
+        };
+        assert_eq!(group(DESIGN_POINT), nu * nv);
+        assert_eq!(group(GENERATED_POINT), mu * mv - nu * nv);
+        assert_eq!(svg.matches("<polyline").count(), mu + mv + 2 * (8 * 2 + 1));
         let png = img.to_png().unwrap();
         assert_eq!(&png[1..4], b"PNG");
         assert!(render(&grid, &RenderOptions { width: 4, ..opts }).is_err());
