@@ -180,6 +180,8 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     // C1 across every border, from the JSON net and breaks.
     let jump = c1_jump(&control, [3, 3], &bu, &bv);
     assert!(jump < 1e-9, "C1 jump {jump}");
+    let reported = rep["continuity_error"].as_f64().unwrap();
+    assert!(reported < 1e-9, "reported continuity error {reported}");
 
     // The offsets, recomputed from the JSON control net by an independent evaluation and
     // closest-point search, agree with the reported ones.
