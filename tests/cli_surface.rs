@@ -211,10 +211,10 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     let max_at = point(&off["max_at"]);
     assert!(points.contains(&max_at), "max_at {max_at} is not a data point");
 
-    // The shared checker `verify.py` agrees on the counts and the continuity. Its distances
-    // come from a local search (7 x 7 seeds per patch, four refined), which can stop in a
-    // local minimum on this thin blade but never reports less than the true distance: its
-    // offsets bound ours from above.
+    // The shared checker `verify.py` agrees on the counts, the continuity and the offsets. Its
+    // distances come from a local search (7 x 7 seeds per patch, four refined) that a grid with
+    // overhangs traps; the default span breaks (`--breaks-v auto`) keep only fits that such a
+    // search measures right, so it must agree with the report to 0.1 %.
     let out = Command::new("python3")
         .arg(common::verify_py())
         .arg("surface")
@@ -228,8 +228,13 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     assert_eq!(numbers(&v["design_net"]), [10.0, 6.0]);
     assert_eq!(numbers(&v["control_net"]), [13.0, 7.0]);
     assert!(v["c1_error"].as_f64().unwrap() < 1e-9, "{v}");
-    assert!(v["max"].as_f64().unwrap() >= max * (1.0 - 1e-9), "{v}");
-    assert!(v["rms"].as_f64().unwrap() >= rms * (1.0 - 1e-9), "{v}");
+    for (key, ours) in [("max", max), ("rms", rms)] {
+        let theirs = v[key].as_f64().unwrap();
+        assert!(
+            (theirs - ours).abs() <= 1e-3 * ours,
+            "verify.py {key} {theirs:e}, report {ours:e}"
+        );
+    }
 
     // OBJ: a 16 x 16 sample per patch, every vertex on the surface of the JSON net.
     let text = std::fs::read_to_string(&obj).unwrap();

@@ -9,6 +9,7 @@ use bezchain::export::{
     render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
 };
 use bezchain::fit::evo::{Checkpoint, EvoHooks, EvoOptions, Evolution};
+use bezchain::fit::surface_breaks::{projection_check, search_breaks_v};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
@@ -41,8 +42,10 @@ pub struct Args {
     /// Breaks along the span: `uniform`; parameters in [0, 1] as for --breaks-u; `span:R1,R2,...`,
     /// positions along the span axis in model units (e.g. radii); or `stations:BLADE.json`, the
     /// station radii of a blade file (a lofted blade is only C1 there, so its patches should
-    /// end there).
-    #[arg(long, default_value = "uniform")]
+    /// end there); or `auto` (the default): the breaks that give the smallest closest-point
+    /// sum of squares among candidates whose closest points a coarse sampled search also finds
+    /// (least-squares fits of clouds up to --subsample points; uniform above).
+    #[arg(long, default_value = "auto")]
     pub breaks_v: String,
     /// Method: lsq, ga, cmaes, ga+lsq or cmaes+lsq (the evolutionary ones on the population
     /// evaluator, from the linear least-squares start, on the subsample of a large cloud).
@@ -223,12 +226,17 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
 pub fn run(args: Args) -> Result<()> {
     let clock = Instant::now();
     // Every argument is checked before the (possibly long) read and fit.
-    let layout = SurfaceLayout {
+    let auto_v = args.breaks_v.trim().eq_ignore_ascii_case("auto");
+    let mut layout = SurfaceLayout {
         degree: args.degree,
         patches: args.patches,
         continuity: args.continuity,
         breaks_u: parse_breaks(&args.breaks_u, "--breaks-u")?,
-        breaks_v: parse_breaks(&args.breaks_v, "--breaks-v")?,
+        breaks_v: if auto_v {
+            Breaks::Uniform
+        } else {
+            parse_breaks(&args.breaks_v, "--breaks-v")?
+        },
     };
     // Layouts that do not depend on the cloud are checked now, not after a long read.
     if !matches!(layout.breaks_v, Breaks::Span(_)) {
@@ -315,6 +323,10 @@ pub fn run(args: Args) -> Result<()> {
         SpanArg::Auto => None,
     };
 
+    if auto_v {
+        layout.breaks_v = choose_breaks_v(&args, &loaded.points, loaded.grid, &layout, &opts)?;
+    }
+
     // The spinner for least squares; an evolutionary run has the monitor's bar instead.
     let bar = if evolutionary || args.evo.quiet {
         ProgressBar::hidden()
@@ -383,6 +395,21 @@ pub fn run(args: Args) -> Result<()> {
         None => format!("{}: fitting {n} points", args.cloud.display()),
     })?;
 
+    if n <= CHECKED_POINTS {
+        let check = projection_check(&fit.grid, &loaded.points, fit.stats.rms, fit.stats.max);
+        if !check.agrees {
+            eprintln!(
+                "warning: {}: a coarse sampled search (7x7 seeds a patch, Gauss-Newton from the 4 nearest) \
+                 finds rms {:.4e} and max {:.4e} on this surface, not the exact {:.4e} and {:.4e}: \
+                 overhangs or folds trap it, so simple projection tools will overestimate these offsets",
+                args.cloud.display(),
+                check.rms,
+                check.max,
+                fit.stats.rms,
+                fit.stats.max
+            );
+        }
+    }
     let rep = report(&fit, args.method, &args.cloud, n);
     let json_target = args.json.as_deref().map(Target::parse);
     let name = args
@@ -437,6 +464,70 @@ pub fn run(args: Args) -> Result<()> {
         print!("{text}");
     }
     Ok(())
+}
+
+/// Clouds up to this size get the projection check after the fit (and the break search).
+const CHECKED_POINTS: usize = 20_000;
+
+/// `--breaks-v auto`: the span breaks of the least-squares fit with the smallest sum of
+/// squares whose closest points a coarse search also finds (see [`search_breaks_v`]); uniform
+/// for clouds larger than [`CHECKED_POINTS`] or than the subsample size.
+fn choose_breaks_v(
+    args: &Args,
+    points: &[DVec3],
+    grid: Option<bezchain::geometry::Grid>,
+    layout: &SurfaceLayout,
+    opts: &SurfaceOptions,
+) -> Result<Breaks> {
+    let n = points.len();
+    if layout.patches[1] < 2 {
+        return Ok(Breaks::Uniform);
+    }
+    if n > CHECKED_POINTS || (opts.subsample > 0 && n > opts.subsample) {
+        eprintln!(
+            "breaks v: uniform (the automatic break search runs on clouds of up to {} points; \
+             give --breaks-v for this one, e.g. stations:BLADE.json)",
+            CHECKED_POINTS.min(if opts.subsample > 0 {
+                opts.subsample
+            } else {
+                CHECKED_POINTS
+            })
+        );
+        return Ok(Breaks::Uniform);
+    }
+    let search_opts = SurfaceOptions {
+        method: SurfaceMethod::Lsq,
+        ..opts.clone()
+    };
+    let bar = if args.evo.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed:>4} breaks v: fit {pos}/{len}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    let search = search_breaks_v(points, grid, layout, &search_opts, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .with_context(|| format!("{}: searching the span breaks", args.cloud.display()))?;
+    bar.finish_and_clear();
+    let breaks = search.fit.grid.layout().v.breaks().to_vec();
+    let passed = search.candidates.iter().filter(|c| c.check.agrees).count();
+    eprintln!(
+        "breaks v: {} (auto: {} fits, {passed} pass the projection check; sum_sq {:.4e}, uniform {:.4e})",
+        breaks
+            .iter()
+            .map(|b| format!("{b:.4}"))
+            .collect::<Vec<_>>()
+            .join(" "),
+        search.candidates.len(),
+        search.fit.stats.sum_sq,
+        search.candidates[0].sum_sq
+    );
+    Ok(Breaks::Params(breaks))
 }
 
 /// A few readable lines about the fit.

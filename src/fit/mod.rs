@@ -15,6 +15,7 @@
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 //! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
 //! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
+//! - [`surface_breaks`]: the span-break search and the projection check of fitted grids.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
@@ -34,6 +35,7 @@ pub mod param;
 pub mod problem;
 pub mod shape;
 pub mod surface;
+pub mod surface_breaks;
 
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
