@@ -20,6 +20,9 @@ enum Command {
     Naca(cli::naca::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
     Blade(cli::blade::Args),
+    /// Find the chain with the fewest stored scalars whose offsets meet a tolerance (exit
+    /// status 1, reports still written, when no layout meets it).
+    Adapt(cli::adapt::Args),
 }
 
 fn main() -> ExitCode {
@@ -27,6 +30,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
         Command::Blade(args) => cli::blade::run(args),
+        Command::Adapt(args) => cli::adapt::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! Shared plumbing of the subcommands: error classification, output targets, warnings.
 
+pub mod adapt;
 pub mod blade;
 pub mod naca;
 
