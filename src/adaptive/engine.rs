@@ -190,9 +190,16 @@ pub(crate) struct Effort {
     pub ftol: f64,
     /// Lawson reweighting rounds of the minimax polish (0: none).
     pub minimax: usize,
-    /// Give up after three iterations when the largest distance is still above this (the
-    /// layout is far from any tolerance the caller cares about); `INFINITY` never gives up.
+    /// From iteration `give_up_after` on, give up when the largest distance, shrunk at the
+    /// last iteration's rate over the iterations left, would stay above this (the layout
+    /// cannot come near the tolerance the caller cares about); `INFINITY` never gives up.
     pub give_up: f64,
+    /// See `give_up`.
+    pub give_up_after: usize,
+    /// Stop once the largest distance improved by less than 1% over this many iterations (the
+    /// sum of squares may still creep along a valley where the design points slide along the
+    /// curve, which changes the shape no more); 0 never stops for this.
+    pub max_stall: usize,
 }
 
 /// The data: points in order, the first and last tied to the curve's ends.
@@ -206,7 +213,7 @@ impl Data<'_> {
     }
 }
 
-/// A dense symmetric system `M z = v`, filled by weighted rank-one updates.
+/// A dense symmetric system `M z = v`, filled by weighted rank-one updates (lower triangle).
 struct Normal {
     m: usize,
     mat: Vec<f64>,
@@ -222,15 +229,44 @@ impl Normal {
         }
     }
 
-    /// Add `w (rᵀ z - target)²` for the sparse row `r`.
+    /// Add `w (rᵀ z - target)²` for the sparse row `r` (indices ascending). Only the lower
+    /// triangle of `M` is kept: the solve reads nothing else.
     #[inline]
     fn add(&mut self, row: &[(usize, f64)], w: f64, target: f64) {
-        for &(i, a) in row {
+        for (p, &(i, a)) in row.iter().enumerate() {
             let wa = w * a;
             self.rhs[i] += wa * target;
-            let base = i * self.m;
-            for &(j, b) in row {
-                self.mat[base + j] += wa * b;
+            let line = &mut self.mat[i * self.m..i * self.m + i + 1];
+            for &(j, b) in &row[..=p] {
+                line[j] += wa * b;
+            }
+        }
+    }
+
+    /// Add `(A z - q)ᵀ W (A z - q)` for a point whose x is `xs · z` and y is `ys · z` (every
+    /// y index above every x index, each list ascending): `M += Aᵀ W A`, `v += Aᵀ W q`.
+    #[inline]
+    fn add_point(&mut self, xs: &[(usize, f64)], ys: &[(usize, f64)], w: [[f64; 2]; 2], q: DVec2) {
+        let g = DVec2::new(w[0][0] * q.x + w[0][1] * q.y, w[1][0] * q.x + w[1][1] * q.y);
+        let m = self.m;
+        for (p, &(i, a)) in xs.iter().enumerate() {
+            self.rhs[i] += a * g.x;
+            let line = &mut self.mat[i * m..i * m + i + 1];
+            let wa = w[0][0] * a;
+            for &(j, b) in &xs[..=p] {
+                line[j] += wa * b;
+            }
+        }
+        for (p, &(i, a)) in ys.iter().enumerate() {
+            self.rhs[i] += a * g.y;
+            let line = &mut self.mat[i * m..i * m + i + 1];
+            let wx = w[1][0] * a;
+            for &(j, b) in xs {
+                line[j] += wx * b;
+            }
+            let wy = w[1][1] * a;
+            for &(j, b) in &ys[..=p] {
+                line[j] += wy * b;
             }
         }
     }
@@ -427,7 +463,6 @@ fn tdm_solve(model: &Model, data: &Data<'_>, s: &State, weights: &[f64], lambda:
     let mut normal = Normal::new(model.unknowns());
     let mut xs = [(0usize, 0.0); MAX_SUPPORT];
     let mut ys = [(0usize, 0.0); MAX_SUPPORT];
-    let mut row = [(0usize, 0.0); 2 * MAX_SUPPORT];
     for (j, &q) in data.points.iter().enumerate() {
         let t = s.params[j];
         let (first, value) = layout.basis_values(t);
@@ -436,25 +471,26 @@ fn tdm_solve(model: &Model, data: &Data<'_>, s: &State, weights: &[f64], lambda:
             ys[a] = (mx + first + a, value[a]);
         }
         let w = weights[j];
-        let tangent = s.curve.jet(t).1;
+        let tangent = s.curve.tangent(t);
         let end = t <= 0.0 || t >= 1.0;
-        if data.anchored(j) || end || tangent.length_squared() == 0.0 {
-            normal.add(&xs[..nx], w, q.x);
-            normal.add(&ys[..=d], w, q.y);
-            continue;
-        }
-        let tan = tangent.normalize();
-        let nrm = DVec2::new(-tan.y, tan.x);
-        let tw = TANGENT_WEIGHT.max(lambda / (1.0 + lambda));
-        for (dir, wd) in [(nrm, w), (tan, w * tw)] {
-            for (k, e) in xs[..nx].iter().enumerate() {
-                row[k] = (e.0, e.1 * dir.x);
+        // The point's 2 x 2 weight: w (n nᵀ + tw t tᵀ), or w I for its full residual.
+        let weight = if data.anchored(j) || end || tangent.length_squared() == 0.0 {
+            [[w, 0.0], [0.0, w]]
+        } else {
+            let tan = tangent.normalize();
+            let nrm = DVec2::new(-tan.y, tan.x);
+            let tw = TANGENT_WEIGHT.max(lambda / (1.0 + lambda));
+            let outer = |a: DVec2, b: DVec2| [[a.x * b.x, a.x * b.y], [a.y * b.x, a.y * b.y]];
+            let (n2, t2) = (outer(nrm, nrm), outer(tan, tan));
+            let mut m = [[0.0; 2]; 2];
+            for r in 0..2 {
+                for c in 0..2 {
+                    m[r][c] = w * (n2[r][c] + tw * t2[r][c]);
+                }
             }
-            for a in 0..=d {
-                row[nx + a] = (ys[a].0, ys[a].1 * dir.y);
-            }
-            normal.add(&row[..nx + d + 1], wd, dir.dot(q));
-        }
+            m
+        };
+        normal.add_point(&xs[..nx], &ys[..=d], weight, q);
     }
     if lambda > 0.0 {
         normal.damp(lambda, &s.z);
@@ -473,6 +509,7 @@ fn descend(model: &Model, data: &Data<'_>, mut s: State, weights: &[f64], effort
     let mut lambda = 0.1;
     let mut tries = 0;
     let mut iterations = 0;
+    let mut maxes = vec![s.max()];
     while iterations < effort.iterations && tries < 3 * effort.iterations {
         tries += 1;
         let Some(z) = tdm_solve(model, data, &s, weights, lambda) else {
@@ -490,7 +527,21 @@ fn descend(model: &Model, data: &Data<'_>, mut s: State, weights: &[f64], effort
             s = trial;
             obj = o;
             lambda = (lambda / 4.0).max(1e-12);
-            if gain < effort.ftol || (iterations >= 3 && s.max() > effort.give_up) {
+            // Far from the caller's tolerance and no longer converging fast: not worth more.
+            if gain < effort.ftol {
+                break;
+            }
+            // Give up when, at the rate of the last iteration, the remaining ones would not
+            // bring the largest distance (about the square root of the sum) to the target.
+            if iterations >= effort.give_up_after && effort.give_up.is_finite() {
+                let rest = effort.iterations.saturating_sub(iterations) as f64;
+                if s.max() * (1.0 - gain).max(0.0).powf(0.5 * rest) > effort.give_up {
+                    break;
+                }
+            }
+            maxes.push(s.max());
+            let k = effort.max_stall;
+            if k > 0 && maxes.len() > k && maxes[maxes.len() - 1] > 0.99 * maxes[maxes.len() - 1 - k] {
                 break;
             }
         } else {
@@ -569,6 +620,8 @@ mod tests {
             ftol: 1e-12,
             minimax: 0,
             give_up: f64::INFINITY,
+            give_up_after: 0,
+            max_stall: 0,
         }
     }
 

@@ -122,7 +122,8 @@ pub struct AdaptOptions {
     /// How x may be stored. Default [`Mode::Auto`].
     pub mode: Mode,
     /// Never report a result with more stored scalars than this. Default none (the data
-    /// bound it: fewer design points than data points, less two).
+    /// bound it: at most half as many design points as data points, fewer stored scalars
+    /// than the data's own numbers).
     pub max_scalars: Option<usize>,
     /// Polish least-squares fits within twice the tolerance towards the minimax fit
     /// (Lawson's reweighting) before judging them, for [`Norm::Max`]. Default true.
@@ -133,7 +134,7 @@ pub struct AdaptOptions {
     pub held_out: bool,
     /// The search runs on at most this many of the data points (every k-th, the ends and the
     /// leftmost point kept; 0: all), and the winner is refitted and checked on every point.
-    /// Default 100.
+    /// Default 80.
     pub search_points: usize,
 }
 
@@ -149,7 +150,7 @@ impl Default for AdaptOptions {
             minimax: true,
             optimise_breaks: true,
             held_out: true,
-            search_points: 100,
+            search_points: 80,
         }
     }
 }
@@ -168,6 +169,10 @@ pub struct FamilyTrace {
     /// `met`, `pruned` (could not beat the best count), `limit` (too many design points for
     /// the data), `stalled` (offsets stopped falling) or `failed`.
     pub outcome: String,
+    /// Candidate fits the family ran.
+    pub fits: usize,
+    /// Wall-clock seconds the family took (families run in parallel).
+    pub seconds: f64,
 }
 
 /// The check on data left out of the fit.
@@ -253,14 +258,21 @@ pub fn aerofoil_params(points: &[DVec2]) -> Option<Vec<f64>> {
 /// every point usually meets the tolerance at once.
 const SUBSAMPLE_MARGIN: f64 = 0.9;
 
-/// Indices of at most `max` points (every k-th, the ends and the leftmost point always kept),
-/// or all of them.
+/// Layouts the winner's family may still grow by on all the points, when the subsample's
+/// winner misses the tolerance there.
+const FULL_DATA_STEPS: usize = 12;
+
+/// Indices of about `max` points (every k-th with `k = n / max`, the ends and the leftmost
+/// point always kept), or all of them when `k` would be 1.
 fn subsample(points: &[DVec2], max: usize) -> Vec<usize> {
     let n = points.len();
     if max == 0 || n <= max {
         return (0..n).collect();
     }
-    let step = n.div_ceil(max.max(2));
+    let step = n / max.max(2);
+    if step <= 1 {
+        return (0..n).collect();
+    }
     let le = (0..n)
         .min_by(|&a, &b| points[a].x.total_cmp(&points[b].x))
         .unwrap_or(0);
@@ -304,9 +316,9 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
         )));
     }
     let free_params = chord_length_params(points)?;
-    if points.len() < 6 {
+    if points.len() < 8 {
         return Err(Error::invalid(format!(
-            "{} data points are too few to adapt a chain to (at least 6)",
+            "{} data points are too few to adapt a chain to (at least 8)",
             points.len()
         )));
     }
@@ -330,14 +342,25 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
             .ok_or_else(|| Error::Numerical("no candidate layout could be fitted to the data".into()))?;
         let full = search::Search::new(points, opts.tol, opts, aero, free_params);
         let params = spread_params(&keep, &found.best.state.params, points.len());
-        match full.continue_from(&found.best, params) {
-            Some((best, met)) => search::Found {
+        // Growing on all the points is allowed a few layouts only when the subsample met
+        // the tolerance; otherwise the refit just reports the closest layout.
+        let steps = if found.met { FULL_DATA_STEPS } else { 1 };
+        match full.continue_from(&found.best, params, steps) {
+            Some((best, met)) if met || !found.met => search::Found {
                 best,
-                met: met && found.met,
+                met,
                 trace: found.trace,
                 fits: found.fits + full.fits(),
             },
-            None => found,
+            // The subsample misled the search (structure finer than its spacing): search again
+            // on every point.
+            _ => {
+                let mut again = full.run().ok_or_else(|| {
+                    Error::Numerical("no candidate layout could be fitted to the data".into())
+                })?;
+                again.fits += found.fits;
+                again
+            }
         }
     } else {
         let search = search::Search::new(points, opts.tol, opts, aero, free_params);
@@ -354,12 +377,22 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
     };
     let met = found.met && measure <= opts.tol;
     let message = (!met).then(|| {
+        let stalled = found.trace.iter().filter(|t| t.outcome == "stalled").count();
+        let limited = found.trace.iter().filter(|t| t.outcome == "limit").count();
+        let why = if stalled >= limited {
+            "the offsets stopped falling as layouts grew: the tolerance is below what the data's \
+             noise lets a smooth chain reach"
+        } else {
+            "every family reached the data's limit before meeting it (at most half as many design \
+             points as data points, fewer stored scalars than the data's own numbers): the \
+             tolerance asks for near-interpolation, as it does below the data's noise"
+        };
         format!(
-            "tolerance {:e} ({}) not met: the closest layout found has {} {:e} with {} stored scalars \
-             (no family got closer before its design points reached the data's limit or its offsets \
-             stopped falling)",
+            "tolerance {:e} ({}) not met: {why}; the closest layout found ({}) has {} {:e} with {} \
+             stored scalars",
             opts.tol,
             opts.norm,
+            found.best.fam.name(),
             opts.norm,
             measure,
             encoding.count().total
@@ -438,6 +471,8 @@ fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Optio
             0
         },
         give_up: f64::INFINITY,
+        give_up_after: 0,
+        max_stall: 0,
     };
     let state = engine::fit(&best.model, &data, Some(best.state.z.clone()), params, &effort)?;
     let chain = chain_of(

@@ -13,16 +13,38 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
+thread_local! {
+    /// Fits run on this thread, to attribute them to the family it runs.
+    static FAMILY_FITS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 /// Fits while growing and reducing.
 const GROW: Effort = Effort {
     iterations: 40,
     ftol: 1e-4,
     minimax: 0,
     give_up: f64::INFINITY,
+    give_up_after: 3,
+    max_stall: 2,
 };
-/// A fit whose largest distance is above this many tolerances after three iterations is
-/// not worth converging: it is far from meeting the tolerance either way.
-const GIVE_UP: f64 = 3.0;
+/// A fit that, at its current rate of convergence, cannot bring its largest distance below
+/// this many tolerances within its iterations is abandoned: a fit above [`POLISH_RANGE`]
+/// tolerances cannot be accepted anyway.
+const GIVE_UP: f64 = POLISH_RANGE;
+/// [`GIVE_UP`] for free fits, whose convergence along valleys is slow at first and speeds up
+/// later (see [`Search::fit`]); they are judged from this iteration on.
+const GIVE_UP_FREE: f64 = 8.0;
+/// See [`GIVE_UP_FREE`].
+const GIVE_UP_FREE_AFTER: usize = 10;
+/// Offsets above this many tolerances are *far*: growth then splits every bad segment at
+/// once (or adds half as many segments again) instead of one at a time.
+const FAR: f64 = 8.0;
+/// Breaks whose removal the reduction tries per round (those between the most accurate
+/// segments).
+const REDUCE_TRIES: usize = 6;
+/// Layouts with more segments than this skip the break tuning (its cost grows with the
+/// square of the breaks).
+const TUNE_MAX_SEGMENTS: usize = 16;
 /// Rounds of the minimax polish.
 const POLISH_ROUNDS: usize = 40;
 /// A least-squares fit whose largest distance is within this factor of the tolerance gets the
@@ -186,8 +208,13 @@ pub(crate) struct Search<'a> {
     opts: &'a AdaptOptions,
     aerofoil_params: Option<Vec<f64>>,
     free_params: Vec<f64>,
-    /// Most design points a layout may have.
+    /// Most design points a layout may have: half the data points, so that every coordinate
+    /// is at least twice overdetermined. More approach interpolation, which follows the data's
+    /// noise instead of its shape.
     limit: usize,
+    /// Most stored scalars a layout may have (fewer than the data's scalars, and at most
+    /// [`AdaptOptions::max_scalars`]).
+    scalar_limit: usize,
     /// Fewest stored scalars of a candidate that meets the tolerance so far (`usize::MAX`
     /// before one is found).
     bound: AtomicUsize,
@@ -213,9 +240,9 @@ impl<'a> Search<'a> {
         aerofoil_params: Option<Vec<f64>>,
         free_params: Vec<f64>,
     ) -> Self {
-        let limit = opts.max_scalars.map_or(points.len().saturating_sub(2), |m| {
-            m.min(points.len().saturating_sub(2))
-        });
+        let n = points.len();
+        // Stored scalars below the data's own count (2 per point), or it is no compression.
+        let scalar_limit = opts.max_scalars.map_or(2 * n - 1, |m| m.min(2 * n - 1));
         Search {
             data: Data { points },
             tol,
@@ -223,8 +250,9 @@ impl<'a> Search<'a> {
             opts,
             aerofoil_params,
             free_params,
-            limit,
-            bound: AtomicUsize::new(opts.max_scalars.map_or(usize::MAX, |m| m + 1)),
+            limit: n / 2,
+            scalar_limit,
+            bound: AtomicUsize::new(usize::MAX),
             fits: AtomicUsize::new(0),
             starts: Mutex::new(HashMap::new()),
         }
@@ -247,11 +275,24 @@ impl<'a> Search<'a> {
         effort: &Effort,
     ) -> Option<Cand> {
         self.fits.fetch_add(1, Ordering::Relaxed);
+        FAMILY_FITS.with(|f| f.set(f.get() + 1));
+        // Aerofoil-rule fits converge in a few iterations: one that cannot come near the
+        // tolerance is abandoned, and one whose largest offset stalls is stopped. Free fits
+        // creep along valleys (design points sliding along the curve) while their offsets
+        // still fall: cut short, they leave poor parameters to the next layout, so they run
+        // on unless very far from the tolerance.
         let effort = Effort {
-            give_up: match self.norm {
-                Norm::Max => GIVE_UP * self.tol,
-                Norm::Rms => f64::INFINITY,
+            give_up: match (self.norm, fam.aerofoil) {
+                (Norm::Max, true) => GIVE_UP * self.tol,
+                (Norm::Max, false) => GIVE_UP_FREE * self.tol,
+                _ => f64::INFINITY,
             },
+            give_up_after: if fam.aerofoil {
+                effort.give_up_after
+            } else {
+                GIVE_UP_FREE_AFTER
+            },
+            max_stall: if fam.aerofoil { effort.max_stall } else { 0 },
             ..*effort
         };
         let state = engine::fit(&model, &self.data, z, params, &effort)?;
@@ -269,12 +310,39 @@ impl<'a> Search<'a> {
 
     /// True when the candidate meets the tolerance, after a minimax polish if it is close.
     fn accept(&self, c: &mut Cand) -> bool {
-        let m = self.measure(&c.state);
+        let mut m = self.measure(&c.state);
         if m <= self.tol {
             return true;
         }
-        if self.norm == Norm::Max && self.opts.minimax && m <= POLISH_RANGE * self.tol {
+        if m > POLISH_RANGE * self.tol {
+            return false;
+        }
+        // Close: converge the fit fully (growth stops a fit once its largest offset stalls).
+        self.fits.fetch_add(1, Ordering::Relaxed);
+        FAMILY_FITS.with(|f| f.set(f.get() + 1));
+        let full = Effort {
+            max_stall: 0,
+            ftol: 1e-7,
+            ..GROW
+        };
+        if let Some(state) = engine::fit(
+            &c.model,
+            &self.data,
+            Some(c.state.z.clone()),
+            c.state.params.clone(),
+            &full,
+        ) {
+            if self.measure(&state) < m {
+                c.state = state;
+                m = self.measure(&c.state);
+            }
+        }
+        if m <= self.tol {
+            return true;
+        }
+        if self.norm == Norm::Max && self.opts.minimax {
             self.fits.fetch_add(1, Ordering::Relaxed);
+            FAMILY_FITS.with(|f| f.set(f.get() + 1));
             let effort = Effort {
                 minimax: POLISH_ROUNDS,
                 ..GROW
@@ -299,6 +367,11 @@ impl<'a> Search<'a> {
         };
         for &aerofoil in modes {
             for breaks in [BreakKind::Uniform, BreakKind::Stored] {
+                // Beside the aerofoil rule, free chains with stored breaks never came within
+                // reach on the aerofoil files and cost the most: left out there.
+                if !aerofoil && modes.len() == 2 && breaks == BreakKind::Stored {
+                    continue;
+                }
                 // Smoothest joins first: they store the fewest numbers per segment.
                 for order_class in 0..3 {
                     let mut degrees: Vec<usize> = (lo..=hi).collect();
@@ -343,7 +416,11 @@ impl<'a> Search<'a> {
                     let Some(&fam) = families.get(i) else {
                         break;
                     };
-                    let outcome = self.run_family(fam);
+                    let clock = std::time::Instant::now();
+                    let before = FAMILY_FITS.with(|f| f.get());
+                    let mut outcome = self.run_family(fam);
+                    outcome.fits = FAMILY_FITS.with(|f| f.get()) - before;
+                    outcome.seconds = clock.elapsed().as_secs_f64();
                     if let Ok(mut r) = results.lock() {
                         r.push((i, outcome));
                     }
@@ -365,6 +442,8 @@ impl<'a> Search<'a> {
                     .as_ref()
                     .map_or(f64::INFINITY, |c| self.measure(&c.state)),
                 outcome: o.stop.name().to_string(),
+                fits: o.fits,
+                seconds: o.seconds,
             });
             if let Some(c) = o.met {
                 let better = best_met
@@ -404,8 +483,17 @@ impl<'a> Search<'a> {
 
     /// Refit `cand`'s layout on this search's data from its unknowns and the parameters
     /// `params` (one per data point); if the tolerance does not hold, grow its family from
-    /// there. Returns the result and whether the tolerance holds.
-    pub fn continue_from(&self, cand: &Cand, params: Vec<f64>) -> Option<(Cand, bool)> {
+    /// there for at most `max_steps` layouts. Returns the result and whether the tolerance
+    /// holds.
+    pub fn continue_from(&self, cand: &Cand, params: Vec<f64>, max_steps: usize) -> Option<(Cand, bool)> {
+        // The candidate as it is, measured on these data: often the tolerance already holds.
+        let same = Cand {
+            state: engine::state(&cand.model, &self.data, cand.state.z.clone(), params.clone()),
+            ..cand.clone()
+        };
+        if self.measure(&same.state) <= self.tol {
+            return Some((same, true));
+        }
         let c = self.fit(
             cand.fam,
             cand.model.clone(),
@@ -416,11 +504,13 @@ impl<'a> Search<'a> {
         let out = Outcome {
             fam: cand.fam,
             steps: 0,
+            fits: 0,
+            seconds: 0.0,
             met: None,
             closest: None,
             stop: Stop::Failed,
         };
-        let out = self.grow_from(c, out);
+        let out = self.grow_from(c, out, max_steps);
         match (out.met, out.closest) {
             (Some(m), _) => Some((m, true)),
             (None, Some(c)) => Some((c, false)),
@@ -446,6 +536,8 @@ impl<'a> Search<'a> {
         let mut out = Outcome {
             fam,
             steps: 0,
+            fits: 0,
+            seconds: 0.0,
             met: None,
             closest: None,
             stop: Stop::Failed,
@@ -453,7 +545,7 @@ impl<'a> Search<'a> {
         let Some(model) = fam.model(fam.degree, fam.initial_breaks()) else {
             return out;
         };
-        if model.layout.coeff_count() > self.limit {
+        if self.over_limit(fam, &model) {
             out.stop = Stop::Limit;
             return out;
         }
@@ -464,7 +556,12 @@ impl<'a> Search<'a> {
         let Some(cand) = self.initial(fam, model) else {
             return out;
         };
-        self.grow_from(cand, out)
+        self.grow_from(cand, out, usize::MAX)
+    }
+
+    /// True when `model` has more design points or stored scalars than the data allow.
+    fn over_limit(&self, fam: Family, model: &Model) -> bool {
+        model.layout.coeff_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
     }
 
     /// The first fit of a family. Its layout (one segment, or one per aerofoil surface) has no
@@ -488,8 +585,9 @@ impl<'a> Search<'a> {
         Some(cand)
     }
 
-    /// Grow `cand`'s family from `cand` (see [`Search::run_family`]), recording in `out`.
-    fn grow_from(&self, mut cand: Cand, mut out: Outcome) -> Outcome {
+    /// Grow `cand`'s family from `cand` (see [`Search::run_family`]) for at most `max_steps`
+    /// layouts, recording in `out`.
+    fn grow_from(&self, mut cand: Cand, mut out: Outcome, max_steps: usize) -> Outcome {
         let fam = cand.fam;
         let mut history: Vec<f64> = Vec::new();
         loop {
@@ -519,11 +617,15 @@ impl<'a> Search<'a> {
                     return out;
                 }
             }
+            if out.steps >= max_steps {
+                out.stop = Stop::Stalled;
+                return out;
+            }
             let Some((model, z)) = self.grow(&cand) else {
                 out.stop = Stop::Limit;
                 return out;
             };
-            if model.layout.coeff_count() > self.limit {
+            if self.over_limit(fam, &model) {
                 out.stop = Stop::Limit;
                 return out;
             }
@@ -552,42 +654,33 @@ impl<'a> Search<'a> {
         err
     }
 
-    /// The next layout of the family: the worst segment split at the error-weighted median of
-    /// its points' parameters (stored breaks; the exact split is the warm start), or one
-    /// equal segment more on the worse side (uniform breaks).
+    /// The next layout of the family. Stored breaks: the worst segment is split at the
+    /// error-weighted median of its points' parameters, and while the offsets are far above
+    /// the tolerance so is every segment within half the worst (the exact splits are the
+    /// warm start). Uniform breaks: one equal segment more on the worse surface, or half as
+    /// many again while far above the tolerance.
     fn grow(&self, c: &Cand) -> Option<(Model, Option<Vec<f64>>)> {
         let fam = c.fam;
         let layout = &c.model.layout;
         let d = layout.degree();
+        let far = FAR * self.tol;
         match fam.breaks {
             BreakKind::Stored => {
                 let err = self.segment_errors(c);
-                let k = (0..err.len()).max_by(|&a, &b| err[a].total_cmp(&err[b]))?;
-                let (a, b) = (layout.breaks()[k], layout.breaks()[k + 1]);
-                let mut pts: Vec<(f64, f64)> = c
-                    .state
-                    .params
-                    .iter()
-                    .zip(&c.state.dist)
-                    .filter(|(&t, _)| t > a && t < b)
-                    .map(|(&t, &e)| (t, e * e))
+                let worst = err.iter().fold(0.0_f64, |a, &b| a.max(b));
+                let k0 = (0..err.len()).max_by(|&a, &b| err[a].total_cmp(&err[b]))?;
+                let mut split: Vec<usize> = (0..err.len())
+                    .filter(|&k| k == k0 || (worst > far && err[k] > far.max(0.5 * worst)))
                     .collect();
-                let h = b - a;
-                let mut t = a + 0.5 * h;
-                if !pts.is_empty() {
-                    pts.sort_by(|x, y| x.0.total_cmp(&y.0));
-                    let total: f64 = pts.iter().map(|p| p.1).sum();
-                    let mut acc = 0.0;
-                    for p in &pts {
-                        acc += p.1;
-                        if acc >= 0.5 * total {
-                            t = p.0;
-                            break;
-                        }
-                    }
+                // Split from the last segment back, so earlier indices stay valid.
+                split.sort_unstable_by(|a, b| b.cmp(a));
+                let positions: Vec<f64> = split.iter().map(|&k| self.split_position(c, k)).collect();
+                let (mut l2, mut c2) = (layout.clone(), c.state.coeffs.clone());
+                for t in positions {
+                    let (l, cc) = l2.split(t, fam.order.min(d - 1), &c2).ok()?;
+                    l2 = l;
+                    c2 = cc;
                 }
-                let t = t.clamp(a + 0.1 * h, b - 0.1 * h);
-                let (l2, c2) = layout.split(t, fam.order.min(d - 1), &c.state.coeffs).ok()?;
                 let model = match &c.model.rule {
                     XRule::Free => Model::free(l2),
                     XRule::Aerofoil(_) => Model::aerofoil(l2).ok()?,
@@ -597,6 +690,7 @@ impl<'a> Search<'a> {
                 Some((model, Some(z)))
             }
             BreakKind::Uniform => {
+                let more = |s: usize, e: f64| if e > far { s + (s / 2).max(1) } else { s + 1 };
                 let breaks = if fam.aerofoil {
                     let first = layout.breaks().iter().filter(|&&b| b < LE_BREAK).count();
                     let second = layout.segments() - first;
@@ -608,18 +702,54 @@ impl<'a> Search<'a> {
                             e2 = e2.max(e);
                         }
                     }
-                    if e1 >= e2 {
-                        per_side_breaks(first + 1, second)
+                    let (a, b) = if e1.max(e2) > far {
+                        (
+                            if e1 > far { more(first, e1) } else { first },
+                            if e2 > far { more(second, e2) } else { second },
+                        )
+                    } else if e1 >= e2 {
+                        (first + 1, second)
                     } else {
-                        per_side_breaks(first, second + 1)
-                    }
+                        (first, second + 1)
+                    };
+                    per_side_breaks(a, b)
                 } else {
-                    let s = layout.segments() + 1;
+                    let s = more(layout.segments(), self.measure(&c.state));
                     (0..=s).map(|k| k as f64 / s as f64).collect()
                 };
                 Some((fam.model(d, breaks)?, None))
             }
         }
+    }
+
+    /// Where to split segment `k` of `c`: the error-weighted median of the parameters of its
+    /// points, kept a tenth of the segment away from its ends.
+    fn split_position(&self, c: &Cand, k: usize) -> f64 {
+        let layout = &c.model.layout;
+        let (a, b) = (layout.breaks()[k], layout.breaks()[k + 1]);
+        let mut pts: Vec<(f64, f64)> = c
+            .state
+            .params
+            .iter()
+            .zip(&c.state.dist)
+            .filter(|(&t, _)| t > a && t < b)
+            .map(|(&t, &e)| (t, e * e))
+            .collect();
+        let h = b - a;
+        let mut t = a + 0.5 * h;
+        if !pts.is_empty() {
+            pts.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let total: f64 = pts.iter().map(|p| p.1).sum();
+            let mut acc = 0.0;
+            for p in &pts {
+                acc += p.1;
+                if acc >= 0.5 * total {
+                    t = p.0;
+                    break;
+                }
+            }
+        }
+        t.clamp(a + 0.1 * h, b - 0.1 * h)
     }
 
     /// Layouts with fewer stored scalars than `c`'s: each removable break (or one equal
@@ -636,8 +766,9 @@ impl<'a> Search<'a> {
                 let mut idx: Vec<usize> = (1..breaks.len() - 1)
                     .filter(|&i| !(fam.aerofoil && breaks[i] == LE_BREAK))
                     .collect();
-                // Breaks between the most accurate segments first.
+                // Breaks between the most accurate segments first, and only the first few.
                 idx.sort_by(|&i, &j| (err[i - 1].max(err[i])).total_cmp(&err[j - 1].max(err[j])));
+                idx.truncate(REDUCE_TRIES);
                 for i in idx {
                     let mut b = breaks.to_vec();
                     b.remove(i);
@@ -704,6 +835,9 @@ impl<'a> Search<'a> {
     /// and keep the result if the tolerance holds.
     fn optimise(&self, mut c: Cand) -> Cand {
         'outer: loop {
+            if c.model.layout.segments() > TUNE_MAX_SEGMENTS {
+                return c;
+            }
             let options: Vec<(Family, Model)> = self
                 .reductions(&c)
                 .into_iter()
@@ -776,6 +910,8 @@ impl<'a> Search<'a> {
 struct Outcome {
     fam: Family,
     steps: usize,
+    fits: usize,
+    seconds: f64,
     met: Option<Cand>,
     closest: Option<Cand>,
     stop: Stop,

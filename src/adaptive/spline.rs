@@ -27,6 +27,9 @@ pub struct SplineLayout {
     knots: Vec<f64>,
     /// Knot-span index of every segment (the last knot `<=` the segment's start).
     spans: Vec<usize>,
+    /// Per segment, the reciprocals of the knot differences the basis recurrence divides by,
+    /// in the order it uses them (`d (d + 1) / 2` each).
+    recip: Vec<f64>,
 }
 
 /// The non-zero basis functions at one parameter: the first design index and, for
@@ -81,12 +84,21 @@ impl SplineLayout {
             spans.push(knots.len() - 1);
         }
         knots.extend(std::iter::repeat_n(1.0, degree + 1));
+        let mut recip = Vec::with_capacity(spans.len() * degree * (degree + 1) / 2);
+        for &span in &spans {
+            for j in 1..=degree {
+                for r in 0..j {
+                    recip.push(1.0 / (knots[span + r + 1] - knots[span + 1 - j + r]));
+                }
+            }
+        }
         Ok(SplineLayout {
             degree,
             breaks,
             orders,
             knots,
             spans,
+            recip,
         })
     }
 
@@ -227,18 +239,23 @@ impl SplineLayout {
     pub fn basis_values(&self, t: f64) -> (usize, [f64; MAX_SUPPORT]) {
         let t = t.clamp(0.0, 1.0);
         let d = self.degree;
-        let span = self.spans[self.segment_of(t)];
+        let seg = self.segment_of(t);
+        let span = self.spans[seg];
         let u = &self.knots;
+        let recip = &self.recip[seg * d * (d + 1) / 2..];
         let mut n = [0.0; MAX_SUPPORT];
         let mut left = [0.0; MAX_SUPPORT];
         let mut right = [0.0; MAX_SUPPORT];
         n[0] = 1.0;
+        let mut at = 0;
         for j in 1..=d {
             left[j] = t - u[span + 1 - j];
             right[j] = u[span + j] - t;
             let mut saved = 0.0;
             for r in 0..j {
-                let temp = n[r] / (right[r + 1] + left[j - r]);
+                // right[r + 1] + left[j - r] is a knot difference: its reciprocal is stored.
+                let temp = n[r] * recip[at];
+                at += 1;
                 n[r] = saved + right[r + 1] * temp;
                 saved = left[j - r] * temp;
             }
@@ -354,6 +371,26 @@ impl BezierForm {
         (p, d1, d2)
     }
 
+    /// The first derivative with respect to the global parameter at `t`.
+    #[inline]
+    pub fn tangent(&self, t: f64) -> glam::DVec2 {
+        use glam::DVec2;
+        let t = t.clamp(0.0, 1.0);
+        let s = self.breaks.len() - 1;
+        let k = self.breaks[1..s].partition_point(|&b| b <= t);
+        let d = self.degree;
+        if d == 0 {
+            return DVec2::ZERO;
+        }
+        let c = &self.ctrl[k * d..=(k + 1) * d];
+        let u = ((t - self.breaks[k]) * self.inv_len[k]).clamp(0.0, 1.0);
+        let mut c1 = [DVec2::ZERO; MAX_SUPPORT];
+        for i in 0..d {
+            c1[i] = c[i + 1] - c[i];
+        }
+        horner(&c1[..d], u, 1.0 - u) * (d as f64 * self.inv_len[k])
+    }
+
     /// The point at `t`.
     #[inline]
     pub fn eval(&self, t: f64) -> glam::DVec2 {
@@ -368,9 +405,9 @@ fn horner(c: &[glam::DVec2], u: f64, v: f64) -> glam::DVec2 {
     let row = &BINOMIAL[c.len() - 1];
     let mut acc = c[0];
     let mut pow = 1.0;
-    for (&ci, &b) in c.iter().zip(row).skip(1) {
+    for i in 1..c.len() {
         pow *= u;
-        acc = acc * v + ci * (b * pow);
+        acc = acc * v + c[i] * (row[i] * pow);
     }
     acc
 }

@@ -60,7 +60,7 @@ pub struct Args {
     #[arg(long)]
     pub max_scalars: Option<usize>,
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 80)]
     pub search_points: usize,
     /// Write the JSON report (DESIGN.md §4 with an `adapt` block; an array for a sweep);
     /// `-` for standard output (the table then goes to standard error).
