@@ -73,7 +73,7 @@ fn aerofoil_truth() -> Encoding {
         degree: 4,
         joins: vec![3, 1, 3],
         breaks: Breaks::UniformPerSide { first: 2, second: 2 },
-        x: XStore::AerofoilRule([0.0, 1.0, 1.0]),
+        x: XStore::AerofoilRule(vec![0.0, 1.0, 1.0]),
         y: vec![],
     };
     let n = enc.layout().unwrap().coeff_count();

@@ -2,8 +2,8 @@
 //! and the regeneration of the expanded control points from them alone.
 //!
 //! Counted as stored scalars: every design coordinate that is stored (both coordinates of
-//! every design point, or only y under the aerofoil rule), the three numbers of the aerofoil
-//! rule, and every break that is not fixed by the layout integers. Not counted: the layout
+//! every design point, or only y under the aerofoil rule), the two or three numbers of the
+//! aerofoil rule, and every break that is not fixed by the layout integers. Not counted: the layout
 //! integers themselves (degree, segment counts, the continuity order of each join), as the
 //! peer figures count neither their degree nor their knot counts.
 
@@ -41,10 +41,10 @@ pub enum Breaks {
 pub enum XStore {
     /// The x of every design point.
     Free(Vec<f64>),
-    /// The aerofoil rule `[x_le, x_te_first, x_te_second]`: x follows
-    /// `x_le + (x_te_first - x_le) (1 - 2t)²` on `[0, 1/2]` and
-    /// `x_le + (x_te_second - x_le) (2t - 1)²` on `[1/2, 1]`.
-    AerofoilRule([f64; 3]),
+    /// The aerofoil rule `[x_le, x_te_first, x_te_second]`, or `[x_le, x_te]` when both
+    /// surfaces end at the same x: x follows `x_le + (x_te_first - x_le) (1 - 2t)²` on
+    /// `[0, 1/2]` and `x_le + (x_te_second - x_le) (2t - 1)²` on `[1/2, 1]`.
+    AerofoilRule(Vec<f64>),
 }
 
 /// The stored form of an adapted curve.
@@ -69,7 +69,7 @@ pub struct ScalarCount {
     pub x: usize,
     /// Stored y coordinates.
     pub y: usize,
-    /// Numbers of the aerofoil rule (3 or 0).
+    /// Numbers of the aerofoil rule (2 or 3, or 0 without it).
     pub rule: usize,
     /// Stored breaks.
     pub breaks: usize,
@@ -83,7 +83,7 @@ impl Encoding {
     pub fn count(&self) -> ScalarCount {
         let (x, rule) = match &self.x {
             XStore::Free(x) => (x.len(), 0),
-            XStore::AerofoilRule(_) => (0, 3),
+            XStore::AerofoilRule(theta) => (0, theta.len()),
         };
         let breaks = match &self.breaks {
             Breaks::Stored(b) => b.len(),
@@ -149,8 +149,14 @@ impl Encoding {
                 )))
             }
             XStore::AerofoilRule(theta) => {
-                let model = super::engine::Model::aerofoil(layout.clone())?;
-                let z = model.unknowns_of(&vec![DVec2::ZERO; n], Some(*theta));
+                if !(2..=3).contains(&theta.len()) {
+                    return Err(Error::invalid(format!(
+                        "encoding: the aerofoil rule has 2 or 3 numbers, not {}",
+                        theta.len()
+                    )));
+                }
+                let model = super::engine::Model::aerofoil(layout.clone(), theta.len() == 2)?;
+                let z = model.unknowns_of(&vec![DVec2::ZERO; n], Some(theta));
                 model.coeffs(&z).iter().map(|p| p.x).collect()
             }
         };

@@ -19,10 +19,16 @@ pub(crate) enum XRule {
     /// Both coordinates of every design point are free.
     Free,
     /// Aerofoil rule: `x(t) = x_le + (x_te,1 - x_le) (1 - 2t)²` for `t <= 1/2` and
-    /// `x_le + (x_te,2 - x_le) (2t - 1)²` after, so only the three numbers `θ = (x_le, x_te,1,
-    /// x_te,2)` and the y of every design point are stored. Row `i` holds the weights of `θ`
+    /// `x_le + (x_te,2 - x_le) (2t - 1)²` after, so only the numbers `θ = (x_le, x_te,1,
+    /// x_te,2)` (or `(x_le, x_te)` when both surfaces end at the same x) and the y of every
+    /// design point are stored. Row `i` of `rows` holds the weights of `(x_le, x_te,1, x_te,2)`
     /// in design point `i`'s x.
-    Aerofoil(Vec<[f64; 3]>),
+    Aerofoil {
+        /// The weights.
+        rows: Vec<[f64; 3]>,
+        /// One trailing-edge x for both surfaces.
+        shared_te: bool,
+    },
 }
 
 /// A candidate parameterisation: the spline layout and how x is stored.
@@ -44,9 +50,9 @@ impl Model {
         }
     }
 
-    /// A model with the aerofoil rule; the layout must have a C1 (or C0) break at 1/2 and
-    /// degree 2 or more.
-    pub fn aerofoil(layout: SplineLayout) -> Result<Self> {
+    /// A model with the aerofoil rule (one trailing-edge x for both surfaces with
+    /// `shared_te`); the layout must have a C1 (or C0) break at 1/2 and degree 2 or more.
+    pub fn aerofoil(layout: SplineLayout, shared_te: bool) -> Result<Self> {
         let d = layout.degree();
         let le = layout.breaks().iter().position(|&b| b == LE_BREAK);
         match le {
@@ -60,7 +66,7 @@ impl Model {
         let rows = rule_rows(&layout);
         Ok(Model {
             layout,
-            rule: XRule::Aerofoil(rows),
+            rule: XRule::Aerofoil { rows, shared_te },
         })
     }
 
@@ -68,7 +74,7 @@ impl Model {
     pub fn x_unknowns(&self) -> usize {
         match &self.rule {
             XRule::Free => self.layout.coeff_count(),
-            XRule::Aerofoil(_) => 3,
+            XRule::Aerofoil { shared_te, .. } => 3 - usize::from(*shared_te),
         }
     }
 
@@ -85,7 +91,13 @@ impl Model {
             .map(|i| {
                 let x = match &self.rule {
                     XRule::Free => z[i],
-                    XRule::Aerofoil(r) => r[i][0] * z[0] + r[i][1] * z[1] + r[i][2] * z[2],
+                    XRule::Aerofoil { rows: r, shared_te } => {
+                        if *shared_te {
+                            r[i][0] * z[0] + (r[i][1] + r[i][2]) * z[1]
+                        } else {
+                            r[i][0] * z[0] + r[i][1] * z[1] + r[i][2] * z[2]
+                        }
+                    }
                 };
                 DVec2::new(x, z[mx + i])
             })
@@ -93,9 +105,9 @@ impl Model {
     }
 
     /// The unknowns of design points that follow the model (x from the rule is not checked).
-    pub fn unknowns_of(&self, coeffs: &[DVec2], theta: Option<[f64; 3]>) -> Vec<f64> {
+    pub fn unknowns_of(&self, coeffs: &[DVec2], theta: Option<&[f64]>) -> Vec<f64> {
         let mut z = match (&self.rule, theta) {
-            (XRule::Aerofoil(_), Some(t)) => t.to_vec(),
+            (XRule::Aerofoil { .. }, Some(t)) => t.to_vec(),
             _ => coeffs.iter().map(|p| p.x).collect(),
         };
         z.extend(coeffs.iter().map(|p| p.y));
@@ -113,17 +125,23 @@ impl Model {
                 }
                 d + 1
             }
-            XRule::Aerofoil(r) => {
+            XRule::Aerofoil { rows: r, shared_te } => {
                 let mut g = [0.0; 3];
                 for a in 0..=d {
                     for k in 0..3 {
                         g[k] += value[a] * r[first + a][k];
                     }
                 }
-                for k in 0..3 {
-                    out[k] = (k, g[k]);
+                if *shared_te {
+                    out[0] = (0, g[0]);
+                    out[1] = (1, g[1] + g[2]);
+                    2
+                } else {
+                    for k in 0..3 {
+                        out[k] = (k, g[k]);
+                    }
+                    3
                 }
-                3
             }
         }
     }
@@ -638,9 +656,9 @@ mod tests {
                 _ => vec![0.0, 0.2, 0.5, 0.9, 1.0],
             };
             let l = SplineLayout::new(d, breaks, orders).unwrap();
-            let m = Model::aerofoil(l.clone()).unwrap();
+            let m = Model::aerofoil(l.clone(), false).unwrap();
             let theta = [0.01, 1.02, 0.98];
-            let z = m.unknowns_of(&vec![DVec2::ZERO; l.coeff_count()], Some(theta));
+            let z = m.unknowns_of(&vec![DVec2::ZERO; l.coeff_count()], Some(&theta));
             let c = m.coeffs(&z);
             for i in 0..=200 {
                 let t = i as f64 / 200.0;
@@ -654,9 +672,9 @@ mod tests {
             }
         }
         let no_le = SplineLayout::with_order(3, vec![0.0, 0.4, 1.0], 1).unwrap();
-        assert!(Model::aerofoil(no_le).is_err());
+        assert!(Model::aerofoil(no_le, false).is_err());
         let c2_le = SplineLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
-        assert!(Model::aerofoil(c2_le).is_err());
+        assert!(Model::aerofoil(c2_le, true).is_err());
     }
 
     #[test]

@@ -69,6 +69,9 @@ pub(crate) enum BreakKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Family {
     pub aerofoil: bool,
+    /// Under the aerofoil rule, one trailing-edge x for both surfaces (the data's two ends
+    /// share their x).
+    pub shared_te: bool,
     pub degree: usize,
     /// Continuity order of the joins (the leading edge's is 1 under the aerofoil rule).
     pub order: usize,
@@ -103,7 +106,7 @@ impl Family {
         let orders = self.orders(degree, &breaks);
         let layout = SplineLayout::new(degree, breaks, orders).ok()?;
         if self.aerofoil {
-            Model::aerofoil(layout).ok()
+            Model::aerofoil(layout, self.shared_te).ok()
         } else {
             Some(Model::free(layout))
         }
@@ -117,7 +120,7 @@ impl Family {
             BreakKind::Stored => layout.segments() - 1 - usize::from(self.aerofoil),
         };
         if self.aerofoil {
-            n + 3 + stored_breaks
+            n + 3 - usize::from(self.shared_te) + stored_breaks
         } else {
             2 * n + stored_breaks
         }
@@ -166,7 +169,7 @@ impl Cand {
         };
         let x = match self.model.rule {
             XRule::Free => XStore::Free(self.state.coeffs.iter().map(|p| p.x).collect()),
-            XRule::Aerofoil(_) => XStore::AerofoilRule([self.state.z[0], self.state.z[1], self.state.z[2]]),
+            XRule::Aerofoil { .. } => XStore::AerofoilRule(self.state.z[..self.model.x_unknowns()].to_vec()),
         };
         Encoding {
             degree: layout.degree(),
@@ -208,6 +211,8 @@ pub(crate) struct Search<'a> {
     opts: &'a AdaptOptions,
     aerofoil_params: Option<Vec<f64>>,
     free_params: Vec<f64>,
+    /// The data's two ends share their x: the aerofoil rule stores one trailing-edge x.
+    shared_te: bool,
     /// Most design points a layout may have: half the data points, so that every coordinate
     /// is at least twice overdetermined. More approach interpolation, which follows the data's
     /// noise instead of its shape.
@@ -241,6 +246,8 @@ impl<'a> Search<'a> {
         free_params: Vec<f64>,
     ) -> Self {
         let n = points.len();
+        let extent = points.iter().fold(0.0_f64, |m, p| m.max(p.x.abs()).max(p.y.abs()));
+        let shared_te = (points[0].x - points[n - 1].x).abs() <= 1e-12 * extent;
         // Stored scalars below the data's own count (2 per point), or it is no compression.
         let scalar_limit = opts.max_scalars.map_or(2 * n - 1, |m| m.min(2 * n - 1));
         Search {
@@ -250,6 +257,7 @@ impl<'a> Search<'a> {
             opts,
             aerofoil_params,
             free_params,
+            shared_te,
             limit: n / 2,
             scalar_limit,
             bound: AtomicUsize::new(usize::MAX),
@@ -388,6 +396,7 @@ impl<'a> Search<'a> {
                         }
                         let fam = Family {
                             aerofoil,
+                            shared_te: aerofoil && self.shared_te,
                             degree: d,
                             order,
                             breaks,
@@ -683,9 +692,9 @@ impl<'a> Search<'a> {
                 }
                 let model = match &c.model.rule {
                     XRule::Free => Model::free(l2),
-                    XRule::Aerofoil(_) => Model::aerofoil(l2).ok()?,
+                    XRule::Aerofoil { shared_te, .. } => Model::aerofoil(l2, *shared_te).ok()?,
                 };
-                let theta = [c.state.z[0], c.state.z[1], c.state.z[2]];
+                let theta = &c.state.z[..c.model.x_unknowns()];
                 let z = model.unknowns_of(&c2, fam.aerofoil.then_some(theta));
                 Some((model, Some(z)))
             }

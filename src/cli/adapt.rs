@@ -138,11 +138,15 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedCurve) ->
         describe_breaks(r),
         joins.join(" ")
     );
-    if let XStore::AerofoilRule([le, a, b]) = r.encoding.x {
-        let _ = writeln!(
-            s,
-            "  aerofoil rule  x_le {le:.6}, x_te {a:.6} (first surface), {b:.6} (second)"
-        );
+    if let XStore::AerofoilRule(theta) = &r.encoding.x {
+        let _ = match theta.as_slice() {
+            [le, te] => writeln!(s, "  aerofoil rule  x_le {le:.6}, x_te {te:.6} (both surfaces)"),
+            [le, a, b] => writeln!(
+                s,
+                "  aerofoil rule  x_le {le:.6}, x_te {a:.6} (first surface), {b:.6} (second)"
+            ),
+            _ => Ok(()),
+        };
     }
     let _ = writeln!(
         s,
