@@ -109,7 +109,12 @@ fn main() -> Result<()> {
             let Some(r) = result else { continue };
             times.sort_by(f64::total_cmp);
             let seconds = times[times.len() / 2];
-            let peer = peers.get(&(stem.clone(), tol_text.clone()));
+            // `clarky_lednicer` holds the same points as `clarky` in Lednicer's layout: the
+            // same peer figures apply.
+            let peer = peers.get(&(stem.clone(), tol_text.clone())).or_else(|| {
+                let base = stem.strip_suffix("_lednicer")?;
+                peers.get(&(base.to_string(), tol_text.clone()))
+            });
             let (sp, cst, ratio) = match peer {
                 Some(&(sp, cst)) => (
                     sp.to_string(),

@@ -18,19 +18,31 @@ struct Cli {
 enum Command {
     /// Generate a NACA 4- or 5-digit aerofoil in Selig format.
     Naca(cli::naca::Args),
+    /// Fit a chain of Bezier curves to a 2D contour.
+    Fit(Box<cli::fit::Args>),
+    /// The paper's optimiser comparison on its three NACA 4413 cases, as one table.
+    Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
     Blade(cli::blade::Args),
     /// Find the chain with the fewest stored scalars whose offsets meet a tolerance (exit
     /// status 1, reports still written, when no layout meets it).
     Adapt(cli::adapt::Args),
+    /// Evaluate a population of designs against data (one `sum_sq,max` line each).
+    Eval(cli::eval::Args),
+    /// Time the population evaluator (GA fitness kernel) on one backend.
+    Bench(cli::bench::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
+        Command::Fit(args) => cli::fit::run(*args),
+        Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
         Command::Adapt(args) => cli::adapt::run(args),
+        Command::Eval(args) => cli::eval::run(args),
+        Command::Bench(args) => cli::bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

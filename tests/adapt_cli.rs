@@ -1,9 +1,9 @@
 //! `bezchain adapt` end to end: the table, the JSON report and the SVG, sweeps, relative
 //! tolerances, exit statuses (0 met, 1 not met with the reports written, 2 bad arguments).
 
-mod fit_common;
+mod common;
 
-use fit_common::airfoil_dir;
+use common::airfoils_dir;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -140,7 +140,7 @@ fn a_relative_tolerance_scales_with_the_chord() {
 fn an_unmeetable_tolerance_exits_1_with_the_reports_written() {
     let dir = scratch("unmet");
     let json = dir.join("u.json");
-    let file = airfoil_dir().join("naca4412.dat");
+    let file = airfoils_dir().join("naca4412.dat");
     let out = bezchain(&[
         "adapt",
         file.to_str().unwrap(),

@@ -3,7 +3,7 @@
 //! independent closest-point measure, the stored numbers regenerate the control points, and
 //! tolerances that cannot be met end with the closest layout and a message.
 
-mod fit_common;
+mod common;
 
 use bezchain::adaptive::{
     adapt_curve, chain_of, AdaptOptions, AdaptReport, Breaks, Encoding, Mode, Norm, XStore,
@@ -11,7 +11,7 @@ use bezchain::adaptive::{
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::error::Error;
 use bezchain::export::InputInfo;
-use fit_common::{independent_offsets, naca4413};
+use common::{independent_offsets, naca4413};
 use glam::DVec2;
 
 /// Independent largest offset of `points` from the result's expanded control points.

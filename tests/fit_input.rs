@@ -1,12 +1,12 @@
 //! Fitting degenerate and awkward input: too few points, coincident points, closed contours,
 //! non-finite coordinates, and data that lie exactly on a chain.
 
-mod fit_common;
+mod common;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::fit::{fit_curve, FitOptions, Method};
 use bezchain::Error;
-use fit_common::naca4413;
+use common::naca4413;
 use glam::DVec2;
 
 fn case1() -> ChainLayout {
@@ -74,7 +74,11 @@ fn a_closed_contour_starts_and_ends_at_its_closing_point() {
     pts.push(first);
     let fit = fit_curve(&pts, case1(), &FitOptions::default()).unwrap();
     let ctrl = fit.chain.ctrl();
-    assert!(ctrl[0].distance(first) < 1e-4 && ctrl[15].distance(first) < 1e-4);
+    // The closing chord meets the lower surface at a corner that a C1 chain can only turn with
+    // a loop; fits stay loop-free, so the corner is rounded and the ends sit near, not on, the
+    // closing point.
+    assert!(fit.span_ratio <= 3.0, "span ratio {}", fit.span_ratio);
+    assert!(ctrl[0].distance(first) < 5e-4 && ctrl[15].distance(first) < 5e-4);
     assert!(fit.closest.max < 1e-3, "max {:e}", fit.closest.max);
     assert!(fit.chain.continuity_error(1) < 1e-9);
 }

@@ -1,11 +1,11 @@
 //! The paper's three NACA 4413 cases (DESIGN.md §1): counts, accuracy against the paper's
 //! totals, C1 joins, and the optimisers' comparison.
 
-mod fit_common;
+mod common;
 
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::fit::{alternate, fit_curve, CurveProblem, FitOptions, Method, Metric};
-use fit_common::{independent_offsets, naca4413};
+use common::{independent_offsets, naca4413};
 
 /// (degree, segments, design points, expanded points, the paper's total offset).
 const CASES: [(usize, usize, usize, usize, f64); 3] = [

@@ -2,13 +2,13 @@
 //! recovered analytically from the lofted points, interpolation, blending, noise, shuffling,
 //! and every bad blade file naming its field.
 
-mod geometry_common;
+mod common;
 
 use bezchain::geometry::{
     read_cloud, read_curve, write_cloud_csv, Blade, Grid, LoftOptions, Naca, NacaOptions,
 };
 use bezchain::Error;
-use geometry_common::{airfoil, crate_root, scratch};
+use common::{airfoil, crate_root, scratch};
 use glam::{DVec2, DVec3};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Golden check: the committed `data/naca4413.dat` is what the NACA generator and the Selig
 //! writer produce now. Regenerate only on purpose, with `BEZCHAIN_REGENERATE=1`.
 
-mod geometry_common;
+mod common;
 
 use bezchain::geometry::{read_curve, write_selig, write_selig_to, Format, Naca, NacaOptions};
 
@@ -9,7 +9,7 @@ use bezchain::geometry::{read_curve, write_selig, write_selig_to, Format, Naca, 
 fn naca4413_dat_matches_the_generator() {
     let naca = Naca::parse("4413").unwrap();
     let points = naca.contour(&NacaOptions::default()).unwrap();
-    let path = geometry_common::crate_root().join("data/naca4413.dat");
+    let path = common::crate_root().join("data/naca4413.dat");
     if std::env::var_os("BEZCHAIN_REGENERATE").is_some_and(|v| v == "1") {
         write_selig(&path, &naca.name(), &points).unwrap();
     }

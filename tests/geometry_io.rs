@@ -1,14 +1,14 @@
 //! Aerofoil and point-file readers and writers on the real UIUC files and on every kind of bad
 //! input: detection, Selig/Lednicer equality, errors with file and line, no panics.
 
-mod geometry_common;
+mod common;
 
 use bezchain::geometry::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
     write_curve_csv, write_selig, Cloud, Format, Grid, LoadedPoints,
 };
 use bezchain::Error;
-use geometry_common::{airfoil, scratch};
+use common::{airfoil, scratch};
 use glam::{DVec2, DVec3};
 use proptest::prelude::*;
 use std::path::Path;

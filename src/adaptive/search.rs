@@ -246,7 +246,9 @@ impl<'a> Search<'a> {
         free_params: Vec<f64>,
     ) -> Self {
         let n = points.len();
-        let extent = points.iter().fold(0.0_f64, |m, p| m.max(p.x.abs()).max(p.y.abs()));
+        let extent = points
+            .iter()
+            .fold(0.0_f64, |m, p| m.max(p.x.abs()).max(p.y.abs()));
         let shared_te = (points[0].x - points[n - 1].x).abs() <= 1e-12 * extent;
         // Stored scalars below the data's own count (2 per point), or it is no compression.
         let scalar_limit = opts.max_scalars.map_or(2 * n - 1, |m| m.min(2 * n - 1));

@@ -1,7 +1,11 @@
 //! Shared plumbing of the subcommands: error classification, output targets, warnings.
 
 pub mod adapt;
+pub mod bench;
 pub mod blade;
+pub mod compare;
+pub mod eval;
+pub mod fit;
 pub mod naca;
 
 use anyhow::Result;
@@ -42,6 +46,20 @@ pub fn exit_status(e: &anyhow::Error) -> u8 {
 pub fn one_line(e: &anyhow::Error) -> String {
     let text = format!("{e:#}");
     text.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// clap parser for `auto|gpu|cpu`.
+pub fn parse_backend(s: &str) -> std::result::Result<bezchain::eval::Backend, String> {
+    s.parse().map_err(|e: bezchain::Error| e.to_string())
+}
+
+/// clap parser for `AxB` pairs of positive integers (degrees, patch counts).
+pub fn parse_pair(s: &str) -> std::result::Result<[usize; 2], String> {
+    let bad = || format!("'{s}' is not of the form AxB (e.g. 3x3)");
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let a: usize = a.trim().parse().map_err(|_| bad())?;
+    let b: usize = b.trim().parse().map_err(|_| bad())?;
+    Ok([a, b])
 }
 
 /// Print reader warnings on stderr, one line each, prefixed with the file.

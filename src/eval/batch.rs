@@ -137,3 +137,98 @@ fn run(
         info: evaluator.info().clone(),
     })
 }
+
+/// Read a population file: one individual per line, `n_vars` comma- (or blank-) separated
+/// numbers each (the design points flattened `x0,y0,x1,y1,…`). Blank lines and lines starting
+/// with `#` are skipped, and so is a first line that is not numeric (a header).
+pub fn read_population(path: &std::path::Path, n_vars: usize) -> Result<Vec<f32>> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_population(&text, path, n_vars)
+}
+
+/// [`read_population`] on text in memory; `path` names the source in errors.
+pub fn parse_population(text: &str, path: &std::path::Path, n_vars: usize) -> Result<Vec<f32>> {
+    let parse_error = |line: usize, message: String| Error::Parse {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut out = Vec::new();
+    let mut seen_row = false;
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+            .filter(|f| !f.is_empty())
+            .collect();
+        let values: std::result::Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let values = match values {
+            Ok(v) => v,
+            // A header line before the first individual.
+            Err(_) if !seen_row && fields.iter().any(|f| f.chars().any(char::is_alphabetic)) => continue,
+            Err(_) => {
+                let shown: String = line.chars().take(48).collect();
+                return Err(parse_error(i + 1, format!("not a row of numbers: '{shown}'")));
+            }
+        };
+        seen_row = true;
+        if values.len() != n_vars {
+            return Err(parse_error(
+                i + 1,
+                format!(
+                    "{} values, the layout has {n_vars} design variables",
+                    values.len()
+                ),
+            ));
+        }
+        if let Some(bad) = values
+            .iter()
+            .find(|v| !v.is_finite() || v.abs() > f64::from(f32::MAX))
+        {
+            return Err(parse_error(i + 1, format!("{bad} is not a finite f32 number")));
+        }
+        out.extend(values.iter().map(|&v| v as f32));
+    }
+    if out.is_empty() {
+        return Err(Error::Input {
+            path: path.to_path_buf(),
+            message: "no individuals (one row of design variables per individual expected)".into(),
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod population_file_tests {
+    use super::*;
+    use std::path::Path;
+
+    #[test]
+    fn rows_headers_and_errors() {
+        let p = Path::new("pop.csv");
+        let v = parse_population("x0,y0,x1,y1\n1,2,3,4\n\n# comment\n5 6 7 8\n", p, 4).unwrap();
+        assert_eq!(v, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+        let e = parse_population("1,2,3,4\n1,2,3\n", p, 4)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pop.csv:2") && e.contains("3 values"), "{e}");
+        let e = parse_population("1,2,3,4\n1,2,x,4\n", p, 4)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pop.csv:2"), "{e}");
+        let e = parse_population("1,2,NaN,4\n", p, 4).unwrap_err().to_string();
+        assert!(e.contains("pop.csv:1"), "{e}");
+        let e = parse_population("1,2,1e300,4\n", p, 4).unwrap_err().to_string();
+        assert!(e.contains("pop.csv:1"), "{e}");
+        assert!(matches!(
+            parse_population("# nothing\n", p, 4),
+            Err(Error::Input { .. })
+        ));
+    }
+}

@@ -6,8 +6,8 @@
 //!   weighted sum 120 + squared distance and accumulation 9;
 //! - each Newton step adds [`NEWTON_STEP_FLOPS`] = 601: value, first and second derivative
 //!   weights in both directions (2 × 45), the contraction of the 4 × 4 net to the point and
-//!   its five partials (144 + 72 fused multiply-adds, 432), and the 2 × 2 Newton solve with
-//!   its residual and dot products (79), counting a fused multiply-add as 2.
+//!   its five partials (144 + 72 multiply-adds, 432), and the 2 × 2 Newton solve with its
+//!   residual and dot products (79), counting a multiply-add as 2.
 
 use super::{build_evaluator, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
 use super::{Backend, PopulationEvaluator};

@@ -2,7 +2,7 @@
 //! with unit normals, for meshes and renders: `shaders/expand.wgsl` then
 //! `shaders/dense_grid.wgsl`, or their CPU mirrors.
 
-use super::cpu::{self, Lanes, Madd, Scratch, Simd, LANES};
+use super::cpu::{self, Lanes, Scratch, Simd, LANES};
 use super::gpu::{prepare, source, GpuContext};
 use super::kernel::{Config, Problem, Vertex};
 use super::{Backend, BackendInfo, EvalLayout, Targets};
@@ -176,16 +176,16 @@ fn dense_cpu(simd: Simd, config: &Config, problem: &Problem, designs: &[f32]) ->
         || Scratch::new(problem),
         |scratch, (block, chunk)| match simd {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::Avx2Fma` comes from `Simd::detect`, which saw AVX2 and FMA.
-            Simd::Avx2Fma => unsafe { dense_block_avx2(config, problem, designs, block, scratch, chunk) },
-            _ => dense_block::<cpu::Split>(config, problem, designs, block, scratch, chunk),
+            // SAFETY: `Simd::Avx2` comes from `Simd::detect`, which saw AVX2.
+            Simd::Avx2 => unsafe { dense_block_avx2(config, problem, designs, block, scratch, chunk) },
+            _ => dense_block(config, problem, designs, block, scratch, chunk),
         },
     );
     out
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2")]
 fn dense_block_avx2(
     config: &Config,
     problem: &Problem,
@@ -194,11 +194,11 @@ fn dense_block_avx2(
     scratch: &mut Scratch,
     out: &mut [Vertex],
 ) {
-    dense_block::<cpu::Fused>(config, problem, designs, block, scratch, out);
+    dense_block(config, problem, designs, block, scratch, out);
 }
 
 #[inline(always)]
-fn dense_block<M: Madd>(
+fn dense_block(
     config: &Config,
     problem: &Problem,
     designs: &[f32],
@@ -206,7 +206,7 @@ fn dense_block<M: Madd>(
     scratch: &mut Scratch,
     out: &mut [Vertex],
 ) {
-    cpu::expand::expand::<M>(
+    cpu::expand::expand(
         config,
         &problem.map_start,
         &problem.map_entries,
@@ -219,7 +219,7 @@ fn dense_block<M: Madd>(
     let net: &[Lanes] = &scratch.net;
     for (lane, vertices) in out.chunks_exact_mut(gu * gv).enumerate() {
         for (k, v) in vertices.iter_mut().enumerate() {
-            *v = cpu::dense_grid::dense_grid::<M>(config, &problem.breaks, net, lane, k / gv, k % gv);
+            *v = cpu::dense_grid::dense_grid(config, &problem.breaks, net, lane, k / gv, k % gv);
         }
     }
 }

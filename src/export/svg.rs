@@ -18,8 +18,9 @@ pub struct CurvePlot<'a> {
 }
 
 const WIDTH: u32 = 1200;
-const TOP_HEIGHT: u32 = 560;
 const BOTTOM_HEIGHT: u32 = 300;
+/// Room taken by the caption, labels and margins of the top panel, in pixels.
+const TOP_FRAME: (u32, u32) = (90, 110);
 
 fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Output(format!("svg plot: {e:?}"))
@@ -33,22 +34,28 @@ impl CurvePlot<'_> {
     /// equal axis scales. Bottom: offset of each data point along the contour, log scale.
     pub fn to_svg(&self) -> Result<String> {
         let mut out = String::new();
+        let (curve, bounds) = self.sampled();
+        // The top panel is as tall as equal axis scales need, within limits.
+        let plot_w = (WIDTH - TOP_FRAME.0) as f64;
+        let aspect = (bounds.3 - bounds.2) / (bounds.1 - bounds.0).max(1e-12);
+        let top_height = ((plot_w * aspect * 1.15) as u32 + TOP_FRAME.1).clamp(320, 900);
         {
             let root =
-                SVGBackend::with_string(&mut out, (WIDTH, TOP_HEIGHT + BOTTOM_HEIGHT)).into_drawing_area();
+                SVGBackend::with_string(&mut out, (WIDTH, top_height + BOTTOM_HEIGHT)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_err)?;
-            let (top, bottom) = root.split_vertically(TOP_HEIGHT);
-            self.draw_shape(&top)?;
+            let (top, bottom) = root.split_vertically(top_height);
+            self.draw_shape(&top, curve, bounds, top_height)?;
             self.draw_offsets(&bottom)?;
             root.present().map_err(plot_err)?;
         }
         Ok(out)
     }
 
-    fn draw_shape<DB: DrawingBackend>(&self, area: &DrawingArea<DB, plotters::coord::Shift>) -> Result<()> {
+    /// The chain sampled at 60 points per segment, and the bounds `(x0, x1, y0, y1)` of
+    /// everything drawn in the top panel.
+    fn sampled(&self) -> (Vec<(f64, f64)>, (f64, f64, f64, f64)) {
         let chain = self.chain;
         let l = chain.layout();
-        let d = l.degree();
         let curve: Vec<(f64, f64)> = (0..l.segments())
             .flat_map(|k| {
                 let seg = chain.segment(k);
@@ -58,6 +65,30 @@ impl CurvePlot<'_> {
                 })
             })
             .collect();
+        let all = self
+            .data
+            .iter()
+            .chain(chain.ctrl())
+            .map(|p| (p.x, p.y))
+            .chain(curve.iter().copied());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for (x, y) in all {
+            (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+        }
+        // Room below the shape for the legend.
+        (curve, (x0, x1, y0 - 0.5 * (y1 - y0), y1))
+    }
+
+    fn draw_shape<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, plotters::coord::Shift>,
+        curve: Vec<(f64, f64)>,
+        (x0, x1, y0, y1): (f64, f64, f64, f64),
+        height: u32,
+    ) -> Result<()> {
+        let chain = self.chain;
+        let l = chain.layout();
+        let d = l.degree();
         let ctrl: Vec<(f64, f64)> = chain.ctrl().iter().map(|p| (p.x, p.y)).collect();
         // Design points are drawn as they are; expanded points that are not copies of a design
         // point are the generated ones (the joins for C1, more for C2).
@@ -68,19 +99,9 @@ impl CurvePlot<'_> {
             .filter(|(r, _)| !l.map().is_copy(*r))
             .map(|(_, &p)| p)
             .collect();
-        let all = self
-            .data
-            .iter()
-            .map(|p| (p.x, p.y))
-            .chain(ctrl.iter().copied())
-            .chain(curve.iter().copied());
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (x, y) in all {
-            (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
-        }
         // Equal scales: widen the narrower range to the plot area's aspect ratio.
-        let plot_w = (WIDTH - 90) as f64;
-        let plot_h = (TOP_HEIGHT - 110) as f64;
+        let plot_w = (WIDTH - TOP_FRAME.0) as f64;
+        let plot_h = (height - TOP_FRAME.1) as f64;
         let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
         let span = ((x1 - x0) / plot_w).max((y1 - y0) / plot_h).max(1e-12) * 1.05;
         let (x0, x1) = (cx - span * plot_w / 2.0, cx + span * plot_w / 2.0);
@@ -148,7 +169,7 @@ impl CurvePlot<'_> {
             .legend(move |(x, y)| Circle::new((x + 9, y), 5, green.stroke_width(2)));
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(SeriesLabelPosition::LowerRight)
             .background_style(WHITE.mix(0.85))
             .border_style(grey)
             .draw()
@@ -160,7 +181,7 @@ impl CurvePlot<'_> {
         let n = self.offsets.len().max(1);
         let max = self.offsets.iter().copied().fold(0.0, f64::max);
         let top = if max > 0.0 { max * 3.0 } else { 1.0 };
-        let floor = top * 1e-7;
+        let floor = top * 1e-5;
         let mut chart = ChartBuilder::on(area)
             .caption(
                 format!("offset of each data point (max {max:.3e})"),

@@ -2,8 +2,9 @@
 //! and metric, with the offsets and the solver's effort (what the CLI's `fit` reports).
 
 use super::bfgs::{bfgs, BfgsOptions};
+use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary, Stage};
 use super::foot::FootOptions;
-use super::lsq::{lsq_each, pick, HasReport, LsqFit, LsqOptions, Start};
+use super::lsq::{lsq_each_guarded, pick, Guard, HasReport, LsqFit, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
 use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
@@ -11,6 +12,7 @@ use super::problem::CurveProblem;
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
 use crate::error::{Error, Result};
+use glam::DVec2;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -27,6 +29,15 @@ pub enum Method {
     NelderMead,
     /// BFGS with the analytic gradient from the paper's start.
     Bfgs,
+    /// The genetic algorithm on the population evaluator, from a population around the
+    /// paper's start (see [`super::evo`]).
+    Ga,
+    /// CMA-ES on the population evaluator, from the paper's start.
+    Cmaes,
+    /// The genetic algorithm, then the least-squares polish from its best design.
+    GaLsq,
+    /// CMA-ES, then the least-squares polish from its best design.
+    CmaesLsq,
 }
 
 impl Method {
@@ -37,6 +48,33 @@ impl Method {
             Method::Lsq => "lsq",
             Method::NelderMead => "nelder-mead",
             Method::Bfgs => "bfgs",
+            Method::Ga => "ga",
+            Method::Cmaes => "cmaes",
+            Method::GaLsq => "ga+lsq",
+            Method::CmaesLsq => "cmaes+lsq",
+        }
+    }
+
+    /// Every method, in the order of the paper's comparison table.
+    pub const ALL: [Method; 7] = [
+        Method::NelderMead,
+        Method::Bfgs,
+        Method::Ga,
+        Method::Cmaes,
+        Method::GaLsq,
+        Method::CmaesLsq,
+        Method::Lsq,
+    ];
+
+    /// The evolutionary method this runs, if any, and whether the least-squares polish follows.
+    #[must_use]
+    pub fn evolutionary(self) -> Option<(Algorithm, bool)> {
+        match self {
+            Method::Ga => Some((Algorithm::Ga, false)),
+            Method::Cmaes => Some((Algorithm::Cmaes, false)),
+            Method::GaLsq => Some((Algorithm::Ga, true)),
+            Method::CmaesLsq => Some((Algorithm::Cmaes, true)),
+            Method::Lsq | Method::NelderMead | Method::Bfgs => None,
         }
     }
 }
@@ -54,15 +92,19 @@ impl FromStr for Method {
             "lsq" => Ok(Method::Lsq),
             "nelder-mead" | "neldermead" | "nm" => Ok(Method::NelderMead),
             "bfgs" => Ok(Method::Bfgs),
+            "ga" => Ok(Method::Ga),
+            "cmaes" | "cma-es" => Ok(Method::Cmaes),
+            "ga+lsq" => Ok(Method::GaLsq),
+            "cmaes+lsq" | "cma-es+lsq" => Ok(Method::CmaesLsq),
             _ => Err(Error::invalid(format!(
-                "unknown method '{s}' (expected lsq, nelder-mead or bfgs)"
+                "unknown method '{s}' (expected lsq, nelder-mead, bfgs, ga, cmaes, ga+lsq or cmaes+lsq)"
             ))),
         }
     }
 }
 
 /// Everything `fit_curve` needs besides the data and the layout.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FitOptions {
     /// The method. Default least squares.
     pub method: Method,
@@ -92,6 +134,8 @@ pub struct FitOptions {
     pub nelder_mead: NelderMeadOptions,
     /// Options of BFGS.
     pub bfgs: BfgsOptions,
+    /// Options of the GA and CMA-ES (population, generations, seed, backend, ...).
+    pub evo: EvoOptions,
 }
 
 impl Default for FitOptions {
@@ -106,6 +150,7 @@ impl Default for FitOptions {
             lsq: LsqOptions::default(),
             nelder_mead: NelderMeadOptions::default(),
             bfgs: BfgsOptions::default(),
+            evo: EvoOptions::default(),
         }
     }
 }
@@ -129,8 +174,12 @@ pub struct CurveFit<P: Vector> {
     /// or folds back.
     pub span_ratio: f64,
     /// Iterations and evaluations of the solver; `seconds` covers the whole fit, from the
-    /// data to the final offsets.
+    /// data to the final offsets. For the evolutionary methods `iterations` counts
+    /// generations and `evaluations` individuals (plus the polish's, for `ga+lsq` and
+    /// `cmaes+lsq`).
     pub report: SolveReport,
+    /// The evolutionary run and the stages, for `ga`, `cmaes`, `ga+lsq` and `cmaes+lsq`.
+    pub evolution: Option<EvoSummary>,
 }
 
 /// Fit a chain with `layout` to `points` (ordered along the curve, e.g. a Selig contour).
@@ -143,44 +192,89 @@ pub struct CurveFit<P: Vector> {
 /// three minimise the closest-point sum with the first and last data points tied to the
 /// chain's ends; the reported offsets are always true closest-point offsets.
 pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions) -> Result<CurveFit<P>> {
+    fit_curve_with(points, layout, opts, &mut EvoHooks::default())
+}
+
+/// [`fit_curve`] with hooks into the evolutionary methods' runs (a per-generation callback for
+/// progress and checkpoints, a checkpoint to resume from); the other methods ignore them.
+///
+/// `ga` and `cmaes` minimise the closest-point sum of squares on the population evaluator
+/// (see [`super::evo`]), with the first and last data points tied to the chain's ends when
+/// `anchor_ends` is set, and start from the paper's start (the GA: a population spread around
+/// it). They fit plane points only, and the closest-point metric only.
+pub fn fit_curve_with<P: Vector>(
+    points: &[P],
+    layout: ChainLayout,
+    opts: &FitOptions,
+    hooks: &mut EvoHooks<'_>,
+) -> Result<CurveFit<P>> {
     let clock = Instant::now();
-    let problem = CurveProblem::curve_with(layout, points, opts.metric, opts.foot, opts.anchor_ends)?;
+    let problem = CurveProblem::curve_with(layout.clone(), points, opts.metric, opts.foot, opts.anchor_ends)?;
+    let mut evolution = None;
+    // Keep every least-squares run free of folds once it is: the closest-point objective
+    // cannot see a stretch of chain that doubles back where the data are nearly straight, and
+    // with uniform breaks such folds can lower the sum of squares (a fold moves a join).
+    let limit = opts.max_span_ratio;
+    let guard = |design: &[P], params: &[[f64; 1]]| -> bool {
+        problem.chain(design).is_ok_and(|chain| {
+            let t: Vec<f64> = params.iter().map(|t| t[0]).collect();
+            span_ratio(&chain, points, &t) <= limit
+        })
+    };
     let (design, mut report) = match opts.method {
-        Method::Lsq => {
-            let mut starts = opts
-                .parametrizations
-                .iter()
-                .map(|&alpha| {
-                    Ok(Start::Params(
-                        exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
-                    ))
-                })
-                .collect::<Result<Vec<Start<P, 1>>>>()?;
-            if opts.metric == Metric::Closest {
-                starts.push(Start::Design(
-                    problem.increment_start()?,
-                    problem.params().to_vec(),
-                ));
+        Method::Ga | Method::Cmaes | Method::GaLsq | Method::CmaesLsq => {
+            let Some((algorithm, polish_after)) = opts.method.evolutionary() else {
+                return Err(Error::invalid(format!(
+                    "{} is not an evolutionary method",
+                    opts.method
+                )));
+            };
+            if P::DIM != 2 {
+                return Err(Error::invalid(format!(
+                    "{} fits plane curves: these points have {} coordinates",
+                    opts.method,
+                    P::DIM
+                )));
             }
-            let fits = lsq_each(&problem, &starts, &opts.lsq)?;
-            // Rank by (has a loop, sum of squares), loops by their span ratio.
-            let scored = fits
-                .into_iter()
-                .map(|fit| {
-                    let chain = problem.chain(&fit.design)?;
-                    let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
-                    let ratio = span_ratio(&chain, points, &t);
-                    Ok(Scored { fit, ratio })
-                })
-                .collect::<Result<Vec<_>>>()?;
-            let limit = opts.max_span_ratio;
-            let best = pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
-                (true, false) => true,
-                (false, true) => false,
-                (true, true) => a.fit.sum_sq < b.fit.sum_sq,
-                (false, false) => a.ratio < b.ratio,
-            })
-            .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
+            if opts.metric != Metric::Closest {
+                return Err(Error::invalid(format!(
+                    "{} minimises closest-point offsets; the corresponding-point metric is for lsq, \
+                     nelder-mead and bfgs",
+                    opts.method
+                )));
+            }
+            let plane: Vec<DVec2> = points
+                .iter()
+                .map(|p| DVec2::new(p.coord(0), p.coord(1)))
+                .collect();
+            let evo = EvoProblem::curve(&plane, layout, opts.anchor_ends, opts.evo.margin)?;
+            let (mut design, mut report, mut summary) = evolve_then_polish(
+                &evo, &problem, algorithm, false, &opts.evo, &opts.lsq, None, hooks,
+            )?;
+            if polish_after {
+                // The polish is the least-squares method with the evolved design as one more
+                // start (the first, so it wins ties): the hybrid ends at the better of the
+                // basin the evolution found and the ones lsq's own starts reach.
+                let polish_clock = Instant::now();
+                let feet: Vec<[f64; 1]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
+                let best = best_lsq(&problem, points, opts, &guard, Some(Start::Design(design, feet)))?;
+                let mut r = best.fit.report;
+                r.seconds = polish_clock.elapsed().as_secs_f64();
+                summary.stages.push(Stage {
+                    method: "lsq".to_string(),
+                    report: r,
+                });
+                summary.polish_from_evolved = Some(best.start == 0);
+                report.iterations += r.iterations;
+                report.evaluations += r.evaluations;
+                report.stop = r.stop;
+                design = best.fit.design;
+            }
+            evolution = Some(summary);
+            (design, report)
+        }
+        Method::Lsq => {
+            let best = best_lsq(&problem, points, opts, &guard, None)?;
             (best.fit.design, best.fit.report)
         }
         Method::NelderMead => {
@@ -217,13 +311,59 @@ pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions
         metric: opts.metric,
         span_ratio: span,
         report,
+        evolution,
     })
 }
 
-/// A least-squares fit with its chain's span ratio.
+/// The least-squares method: a linear solve at each of `opts.parametrizations` and (closest
+/// metric) the paper's start, each followed by guarded Levenberg-Marquardt, plus `extra` as the
+/// first start when given; the best fold-free fit wins (the lowest span ratio if none is).
+fn best_lsq<P: Vector>(
+    problem: &CurveProblem<'_, P>,
+    points: &[P],
+    opts: &FitOptions,
+    guard: Guard<'_, P, 1>,
+    extra: Option<Start<P, 1>>,
+) -> Result<Scored<P>> {
+    let mut starts: Vec<Start<P, 1>> = extra.into_iter().collect();
+    for &alpha in opts.parametrizations {
+        starts.push(Start::Params(
+            exponent_params(points, alpha)?.into_iter().map(|t| [t]).collect(),
+        ));
+    }
+    if opts.metric == Metric::Closest {
+        starts.push(Start::Design(
+            problem.increment_start()?,
+            problem.params().to_vec(),
+        ));
+    }
+    let fits = lsq_each_guarded(problem, &starts, &opts.lsq, Some(guard))?;
+    // Rank by (has a loop, sum of squares), loops by their span ratio.
+    let scored = fits
+        .into_iter()
+        .enumerate()
+        .map(|(start, fit)| {
+            let chain = problem.chain(&fit.design)?;
+            let t: Vec<f64> = fit.params.iter().map(|t| t[0]).collect();
+            let ratio = span_ratio(&chain, points, &t);
+            Ok(Scored { fit, ratio, start })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let limit = opts.max_span_ratio;
+    pick(scored, |a, b| match (a.ratio <= limit, b.ratio <= limit) {
+        (true, false) => true,
+        (false, true) => false,
+        (true, true) => a.fit.sum_sq < b.fit.sum_sq,
+        (false, false) => a.ratio < b.ratio,
+    })
+    .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))
+}
+
+/// A least-squares fit with its chain's span ratio and the index of its start.
 struct Scored<P> {
     fit: LsqFit<P, 1>,
     ratio: f64,
+    start: usize,
 }
 
 impl<P> HasReport for Scored<P> {
@@ -241,9 +381,11 @@ mod tests {
 
     #[test]
     fn method_names_round_trip() {
-        for m in [Method::Lsq, Method::NelderMead, Method::Bfgs] {
+        for m in Method::ALL {
             assert_eq!(m.to_string().parse::<Method>().unwrap(), m);
         }
-        assert!("ga".parse::<Method>().is_err());
+        assert!("pso".parse::<Method>().is_err());
+        assert_eq!(Method::GaLsq.evolutionary(), Some((Algorithm::Ga, true)));
+        assert_eq!(Method::Bfgs.evolutionary(), None);
     }
 }

@@ -425,6 +425,23 @@ pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     params: Vec<[f64; K]>,
     opts: &LsqOptions,
 ) -> Result<LsqFit<S::Point, K>> {
+    levenberg_marquardt_guarded(problem, design, params, opts, None)
+}
+
+/// A test of a design and its parameters that [`levenberg_marquardt_guarded`] keeps true.
+pub type Guard<'g, P, const K: usize> = &'g (dyn Fn(&[P], &[[f64; K]]) -> bool + Sync);
+
+/// [`levenberg_marquardt`] that, once `guard` holds, rejects every step after which it would
+/// no longer hold (a barrier: the fit stays in the region the guard admits, e.g. chains that do
+/// not fold back on themselves). From a start where the guard fails, steps are taken freely
+/// until it holds.
+pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    design: Vec<S::Point>,
+    params: Vec<[f64; K]>,
+    opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
     if design.len() != problem.design_count() || params.len() != problem.points().len() {
         return Err(Error::invalid(format!(
@@ -441,6 +458,8 @@ pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     let mut evaluations = 1;
     let mut iterations = 0;
     let mut phi = problem.project(&design, &mut params);
+    let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
+    let mut feasible = admits(&design, &params);
     let mut lambda = opts.initial_damping;
     let mut nu = 2.0;
     // The sum of squares after every iteration, for the windowed convergence test.
@@ -464,7 +483,9 @@ pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
                 let phi_trial = problem.project(&trial, &mut trial_params);
                 evaluations += 1;
                 let rho = (phi - phi_trial) / pred;
-                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 {
+                let trial_feasible = || admits(&trial, &trial_params);
+                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 && (!feasible || trial_feasible()) {
+                    feasible = feasible || trial_feasible();
                     accepted = true;
                     let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
                     design = trial;
@@ -550,6 +571,17 @@ pub fn lsq_each<S: Shape<K>, const K: usize>(
     starts: &[Start<S::Point, K>],
     opts: &LsqOptions,
 ) -> Result<Vec<LsqFit<S::Point, K>>> {
+    lsq_each_guarded(problem, starts, opts, None)
+}
+
+/// [`lsq_each`] with every run kept where `guard` admits once it holds (see
+/// [`levenberg_marquardt_guarded`]).
+pub fn lsq_each_guarded<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    starts: &[Start<S::Point, K>],
+    opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+) -> Result<Vec<LsqFit<S::Point, K>>> {
     let clock = Instant::now();
     if problem.metric() == Metric::Corresponding {
         let params = problem.params().to_vec();
@@ -598,7 +630,7 @@ pub fn lsq_each<S: Shape<K>, const K: usize>(
             }
             Start::Design(x, t) => (x.clone(), own(t)?),
         };
-        levenberg_marquardt(problem, design, params, opts)
+        levenberg_marquardt_guarded(problem, design, params, opts, guard)
     };
     if starts.len() == 1 {
         return Ok(vec![run(&starts[0])?]);

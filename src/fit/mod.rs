@@ -9,6 +9,8 @@
 //!   residual blocks, linear least squares, the paper's start).
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
 //! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
+//! - [`evo`]: the genetic algorithm and CMA-ES on the population evaluator, for chains and
+//!   grids, with checkpoints; `ga+lsq` / `cmaes+lsq` polish their result by least squares.
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
@@ -17,23 +19,29 @@
 
 pub mod bfgs;
 pub mod curve;
+pub mod evo;
 pub mod foot;
 pub mod lsq;
 pub mod nelder_mead;
 pub mod objective;
 pub mod offset;
+pub mod paper;
 pub mod problem;
 pub mod shape;
 
 pub use bfgs::{bfgs, BfgsOptions};
-pub use curve::{fit_curve, CurveFit, FitOptions, Method};
+pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
-pub use lsq::{alternate, levenberg_marquardt, lsq, lsq_each, lsq_from, LsqFit, LsqOptions, Start};
+pub use lsq::{
+    alternate, levenberg_marquardt, levenberg_marquardt_guarded, lsq, lsq_each, lsq_each_guarded, lsq_from,
+    Guard, LsqFit, LsqOptions, Start,
+};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
-    offset_stats, shape_offsets, span_ratio, Metric, OffsetStats,
+    offset_stats, point_offsets, shape_offsets, span_ratio, Metric, OffsetStats,
 };
+pub use paper::{PaperCase, PAPER_CASES};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};

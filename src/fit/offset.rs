@@ -161,22 +161,32 @@ pub fn exponent_params<P: Vector>(points: &[P], alpha: f64) -> Result<Vec<f64>> 
 /// sparse and curved). A closest-point fit can also leave a stretch of chain that no data point
 /// claims, free to loop away from the data or fold back on itself: between the two data
 /// points around it the arc is far longer than their distance, and the ratio shows it (loops
-/// and folds seen on aerofoil fits gave 5 to 3000).
+/// and folds seen on aerofoil fits gave 5 to 3000). Arc lengths come from 128 chords per
+/// segment.
 pub fn span_ratio<P: Vector>(chain: &CurveChain<P>, points: &[P], params: &[f64]) -> f64 {
     debug_assert_eq!(points.len(), params.len(), "span_ratio: one parameter per point");
-    // Cumulative arc length on 256 chords per segment, interpolated linearly in t.
-    let per = 256 * chain.layout().segments();
+    // Cumulative arc length on SPAN_CHORDS chords per segment, interpolated linearly in t.
+    const SPAN_CHORDS: usize = 128;
+    let layout = chain.layout();
+    let segments = layout.segments();
+    let per = SPAN_CHORDS * segments;
     let mut cum = Vec::with_capacity(per + 1);
     cum.push(0.0);
-    let mut prev = chain.eval(0.0);
-    for i in 1..=per {
-        let p = chain.eval(i as f64 / per as f64);
-        cum.push(cum[i - 1] + (p - prev).length());
-        prev = p;
+    let mut total = 0.0;
+    for k in 0..segments {
+        let seg = chain.segment(k);
+        let mut prev = seg.eval(0.0);
+        for i in 1..=SPAN_CHORDS {
+            let p = seg.eval(i as f64 / SPAN_CHORDS as f64);
+            total += (p - prev).length();
+            cum.push(total);
+            prev = p;
+        }
     }
-    let total = cum[per];
+    // Global t to the chord table: segment k covers entries k*SPAN_CHORDS ..= (k+1)*SPAN_CHORDS.
     let arc = |t: f64| {
-        let x = t.clamp(0.0, 1.0) * per as f64;
+        let (k, u) = layout.locate(t);
+        let x = (k as f64 + u) * SPAN_CHORDS as f64;
         let i = (x as usize).min(per - 1);
         cum[i] + (cum[i + 1] - cum[i]) * (x - i as f64)
     };
@@ -216,6 +226,18 @@ pub fn shape_offsets<S: Shape<K>, const K: usize>(
     closest_all(shape, &grid, design, points, None, opts, &mut feet);
     let d2: Vec<f64> = feet.iter().map(|f| f.dist_sq).collect();
     Ok((OffsetStats::from_dist_sq(Metric::Closest, &d2, points), feet))
+}
+
+/// The closest-point offset of every point from a chain, in the points' order (the same
+/// foot-point search as [`offset_stats`]).
+pub fn point_offsets<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<Vec<f64>> {
+    let opts = FootOptions {
+        samples: 48,
+        ..FootOptions::default()
+    };
+    let shape = CurveShape::<P>::new(chain.layout().clone());
+    let (_, feet) = shape_offsets(&shape, chain.design(), points, &opts)?;
+    Ok(feet.iter().map(|f| f.dist_sq.sqrt()).collect())
 }
 
 /// Closest-point offsets of `points` from a chain (true foot points: every segment sampled at

@@ -17,7 +17,13 @@ use rand_chacha::ChaCha8Rng;
 pub fn gpu() -> Option<GpuContext> {
     match GpuContext::new() {
         Ok(ctx) => {
-            eprintln!("GPU tests run on adapter: {}", ctx.adapter());
+            // Straight to the process's stderr, past the test harness's capture, once per test
+            // binary: the CI log shows which adapter ran the shaders.
+            static ONCE: std::sync::Once = std::sync::Once::new();
+            ONCE.call_once(|| {
+                use std::io::Write;
+                let _ = writeln!(std::io::stderr(), "GPU tests run on adapter: {}", ctx.adapter());
+            });
             Some(ctx)
         }
         Err(e) => {

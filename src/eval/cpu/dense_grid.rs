@@ -2,12 +2,12 @@
 //! parameters, with unit normals.
 
 use super::eval_patch::NB;
-use super::{Lanes, Madd};
+use super::{fma, Lanes};
 use crate::eval::kernel::{Config, Vertex};
 
 /// `basis` of `dense_grid.wgsl`: the degree-n Bernstein values and first derivatives at t.
 #[inline(always)]
-fn basis<M: Madd>(n: usize, t: f32) -> ([f32; NB], [f32; NB]) {
+fn basis(n: usize, t: f32) -> ([f32; NB], [f32; NB]) {
     let mut lvl = [0.0f32; NB];
     let mut low1 = [0.0f32; NB];
     lvl[0] = 1.0;
@@ -19,7 +19,7 @@ fn basis<M: Madd>(n: usize, t: f32) -> ([f32; NB], [f32; NB]) {
         let mut saved = 0.0f32;
         for k in 0..j {
             let tmp = lvl[k];
-            lvl[k] = M::madd(s, tmp, saved);
+            lvl[k] = fma(s, tmp, saved);
             saved = t * tmp;
         }
         lvl[j] = saved;
@@ -52,7 +52,7 @@ fn locate(breaks: &[f32], first: usize, count: usize, g: f32) -> (usize, f32) {
 /// `main` of `dense_grid.wgsl` for sample `(iu, iv)` of the individual in lane `lane` of the
 /// block whose nets are in `net` (`net[r * 3 + c][lane]`, as written by the expand mirror).
 #[inline(always)]
-pub(crate) fn dense_grid<M: Madd>(
+pub(crate) fn dense_grid(
     config: &Config,
     breaks: &[f32],
     net: &[Lanes],
@@ -66,8 +66,8 @@ pub(crate) fn dense_grid<M: Madd>(
     let (iu_max, iv_max) = (config.grid_u - 1, config.grid_v - 1);
     let (i, a_t) = locate(breaks, 0, pu, iu as f32 / iu_max as f32);
     let (j, b_t) = locate(breaks, pu + 1, pv, iv as f32 / iv_max as f32);
-    let (bu, bu1) = basis::<M>(du, a_t);
-    let (bv, bv1) = basis::<M>(dv, b_t);
+    let (bu, bu1) = basis(du, a_t);
+    let (bv, bv1) = basis(dv, b_t);
     let mut s = [0.0f32; DIM];
     let mut su = [0.0f32; DIM];
     let mut sv = [0.0f32; DIM];
@@ -78,14 +78,14 @@ pub(crate) fn dense_grid<M: Madd>(
             let r = (i * du + a) * config.net_cols as usize + j * dv + b;
             for c in 0..DIM {
                 let p = net[r * DIM + c][lane];
-                r0[c] = M::madd(bv[b], p, r0[c]);
-                r1[c] = M::madd(bv1[b], p, r1[c]);
+                r0[c] = fma(bv[b], p, r0[c]);
+                r1[c] = fma(bv1[b], p, r1[c]);
             }
         }
         for c in 0..DIM {
-            s[c] = M::madd(bu[a], r0[c], s[c]);
-            su[c] = M::madd(bu1[a], r0[c], su[c]);
-            sv[c] = M::madd(bu[a], r1[c], sv[c]);
+            s[c] = fma(bu[a], r0[c], s[c]);
+            su[c] = fma(bu1[a], r0[c], su[c]);
+            sv[c] = fma(bu[a], r1[c], sv[c]);
         }
     }
     let n = [

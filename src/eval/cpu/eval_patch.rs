@@ -2,12 +2,13 @@
 //! one block of `LANES` individuals.
 //!
 //! Each lane of a [`Lanes`] array is one shader invocation; every step below is the shader's,
-//! in the same order and with the same fused multiply-adds (`M::madd` for `fma`), applied to
-//! all lanes at once. The shader's private `cp[(a * NV + b) * DIM + c]` (the held patch, per
+//! in the same order and with the same multiply-adds ([`fma`]), applied to all lanes at once.
+//! Where a loop order differs from the shader's (coordinates outermost), every sum still adds
+//! its terms in the shader's order, so each lane's result is the shader's to the bit. The shader's private `cp[(a * NV + b) * DIM + c]` (the held patch, per
 //! invocation) is `cp[a * NV + b][c][lane]` here: one [`Point`] per control point, so that
 //! every coordinate index is a constant below 3 and the hot loops carry no bounds checks.
 
-use super::{Lanes, Madd, Point, LANES};
+use super::{fma, Lanes, Point, LANES};
 use crate::eval::kernel::{Config, Partial, Target, MAX_DEGREE, NONE};
 
 /// Basis arrays hold up to this many values (degree `MAX_DEGREE`).
@@ -19,7 +20,7 @@ const SINGULAR: f32 = 1e-6;
 /// `net` (`net[r * DIM + c][lane]`); writes the block's partials for that group.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // the shader's bindings and private arrays
-pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
+pub(crate) fn eval_patch<const DIM: usize>(
     config: &Config,
     targets: &[Target],
     breaks: &[f32],
@@ -45,7 +46,7 @@ pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
                 if t.patch_id != run {
                     break;
                 }
-                offset_sq_fixed::<M, DIM>(config, t, cp, &mut sum, &mut worst);
+                offset_sq_fixed::<DIM>(config, t, cp, &mut sum, &mut worst);
                 p += 1;
             }
         }
@@ -58,7 +59,7 @@ pub(crate) fn eval_patch<M: Madd, const DIM: usize>(
                 if t.patch_id != run {
                     break;
                 }
-                let e2 = foot_point_sq::<M, DIM>(config, breaks, net, t, cp, &mut held, work);
+                let e2 = foot_point_sq::<DIM>(config, breaks, net, t, cp, &mut held, work);
                 for l in 0..LANES {
                     sum[l] += e2[l];
                     worst[l] = worst[l].max(e2[l]);
@@ -121,7 +122,7 @@ fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: 
 
 /// `bernstein`: the degree-n Bernstein polynomials at t.
 #[inline(always)]
-pub(crate) fn bernstein<M: Madd>(n: usize, t: f32) -> [f32; NB] {
+pub(crate) fn bernstein(n: usize, t: f32) -> [f32; NB] {
     let mut out = [0.0f32; NB];
     out[0] = 1.0;
     let s = 1.0 - t;
@@ -129,7 +130,7 @@ pub(crate) fn bernstein<M: Madd>(n: usize, t: f32) -> [f32; NB] {
         let mut saved = 0.0f32;
         for k in 0..j {
             let tmp = out[k];
-            out[k] = M::madd(s, tmp, saved);
+            out[k] = fma(s, tmp, saved);
             saved = t * tmp;
         }
         out[j] = saved;
@@ -140,7 +141,7 @@ pub(crate) fn bernstein<M: Madd>(n: usize, t: f32) -> [f32; NB] {
 /// `offset_sq` with uniform parameters, for every lane; adds into `sum` and `worst` as the
 /// shader's point loop does.
 #[inline(always)]
-fn offset_sq_fixed<M: Madd, const DIM: usize>(
+fn offset_sq_fixed<const DIM: usize>(
     config: &Config,
     t: &Target,
     cp: &[Point],
@@ -148,8 +149,8 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
     worst: &mut Lanes,
 ) {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let bu = bernstein::<M>(du, t.u);
-    let bv = bernstein::<M>(dv, t.v);
+    let bu = bernstein(du, t.u);
+    let bv = bernstein(dv, t.v);
     // The shader's weights bu[a] * bv[b] in its (a, b) order, computed once for all lanes.
     let mut w = [0.0f32; NB * NB];
     for a in 0..du + 1 {
@@ -165,7 +166,7 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
         let mut acc = [0.0f32; LANES];
         for (&wk, p) in w[..ncp].iter().zip(&cp[..ncp]) {
             for l in 0..LANES {
-                acc[l] = M::madd(wk, p[c][l], acc[l]);
+                acc[l] = fma(wk, p[c][l], acc[l]);
             }
         }
         *sc = acc;
@@ -175,7 +176,7 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
         let mut e2 = 0.0f32;
         for c in 0..DIM {
             let d = s[c][l] - q[c];
-            e2 = M::madd(d, d, e2);
+            e2 = fma(d, d, e2);
         }
         sum[l] += e2;
         worst[l] = worst[l].max(e2);
@@ -184,7 +185,7 @@ fn offset_sq_fixed<M: Madd, const DIM: usize>(
 
 /// `bernstein` with per-lane t.
 #[inline(always)]
-fn bernstein_lanes<M: Madd>(n: usize, t: &Lanes) -> [Lanes; NB] {
+fn bernstein_lanes(n: usize, t: &Lanes) -> [Lanes; NB] {
     let mut out = [[0.0f32; LANES]; NB];
     out[0] = [1.0; LANES];
     let s = t.map(|x| 1.0 - x);
@@ -193,7 +194,7 @@ fn bernstein_lanes<M: Madd>(n: usize, t: &Lanes) -> [Lanes; NB] {
         for k in 0..j {
             for l in 0..LANES {
                 let tmp = out[k][l];
-                out[k][l] = M::madd(s[l], tmp, saved[l]);
+                out[k][l] = fma(s[l], tmp, saved[l]);
                 saved[l] = t[l] * tmp;
             }
         }
@@ -204,7 +205,7 @@ fn bernstein_lanes<M: Madd>(n: usize, t: &Lanes) -> [Lanes; NB] {
 
 /// `offset_sq` with per-lane parameters.
 #[inline(always)]
-fn offset_sq_lanes<M: Madd, const DIM: usize>(
+fn offset_sq_lanes<const DIM: usize>(
     config: &Config,
     u: &Lanes,
     v: &Lanes,
@@ -212,8 +213,8 @@ fn offset_sq_lanes<M: Madd, const DIM: usize>(
     cp: &[Point],
 ) -> Lanes {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let bu = bernstein_lanes::<M>(du, u);
-    let bv = bernstein_lanes::<M>(dv, v);
+    let bu = bernstein_lanes(du, u);
+    let bv = bernstein_lanes(dv, v);
     let mut e2 = [0.0f32; LANES];
     for c in 0..DIM {
         let mut s = [0.0f32; LANES];
@@ -221,13 +222,13 @@ fn offset_sq_lanes<M: Madd, const DIM: usize>(
             for b in 0..dv + 1 {
                 let p = &cp[a * (dv + 1) + b][c];
                 for l in 0..LANES {
-                    s[l] = M::madd(bu[a][l] * bv[b][l], p[l], s[l]);
+                    s[l] = fma(bu[a][l] * bv[b][l], p[l], s[l]);
                 }
             }
         }
         for l in 0..LANES {
             let d = s[l] - q[c];
-            e2[l] = M::madd(d, d, e2[l]);
+            e2[l] = fma(d, d, e2[l]);
         }
     }
     e2
@@ -285,7 +286,7 @@ impl Default for NewtonWork {
 
 /// `basis`: the degree-n basis at per-lane t with its derivatives, into `out[..=n]`.
 #[inline(always)]
-fn basis_lanes<M: Madd>(
+fn basis_lanes(
     n: usize,
     t: &Lanes,
     lvl: &mut [Lanes; NB],
@@ -312,7 +313,7 @@ fn basis_lanes<M: Madd>(
         for k in 0..j {
             for l in 0..LANES {
                 let tmp = lvl[k][l];
-                lvl[k][l] = M::madd(s[l], tmp, saved[l]);
+                lvl[k][l] = fma(s[l], tmp, saved[l]);
                 saved[l] = t[l] * tmp;
             }
         }
@@ -350,13 +351,7 @@ struct LaneJet {
 
 /// `jet`: the held patch and its partials at per-lane local (u, v), into `work.jet`.
 #[inline(always)]
-fn jet_lanes<M: Madd, const DIM: usize>(
-    config: &Config,
-    u: &Lanes,
-    v: &Lanes,
-    cp: &[Point],
-    work: &mut NewtonWork,
-) {
+fn jet_lanes<const DIM: usize>(config: &Config, u: &Lanes, v: &Lanes, cp: &[Point], work: &mut NewtonWork) {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
     let NewtonWork {
         lvl,
@@ -366,8 +361,8 @@ fn jet_lanes<M: Madd, const DIM: usize>(
         bv,
         jet: out,
     } = work;
-    basis_lanes::<M>(du, u, lvl, low1, low2, bu);
-    basis_lanes::<M>(dv, v, lvl, low1, low2, bv);
+    basis_lanes(du, u, lvl, low1, low2, bu);
+    basis_lanes(dv, v, lvl, low1, low2, bv);
     // The shader's loops with the coordinate loop outermost: every sum still runs over b, then
     // over a, in the shader's order, and the six sums of a coordinate stay in registers.
     for c in 0..DIM {
@@ -379,18 +374,18 @@ fn jet_lanes<M: Madd, const DIM: usize>(
             for b in 0..dv + 1 {
                 let p = &cp[a * (dv + 1) + b][c];
                 for l in 0..LANES {
-                    r0[l] = M::madd(bv.b[b][l], p[l], r0[l]);
-                    r1[l] = M::madd(bv.d1[b][l], p[l], r1[l]);
-                    r2[l] = M::madd(bv.d2[b][l], p[l], r2[l]);
+                    r0[l] = fma(bv.b[b][l], p[l], r0[l]);
+                    r1[l] = fma(bv.d1[b][l], p[l], r1[l]);
+                    r2[l] = fma(bv.d2[b][l], p[l], r2[l]);
                 }
             }
             for l in 0..LANES {
-                acc[0][l] = M::madd(bu.b[a][l], r0[l], acc[0][l]);
-                acc[1][l] = M::madd(bu.d1[a][l], r0[l], acc[1][l]);
-                acc[2][l] = M::madd(bu.d2[a][l], r0[l], acc[2][l]);
-                acc[3][l] = M::madd(bu.b[a][l], r1[l], acc[3][l]);
-                acc[4][l] = M::madd(bu.d1[a][l], r1[l], acc[4][l]);
-                acc[5][l] = M::madd(bu.b[a][l], r2[l], acc[5][l]);
+                acc[0][l] = fma(bu.b[a][l], r0[l], acc[0][l]);
+                acc[1][l] = fma(bu.d1[a][l], r0[l], acc[1][l]);
+                acc[2][l] = fma(bu.d2[a][l], r0[l], acc[2][l]);
+                acc[3][l] = fma(bu.b[a][l], r1[l], acc[3][l]);
+                acc[4][l] = fma(bu.d1[a][l], r1[l], acc[4][l]);
+                acc[5][l] = fma(bu.b[a][l], r2[l], acc[5][l]);
             }
         }
         out.s[c] = acc[0];
@@ -405,9 +400,9 @@ fn jet_lanes<M: Madd, const DIM: usize>(
 /// `relocate`: move local t of segment k (chain breaks from `breaks[first]`, `count`
 /// segments) to the segment holding it, clamped to `[0, 1]`.
 #[inline(always)]
-fn relocate<M: Madd>(breaks: &[f32], first: usize, count: usize, k: usize, t: f32) -> (usize, f32) {
+fn relocate(breaks: &[f32], first: usize, count: usize, k: usize, t: f32) -> (usize, f32) {
     let t0 = breaks[first + k];
-    let g = M::madd(t, breaks[first + k + 1] - t0, t0).clamp(0.0, 1.0);
+    let g = fma(t, breaks[first + k + 1] - t0, t0).clamp(0.0, 1.0);
     let mut m = 0;
     for i in 1..count {
         if g >= breaks[first + i] {
@@ -420,11 +415,11 @@ fn relocate<M: Madd>(breaks: &[f32], first: usize, count: usize, k: usize, t: f3
 
 /// `dot_n` for every lane.
 #[inline(always)]
-fn dot_lanes<M: Madd, const DIM: usize>(x: &Point, y: &Point) -> Lanes {
+fn dot_lanes<const DIM: usize>(x: &Point, y: &Point) -> Lanes {
     let mut acc = [0.0f32; LANES];
     for c in 0..DIM {
         for l in 0..LANES {
-            acc[l] = M::madd(x[c][l], y[c][l], acc[l]);
+            acc[l] = fma(x[c][l], y[c][l], acc[l]);
         }
     }
     acc
@@ -462,7 +457,7 @@ fn newton_step(gu: f32, gv: f32, guu: f32, guv: f32, gvv: f32, huu: f32, huv: f3
 /// `foot_point_sq` for every lane: `config.newton` (at least 1) Newton steps from the
 /// target's start parameters on the held patch.
 #[inline(always)]
-fn foot_point_sq<M: Madd, const DIM: usize>(
+fn foot_point_sq<const DIM: usize>(
     config: &Config,
     breaks: &[f32],
     net: &[Lanes],
@@ -482,7 +477,7 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
     let q = [t.x, t.y, t.z];
     let mut it = 0;
     loop {
-        jet_lanes::<M, DIM>(config, &u, &v, cp, work);
+        jet_lanes::<DIM>(config, &u, &v, cp, work);
         let e = &work.jet;
         let mut r = [[0.0f32; LANES]; 3];
         for c in 0..DIM {
@@ -490,15 +485,15 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
                 r[c][l] = e.s[c][l] - q[c];
             }
         }
-        let rr = dot_lanes::<M, DIM>(&r, &r);
-        let gu = dot_lanes::<M, DIM>(&r, &e.su);
-        let gv = dot_lanes::<M, DIM>(&r, &e.sv);
-        let guu = dot_lanes::<M, DIM>(&e.su, &e.su);
-        let guv = dot_lanes::<M, DIM>(&e.su, &e.sv);
-        let gvv = dot_lanes::<M, DIM>(&e.sv, &e.sv);
-        let ruu = dot_lanes::<M, DIM>(&r, &e.suu);
-        let ruv = dot_lanes::<M, DIM>(&r, &e.suv);
-        let rvv = dot_lanes::<M, DIM>(&r, &e.svv);
+        let rr = dot_lanes::<DIM>(&r, &r);
+        let gu = dot_lanes::<DIM>(&r, &e.su);
+        let gv = dot_lanes::<DIM>(&r, &e.sv);
+        let guu = dot_lanes::<DIM>(&e.su, &e.su);
+        let guv = dot_lanes::<DIM>(&e.su, &e.sv);
+        let gvv = dot_lanes::<DIM>(&e.sv, &e.sv);
+        let ruu = dot_lanes::<DIM>(&r, &e.suu);
+        let ruv = dot_lanes::<DIM>(&r, &e.suv);
+        let rvv = dot_lanes::<DIM>(&r, &e.svv);
         for l in 0..LANES {
             best[l] = best[l].min(rr[l]);
             let (gu, gv, guu, guv, gvv) = (gu[l], gv[l], guu[l], guv[l], gvv[l]);
@@ -517,12 +512,12 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
         } else {
             for l in 0..LANES {
                 if u[l] < 0.0 || u[l] > 1.0 {
-                    let (m, t) = relocate::<M>(breaks, 0, pu_count, i[l] as usize, u[l]);
+                    let (m, t) = relocate(breaks, 0, pu_count, i[l] as usize, u[l]);
                     i[l] = m as u32;
                     u[l] = t;
                 }
                 if v[l] < 0.0 || v[l] > 1.0 {
-                    let (m, t) = relocate::<M>(breaks, pu_count + 1, pv_count, j[l] as usize, v[l]);
+                    let (m, t) = relocate(breaks, pu_count + 1, pv_count, j[l] as usize, v[l]);
                     j[l] = m as u32;
                     v[l] = t;
                 }
@@ -538,7 +533,7 @@ fn foot_point_sq<M: Madd, const DIM: usize>(
             break;
         }
     }
-    let e2 = offset_sq_lanes::<M, DIM>(config, &u, &v, q, cp);
+    let e2 = offset_sq_lanes::<DIM>(config, &u, &v, q, cp);
     for l in 0..LANES {
         best[l] = best[l].min(e2[l]);
         if config.cross != 0 && held[l] != t.patch_id {

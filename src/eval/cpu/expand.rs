@@ -1,7 +1,7 @@
 //! CPU mirror of `shaders/expand.wgsl`: design variables to control nets, one block of
 //! `LANES` individuals at a time.
 
-use super::{Lanes, Madd, LANES};
+use super::{fma, Lanes, LANES};
 use crate::eval::kernel::{Config, MapEntry};
 
 /// `expand.wgsl` for the individuals `block * LANES ..` of `population` (bindings 0-3 as in
@@ -11,7 +11,7 @@ use crate::eval::kernel::{Config, MapEntry};
 /// the same per-lane gather the shader does with its loads, so that applying the map runs
 /// over all lanes at once. Lanes past the population hold zeros.
 #[inline(always)]
-pub(crate) fn expand<M: Madd>(
+pub(crate) fn expand(
     config: &Config,
     map_start: &[u32],
     map_entries: &[MapEntry],
@@ -40,7 +40,7 @@ pub(crate) fn expand<M: Madd>(
             for m in entries {
                 let x = &design[m.index as usize * dim + c];
                 for l in 0..LANES {
-                    acc[l] = M::madd(m.weight, x[l], acc[l]);
+                    acc[l] = fma(m.weight, x[l], acc[l]);
                 }
             }
         }

@@ -1,10 +1,13 @@
 //! The CPU path: rayon over blocks of `LANES` individuals, each block a blocked
 //! structure-of-arrays (`value[lane]`) so the kernels vectorise over individuals.
 //!
-//! Every file here mirrors the shader of the same name in `shaders/`. The kernels are compiled
-//! twice: with AVX2 and FMA enabled (picked at run time when the CPU has them; `fma` then maps
-//! to a fused multiply-add exactly as on the GPU) and portably (SSE2 on x86_64, where `fma` is
-//! a multiply followed by an add, one rounding more).
+//! Every file here mirrors the shader of the same name in `shaders/`, operation for operation.
+//! The shaders' `fma(a, b, c)` is [`fma`] here: a multiply, then an add. That is what Mesa
+//! lavapipe computes for it (measured: the GPU and the CPU results are bit-identical over
+//! whole populations), so the two paths agree exactly there; a GPU that fuses the operation
+//! rounds once less and differs in the last bits. The kernels are compiled twice: with AVX2
+//! (picked at run time when the CPU has it) and for the build target (SSE2 on x86_64); both
+//! compute the same values.
 
 // The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
 #![allow(clippy::needless_range_loop)]
@@ -20,44 +23,23 @@ use crate::error::Result;
 use rayon::prelude::*;
 
 /// Individuals per block: one lane each.
-pub(crate) const LANES: usize = 16;
+pub(crate) const LANES: usize = 32;
 /// One value per lane of a block.
 pub(crate) type Lanes = [f32; LANES];
 /// The coordinates of one point for every lane (the third unused for curves).
 pub(crate) type Point = [Lanes; 3];
 
-/// How the kernels multiply and add: the shader's `fma(a, b, c)`.
-pub(crate) trait Madd {
-    /// `a * b + c`.
-    fn madd(a: f32, b: f32, c: f32) -> f32;
-}
-
-/// One rounding, as WGSL's `fma` on hardware with FMA (only used where FMA is enabled).
-pub(crate) struct Fused;
-
-impl Madd for Fused {
-    #[inline(always)]
-    fn madd(a: f32, b: f32, c: f32) -> f32 {
-        a.mul_add(b, c)
-    }
-}
-
-/// A multiply then an add (the portable build, where a fused multiply-add would be a
-/// library call).
-pub(crate) struct Split;
-
-impl Madd for Split {
-    #[inline(always)]
-    fn madd(a: f32, b: f32, c: f32) -> f32 {
-        a * b + c
-    }
+/// The shaders' `fma(a, b, c)` as lavapipe computes it: `a * b + c`, rounded twice.
+#[inline(always)]
+pub(crate) fn fma(a: f32, b: f32, c: f32) -> f32 {
+    a * b + c
 }
 
 /// Which compiled kernels run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Simd {
-    /// AVX2 + FMA (x86_64, detected at run time).
-    Avx2Fma,
+    /// AVX2 (x86_64, detected at run time).
+    Avx2,
     /// Whatever the build target has.
     Portable,
 }
@@ -67,8 +49,8 @@ impl Simd {
     pub(crate) fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-                return Simd::Avx2Fma;
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
             }
         }
         Simd::Portable
@@ -76,7 +58,7 @@ impl Simd {
 
     fn describe(self) -> &'static str {
         match self {
-            Simd::Avx2Fma => "AVX2+FMA",
+            Simd::Avx2 => "AVX2",
             Simd::Portable => "portable",
         }
     }
@@ -104,14 +86,8 @@ impl Scratch {
 
 /// The `expand` mirror for block `block` into the scratch net.
 #[inline(always)]
-fn expand_block<M: Madd>(
-    config: &Config,
-    problem: &Problem,
-    population: &[f32],
-    block: usize,
-    scratch: &mut Scratch,
-) {
-    expand::expand::<M>(
+fn expand_block(config: &Config, problem: &Problem, population: &[f32], block: usize, scratch: &mut Scratch) {
+    expand::expand(
         config,
         &problem.map_start,
         &problem.map_entries,
@@ -124,7 +100,7 @@ fn expand_block<M: Madd>(
 
 /// The `eval_patch` mirror for point group `group` on the scratch net.
 #[inline(always)]
-fn eval_block<M: Madd, const DIM: usize>(
+fn eval_block<const DIM: usize>(
     config: &Config,
     problem: &Problem,
     group: usize,
@@ -132,7 +108,7 @@ fn eval_block<M: Madd, const DIM: usize>(
     partial: &mut [Partial; LANES],
 ) {
     let Scratch { net, cp, newton, .. } = scratch;
-    eval_patch::eval_patch::<M, DIM>(
+    eval_patch::eval_patch::<DIM>(
         config,
         &problem.targets,
         &problem.breaks,
@@ -144,16 +120,16 @@ fn eval_block<M: Madd, const DIM: usize>(
     );
 }
 
-// The AVX2 + FMA builds: one function per kernel, so that each is optimised on its own.
+// The AVX2 builds: one function per kernel, so that each is optimised on its own.
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2")]
 fn expand_avx2(config: &Config, problem: &Problem, population: &[f32], block: usize, scratch: &mut Scratch) {
-    expand_block::<Fused>(config, problem, population, block, scratch);
+    expand_block(config, problem, population, block, scratch);
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2")]
 fn eval_avx2<const DIM: usize>(
     config: &Config,
     problem: &Problem,
@@ -161,7 +137,7 @@ fn eval_avx2<const DIM: usize>(
     scratch: &mut Scratch,
     partial: &mut [Partial; LANES],
 ) {
-    eval_block::<Fused, DIM>(config, problem, group, scratch, partial);
+    eval_block::<DIM>(config, problem, group, scratch, partial);
 }
 
 /// Run one (block, group) task, expanding the block and evaluating the group, on the kernels
@@ -179,9 +155,9 @@ fn run_block(
 ) {
     match simd {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Simd::Avx2Fma` is only produced by `Simd::detect` after it has seen both
-        // AVX2 and FMA on this CPU, which is all these functions require.
-        Simd::Avx2Fma => unsafe {
+        // SAFETY: `Simd::Avx2` is only produced by `Simd::detect` after it has seen AVX2 on
+        // this CPU, which is all these functions require.
+        Simd::Avx2 => unsafe {
             expand_avx2(config, problem, population, block, scratch);
             if problem.dim == 2 {
                 eval_avx2::<2>(config, problem, group, scratch, partial);
@@ -190,11 +166,11 @@ fn run_block(
             }
         },
         _ => {
-            expand_block::<Split>(config, problem, population, block, scratch);
+            expand_block(config, problem, population, block, scratch);
             if problem.dim == 2 {
-                eval_block::<Split, 2>(config, problem, group, scratch, partial);
+                eval_block::<2>(config, problem, group, scratch, partial);
             } else {
-                eval_block::<Split, 3>(config, problem, group, scratch, partial);
+                eval_block::<3>(config, problem, group, scratch, partial);
             }
         }
     }

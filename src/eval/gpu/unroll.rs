@@ -3,8 +3,8 @@
 //! Mesa lavapipe (and some GPU drivers) keep function-scope arrays in memory unless every
 //! index is a constant, and do not unroll loops whose bounds come from module constants; an
 //! unrolled loop whose counter is a `const` gives the driver constant indices throughout, so
-//! the held patch, the bases and the accumulators live in registers (13× faster measured on
-//! lavapipe for the bicubic fitness kernel).
+//! the held patch, the bases and the accumulators live in registers (the bicubic fitness
+//! kernel ran over 20× faster on lavapipe unrolled than as written).
 //!
 //! A marked loop must read `for (var X = A; X < B; X++) { // @unroll` (or `<=`), with `A`
 //! and `B` integer expressions over literals, `u32` module constants of the source

@@ -1,0 +1,177 @@
+//! `bezchain compare`: the paper's optimiser comparison on its three NACA 4413 cases, one table.
+
+use super::fit::{backend_name, load};
+use super::{usage, write_json, Target};
+use anyhow::Result;
+use bezchain::chain::{ChainLayout, Continuity};
+use bezchain::eval::Backend;
+use bezchain::fit::evo::{EvoOptions, GA_GENERATIONS, GA_POPULATION};
+use bezchain::fit::{fit_curve, FitOptions, Method, PAPER_CASES};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `bezchain compare`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The contour (the paper used NACA 4413 with 82 points: `data/naca4413.dat`).
+    pub input: PathBuf,
+    /// Methods to compare, in table order (also ga+lsq, cmaes+lsq).
+    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = parse_method)]
+    pub methods: Vec<Method>,
+    /// Individuals per generation of the GA and CMA-ES.
+    #[arg(long, default_value_t = GA_POPULATION as i64, allow_negative_numbers = true)]
+    pub population: i64,
+    /// Generation limit of the GA and CMA-ES (CMA-ES stops earlier once the objective is flat).
+    #[arg(long, default_value_t = GA_GENERATIONS as i64, allow_negative_numbers = true)]
+    pub generations: i64,
+    /// Seed of the GA and CMA-ES.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where the GA and CMA-ES evaluate their populations: auto, gpu or cpu.
+    #[arg(long, default_value = "auto", value_parser = super::parse_backend)]
+    pub backend: Backend,
+    /// Also write the rows as JSON here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn parse_method(s: &str) -> Result<Method, String> {
+    s.parse().map_err(|e: bezchain::Error| e.to_string())
+}
+
+/// One line of the table.
+#[derive(Serialize)]
+struct Row {
+    case: usize,
+    degree: usize,
+    segments: usize,
+    design_points: usize,
+    expanded_points: usize,
+    method: String,
+    design_variables: usize,
+    iterations: usize,
+    evaluations: usize,
+    seconds: f64,
+    sum_sq: f64,
+    max: f64,
+    paper_total_offset: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    backend: Option<String>,
+}
+
+/// Run every method on every case and print the table.
+pub fn run(args: Args) -> Result<()> {
+    if args.population < 4 {
+        return Err(usage(format!(
+            "--population must be at least 4, not {}",
+            args.population
+        )));
+    }
+    if args.generations < 1 {
+        return Err(usage(format!(
+            "--generations must be at least 1, not {}",
+            args.generations
+        )));
+    }
+    let evo = EvoOptions {
+        population: Some(args.population as usize),
+        generations: Some(args.generations as usize),
+        seed: args.seed,
+        backend: args.backend,
+        ..EvoOptions::default()
+    };
+    evo.check()?;
+    let clock = Instant::now();
+    let loaded = load(&args.input)?;
+    let to_stdout = matches!(args.json.as_deref().map(Target::parse), Some(Target::Stdout));
+    let mut rows = Vec::new();
+    let mut backends = Vec::new();
+    // Rows are printed as they finish: the whole table takes tens of seconds.
+    let emit = |text: &str| {
+        if to_stdout {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+            let _ = std::io::Write::flush(&mut std::io::stdout());
+        }
+    };
+    let mut table = String::new();
+    table += &format!(
+        "{}: {} points. Counts are the paper's; sum_sq is the closest-point sum of squares, re-measured.\n\n",
+        args.input.display(),
+        loaded.points.len()
+    );
+    if args.methods.iter().any(|m| m.evolutionary().is_some()) {
+        table += &format!(
+            "ga and cmaes: population {}, at most {} generations, seed {}; iterations are generations and \
+             evaluations individuals.\n\n",
+            args.population, args.generations, args.seed
+        );
+    }
+    table += "| case | degree | segments | design / expanded points | method | variables | iterations | evaluations | seconds | sum_sq | max | paper's total offset | sum_sq / paper |\n";
+    table += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    emit(&table);
+    for case in PAPER_CASES {
+        for &method in &args.methods {
+            let layout = ChainLayout::uniform(case.degree, case.segments, Continuity::C1)?;
+            let opts = FitOptions {
+                method,
+                evo: evo.clone(),
+                ..FitOptions::default()
+            };
+            let fit = fit_curve(&loaded.points, layout, &opts)?;
+            let backend = fit.evolution.as_ref().map(|e| e.run.backend.clone());
+            let l = fit.chain.layout();
+            let row = Row {
+                case: case.case,
+                degree: l.degree(),
+                segments: l.segments(),
+                design_points: l.design_count(),
+                expanded_points: l.expanded_count(),
+                method: method.name().to_string(),
+                design_variables: 2 * l.design_count(),
+                iterations: fit.report.iterations,
+                evaluations: fit.report.evaluations,
+                seconds: fit.report.seconds,
+                sum_sq: fit.closest.sum_sq,
+                max: fit.closest.max,
+                paper_total_offset: case.total_offset,
+                backend: backend.as_ref().map(backend_name),
+            };
+            if let Some(info) = &backend {
+                if !backends.contains(info) {
+                    backends.push(info.clone());
+                }
+            }
+            emit(&format!(
+                "| {} | {} | {} | {} / {} | {} | {} | {} | {} | {:.3} | {:.3e} | {:.2e} | {:.4e} | {:.1e} |\n",
+                row.case,
+                row.degree,
+                row.segments,
+                row.design_points,
+                row.expanded_points,
+                row.method,
+                row.design_variables,
+                row.iterations,
+                row.evaluations,
+                row.seconds,
+                row.sum_sq,
+                row.max,
+                row.paper_total_offset,
+                row.sum_sq / row.paper_total_offset
+            ));
+            rows.push(row);
+        }
+    }
+    let mut tail = String::new();
+    for b in &backends {
+        tail += &format!("\nga and cmaes evaluated on {b}");
+    }
+    tail += &format!("\ntotal {:.1} s\n", clock.elapsed().as_secs_f64());
+    emit(&tail);
+    if let Some(path) = &args.json {
+        write_json(&Target::parse(path), &rows)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,68 @@
+//! `bezchain eval`: the fitness of a population of designs against data, the door for
+//! optimisers outside bezchain.
+
+use super::{parse_backend, Target};
+use anyhow::Result;
+use bezchain::eval::batch::{eval_curve_population, eval_grid_population, read_population, BatchOptions};
+use bezchain::eval::Backend;
+use bezchain::export::Report;
+use bezchain::geometry::{read_cloud, read_curve};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `bezchain eval`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A fit report (JSON) whose layout (degree, segments or patches, breaks, continuity) the
+    /// population uses.
+    pub report: PathBuf,
+    /// The population: one individual per line, its design points flattened `x0,y0,x1,y1,…`
+    /// (`x,y,z` per point for surfaces, design net row-major).
+    #[arg(long)]
+    pub population: PathBuf,
+    /// The data points (a curve file for curve reports, a cloud for surface reports).
+    #[arg(long)]
+    pub points: PathBuf,
+    /// Where to evaluate: auto, gpu or cpu.
+    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    pub backend: Backend,
+    /// Output: one line `sum_sq,max` per individual, in input order (`-` for standard output).
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
+}
+
+/// Evaluate and write the fitness file.
+pub fn run(args: Args) -> Result<()> {
+    let opts = BatchOptions {
+        backend: args.backend,
+        ..BatchOptions::default()
+    };
+    let result = match Report::read(&args.report)? {
+        Report::Curve(rep) => {
+            let layout = rep.layout()?;
+            let points = read_curve(&args.points)?;
+            super::warn_all(&args.points, &points.warnings);
+            let pop = read_population(&args.population, 2 * layout.design_count())?;
+            eval_curve_population(&layout, &points.points, &pop, &opts)?
+        }
+        Report::Surface(rep) => {
+            let layout = rep.layout()?;
+            let points = read_cloud(&args.points)?;
+            super::warn_all(&args.points, &points.warnings);
+            let (nu, nv) = layout.design_shape();
+            let pop = read_population(&args.population, 3 * nu * nv)?;
+            eval_grid_population(&layout, &points.points, &pop, &opts)?
+        }
+    };
+    let mut text = String::with_capacity(result.fitness.len() * 32);
+    for f in &result.fitness {
+        let _ = writeln!(text, "{:e},{:e}", f.sum_sq, f.max);
+    }
+    Target::parse(&args.output).write(text.as_bytes())?;
+    eprintln!(
+        "{} individuals evaluated on {}",
+        result.fitness.len(),
+        result.info
+    );
+    Ok(())
+}

@@ -1,0 +1,472 @@
+//! Checkpoints of an evolutionary run: everything needed to continue it bit-identically, in a
+//! compact versioned binary file written atomically (temporary file, then rename).
+//!
+//! Layout (little-endian): the 8-byte magic `BZEVOCK\0`, a `u32` format version, the fields
+//! in the order of [`Checkpoint`] (numbers as their IEEE bits, vectors as a `u64` length then
+//! the elements, strings as UTF-8 with a `u64` length), and last a `u64` FNV-1a checksum of
+//! every byte before it. Random numbers need no state: they come from streams derived from
+//! the seed, the generation and the individual (see `rng`).
+
+use super::cmaes::CmaesState;
+use super::problem::{Fnv, Score};
+use super::{Algorithm, Progress};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"BZEVOCK\0";
+/// The format version this build writes and reads.
+pub const VERSION: u32 = 1;
+
+/// The state of an evolutionary run after a generation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpoint {
+    /// Fingerprint of the problem (data, layout, anchors, bounds, start), the method and the
+    /// options that shape the run (population, seed, Newton steps, operators); a checkpoint is
+    /// only resumed by a run with the same fingerprint.
+    pub fingerprint: u64,
+    /// The method.
+    pub algorithm: Algorithm,
+    /// The backend and adapter that ran it (results are bit-identical only on the same one).
+    pub backend: String,
+    /// Design variables per individual.
+    pub dim: usize,
+    /// Individuals per generation.
+    pub size: usize,
+    /// Generations completed.
+    pub generation: u64,
+    /// Individuals evaluated so far.
+    pub evaluations: u64,
+    /// Wall-clock seconds so far.
+    pub seconds: f64,
+    /// Seconds spent in the population evaluator so far.
+    pub eval_seconds: f64,
+    /// Individual × point evaluations so far.
+    pub point_evals: u64,
+    /// The evaluator's start parameters, one `(u, v)` per free data point.
+    pub params: Vec<[f64; 2]>,
+    /// The best individual met so far.
+    pub best: Vec<f32>,
+    /// Its score.
+    pub best_score: Score,
+    /// The best sum of squares at the last improvement that counted against stalling.
+    pub stall_reference: f64,
+    /// The generation of that improvement.
+    pub stall_since: u64,
+    /// One line per generation so far.
+    pub history: Vec<Progress>,
+    /// The GA's population (empty for CMA-ES).
+    pub population: Vec<f32>,
+    /// Its scores.
+    pub scores: Vec<Score>,
+    /// The CMA-ES strategy (`None` for the GA).
+    pub cmaes: Option<CmaesState>,
+}
+
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u64(&mut self, x: u64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn f64(&mut self, x: f64) {
+        self.u64(x.to_bits());
+    }
+    fn len(&mut self, n: usize) {
+        self.u64(n as u64);
+    }
+    fn f64s(&mut self, xs: &[f64]) {
+        self.len(xs.len());
+        xs.iter().for_each(|&x| self.f64(x));
+    }
+    fn f32s(&mut self, xs: &[f32]) {
+        self.len(xs.len());
+        for x in xs {
+            self.0.extend_from_slice(&x.to_bits().to_le_bytes());
+        }
+    }
+    fn score(&mut self, s: &Score) {
+        self.f64(s.sum_sq);
+        self.f64(s.max);
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> std::result::Result<&'a [u8], String> {
+        let end = self
+            .at
+            .checked_add(n)
+            .filter(|&e| e <= self.bytes.len())
+            .ok_or_else(|| "the file ends early (truncated?)".to_string())?;
+        let s = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+    fn u64(&mut self) -> std::result::Result<u64, String> {
+        let b = self.take(8)?;
+        let mut a = [0u8; 8];
+        a.copy_from_slice(b);
+        Ok(u64::from_le_bytes(a))
+    }
+    fn f64(&mut self) -> std::result::Result<f64, String> {
+        self.u64().map(f64::from_bits)
+    }
+    /// A length, refused when the rest of the file cannot hold `len · size` bytes.
+    fn len(&mut self, size: usize) -> std::result::Result<usize, String> {
+        let n = self.u64()?;
+        let left = (self.bytes.len() - self.at) as u64;
+        if n.checked_mul(size as u64).is_none_or(|b| b > left) {
+            return Err(format!("a length of {n} runs past the end of the file"));
+        }
+        Ok(n as usize)
+    }
+    fn f64s(&mut self) -> std::result::Result<Vec<f64>, String> {
+        let n = self.len(8)?;
+        (0..n).map(|_| self.f64()).collect()
+    }
+    fn f32s(&mut self) -> std::result::Result<Vec<f32>, String> {
+        let n = self.len(4)?;
+        let b = self.take(n * 4)?;
+        Ok(b.chunks_exact(4)
+            .map(|c| f32::from_bits(u32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+            .collect())
+    }
+    fn score(&mut self) -> std::result::Result<Score, String> {
+        Ok(Score {
+            sum_sq: self.f64()?,
+            max: self.f64()?,
+        })
+    }
+}
+
+impl Checkpoint {
+    /// The file's bytes.
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut w = Writer(Vec::with_capacity(
+            64 + 4 * self.population.len() + 16 * self.scores.len(),
+        ));
+        w.0.extend_from_slice(MAGIC);
+        w.0.extend_from_slice(&VERSION.to_le_bytes());
+        w.u64(self.fingerprint);
+        w.0.push(match self.algorithm {
+            Algorithm::Ga => 0,
+            Algorithm::Cmaes => 1,
+        });
+        w.len(self.backend.len());
+        w.0.extend_from_slice(self.backend.as_bytes());
+        w.len(self.dim);
+        w.len(self.size);
+        w.u64(self.generation);
+        w.u64(self.evaluations);
+        w.f64(self.seconds);
+        w.f64(self.eval_seconds);
+        w.u64(self.point_evals);
+        w.len(self.params.len());
+        for p in &self.params {
+            w.f64(p[0]);
+            w.f64(p[1]);
+        }
+        w.f32s(&self.best);
+        w.score(&self.best_score);
+        w.f64(self.stall_reference);
+        w.u64(self.stall_since);
+        w.len(self.history.len());
+        for h in &self.history {
+            w.u64(h.generation);
+            w.f64(h.best);
+            w.f64(h.mean);
+            w.u64(h.evaluations);
+            w.f64(h.seconds);
+        }
+        w.f32s(&self.population);
+        w.len(self.scores.len());
+        self.scores.iter().for_each(|s| w.score(s));
+        match &self.cmaes {
+            None => w.0.push(0),
+            Some(c) => {
+                w.0.push(1);
+                w.f64s(&c.mean);
+                w.f64(c.sigma);
+                w.f64s(&c.cov);
+                w.f64s(&c.basis);
+                w.f64s(&c.scales);
+                w.f64s(&c.path_c);
+                w.f64s(&c.path_sigma);
+                w.u64(c.generation);
+                w.u64(c.decomposed_at);
+                w.f64s(&c.recent);
+            }
+        }
+        let mut h = Fnv::new();
+        h.bytes(&w.0);
+        let sum = h.finish();
+        w.u64(sum);
+        w.0
+    }
+
+    /// Read a checkpoint from its bytes; the error says what is wrong.
+    pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Self, String> {
+        if bytes.len() < MAGIC.len() + 4 + 8 || &bytes[..MAGIC.len()] != MAGIC {
+            return Err("not a bezchain checkpoint".into());
+        }
+        let body = &bytes[..bytes.len() - 8];
+        let mut tail = [0u8; 8];
+        tail.copy_from_slice(&bytes[bytes.len() - 8..]);
+        let mut h = Fnv::new();
+        h.bytes(body);
+        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if version != VERSION {
+            return Err(format!(
+                "checkpoint format version {version}; this build reads version {VERSION}"
+            ));
+        }
+        if h.finish() != u64::from_le_bytes(tail) {
+            return Err("the checksum does not match (the file is truncated or damaged)".into());
+        }
+        let mut r = Reader { bytes: body, at: 12 };
+        let fingerprint = r.u64()?;
+        let algorithm = match r.take(1)?[0] {
+            0 => Algorithm::Ga,
+            1 => Algorithm::Cmaes,
+            a => return Err(format!("unknown method code {a}")),
+        };
+        let n = r.len(1)?;
+        let backend = String::from_utf8(r.take(n)?.to_vec()).map_err(|_| "the backend name is not UTF-8")?;
+        let dim = r.u64()? as usize;
+        let size = r.u64()? as usize;
+        let generation = r.u64()?;
+        let evaluations = r.u64()?;
+        let seconds = r.f64()?;
+        let eval_seconds = r.f64()?;
+        let point_evals = r.u64()?;
+        let n = r.len(16)?;
+        let params = (0..n)
+            .map(|_| Ok([r.f64()?, r.f64()?]))
+            .collect::<std::result::Result<Vec<_>, String>>()?;
+        let best = r.f32s()?;
+        let best_score = r.score()?;
+        let stall_reference = r.f64()?;
+        let stall_since = r.u64()?;
+        let n = r.len(40)?;
+        let history = (0..n)
+            .map(|_| {
+                Ok(Progress {
+                    generation: r.u64()?,
+                    best: r.f64()?,
+                    mean: r.f64()?,
+                    evaluations: r.u64()?,
+                    seconds: r.f64()?,
+                })
+            })
+            .collect::<std::result::Result<Vec<_>, String>>()?;
+        let population = r.f32s()?;
+        let n = r.len(16)?;
+        let scores = (0..n)
+            .map(|_| r.score())
+            .collect::<std::result::Result<Vec<_>, String>>()?;
+        let cmaes = match r.take(1)?[0] {
+            0 => None,
+            1 => Some(CmaesState {
+                mean: r.f64s()?,
+                sigma: r.f64()?,
+                cov: r.f64s()?,
+                basis: r.f64s()?,
+                scales: r.f64s()?,
+                path_c: r.f64s()?,
+                path_sigma: r.f64s()?,
+                generation: r.u64()?,
+                decomposed_at: r.u64()?,
+                recent: r.f64s()?,
+            }),
+            c => return Err(format!("unknown strategy code {c}")),
+        };
+        if r.at != body.len() {
+            return Err("unexpected bytes after the last field".into());
+        }
+        let ck = Checkpoint {
+            fingerprint,
+            algorithm,
+            backend,
+            dim,
+            size,
+            generation,
+            evaluations,
+            seconds,
+            eval_seconds,
+            point_evals,
+            params,
+            best,
+            best_score,
+            stall_reference,
+            stall_since,
+            history,
+            population,
+            scores,
+            cmaes,
+        };
+        ck.check_shapes()?;
+        Ok(ck)
+    }
+
+    /// The sizes agree with each other.
+    fn check_shapes(&self) -> std::result::Result<(), String> {
+        if self.best.len() != self.dim {
+            return Err(format!(
+                "the best individual has {} variables, the checkpoint says {}",
+                self.best.len(),
+                self.dim
+            ));
+        }
+        match (self.algorithm, &self.cmaes) {
+            (Algorithm::Ga, None) => {
+                if Some(self.population.len()) != self.size.checked_mul(self.dim)
+                    || self.scores.len() != self.size
+                {
+                    return Err("the GA population does not match its size".into());
+                }
+            }
+            (Algorithm::Cmaes, Some(c)) => c.check(self.dim).map_err(|e| e.to_string())?,
+            _ => return Err("the strategy does not match the method".into()),
+        }
+        Ok(())
+    }
+
+    /// Write the checkpoint to `path` atomically: a temporary file beside it, then a rename,
+    /// so an interrupted write leaves the previous checkpoint whole.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes();
+        crate::geometry::write_atomic(path, |w| std::io::Write::write_all(w, &bytes))
+    }
+
+    /// Read a checkpoint file; a missing, unreadable or damaged file is an [`Error::Input`]
+    /// naming it.
+    pub fn read(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|e| Error::Input {
+            path: path.to_path_buf(),
+            message: format!("cannot read the checkpoint: {e}"),
+        })?;
+        Self::from_bytes(&bytes).map_err(|message| Error::Input {
+            path: path.to_path_buf(),
+            message: format!("unreadable checkpoint: {message}"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(algorithm: Algorithm) -> Checkpoint {
+        let cmaes = (algorithm == Algorithm::Cmaes).then(|| {
+            let mut c = CmaesState::new(&[0.5, -1.0], 0.1);
+            c.path_c = vec![1e-300, f64::MIN_POSITIVE];
+            c
+        });
+        let (population, scores) = match algorithm {
+            Algorithm::Ga => (
+                vec![1.0, 2.0, -0.0, f32::MIN_POSITIVE, 3.5, 1e-30],
+                vec![
+                    Score {
+                        sum_sq: 1.0,
+                        max: 0.5,
+                    },
+                    Score::WORST,
+                    Score {
+                        sum_sq: 2.0e-9,
+                        max: 1e-5,
+                    },
+                ],
+            ),
+            Algorithm::Cmaes => (Vec::new(), Vec::new()),
+        };
+        Checkpoint {
+            fingerprint: 0xdead_beef_0123_4567,
+            algorithm,
+            backend: "cpu: test ✓".into(),
+            dim: 2,
+            size: 3,
+            generation: 50,
+            evaluations: 51 * 3,
+            seconds: 1.25,
+            eval_seconds: 0.5,
+            point_evals: 12345,
+            params: vec![[0.1, 0.0], [0.9, 0.3]],
+            best: vec![0.25, -0.125],
+            best_score: Score {
+                sum_sq: 3e-7,
+                max: f64::INFINITY,
+            },
+            stall_reference: 3e-7,
+            stall_since: 44,
+            history: vec![Progress {
+                generation: 0,
+                best: 1.0,
+                mean: f64::INFINITY,
+                evaluations: 3,
+                seconds: 0.0,
+            }],
+            population,
+            scores,
+            cmaes,
+        }
+    }
+
+    #[test]
+    fn round_trips_bit_for_bit() {
+        for a in [Algorithm::Ga, Algorithm::Cmaes] {
+            let c = sample(a);
+            let back = Checkpoint::from_bytes(&c.to_bytes()).unwrap();
+            assert_eq!(back.to_bytes(), c.to_bytes());
+            assert_eq!(back.best_score.max, f64::INFINITY);
+            assert_eq!(
+                back.population.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                c.population.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            );
+        }
+    }
+
+    #[test]
+    fn damaged_files_are_refused_with_a_reason() {
+        let bytes = sample(Algorithm::Ga).to_bytes();
+        let e = Checkpoint::from_bytes(&bytes[..bytes.len() - 3]).unwrap_err();
+        assert!(e.contains("checksum"), "{e}");
+        let mut flipped = bytes.clone();
+        flipped[40] ^= 1;
+        assert!(Checkpoint::from_bytes(&flipped).unwrap_err().contains("checksum"));
+        assert!(Checkpoint::from_bytes(b"hello")
+            .unwrap_err()
+            .contains("not a bezchain"));
+        let mut v2 = bytes.clone();
+        v2[8] = 2;
+        assert!(Checkpoint::from_bytes(&v2).unwrap_err().contains("version 2"));
+        assert!(Checkpoint::from_bytes(&[]).is_err());
+    }
+
+    #[test]
+    fn files_are_written_atomically_and_read_back() {
+        let dir = std::env::temp_dir().join(format!("bezchain-ckpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("run.ckpt");
+        let c = sample(Algorithm::Cmaes);
+        c.write(&path).unwrap();
+        assert_eq!(Checkpoint::read(&path).unwrap(), c);
+        // Nothing but the checkpoint is left beside it.
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::write(&path, b"garbage").unwrap();
+        let e = Checkpoint::read(&path).unwrap_err();
+        assert!(
+            matches!(e, Error::Input { .. }) && e.to_string().contains("run.ckpt"),
+            "{e}"
+        );
+        assert!(matches!(
+            Checkpoint::read(&dir.join("missing")),
+            Err(Error::Input { .. })
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,926 @@
+//! The evolutionary methods: a real-coded genetic algorithm and CMA-ES, on the population
+//! evaluator (one evaluator call per generation, on the GPU or the CPU), for curve chains and
+//! patch grids alike.
+//!
+//! - [`EvoProblem`]: a layout, its data, anchors, box bounds and the start design.
+//! - [`Evolution`]: one run, generation by generation ([`Evolution::step`]), with
+//!   [`Evolution::checkpoint`] / [`Evolution::resume`] that continue bit-identically.
+//! - [`evolve`]: a whole run with a per-generation callback; [`polish`] runs the
+//!   least-squares fit from its result (the `ga+lsq` and `cmaes+lsq` methods);
+//!   [`fit_grid_evo`] does both for a patch grid (curves: [`crate::fit::fit_curve`]).
+//!
+//! **Objective.** The evaluator measures each individual's closest-point offsets: every free
+//! data point starts at its foot point on the best design so far (projected in f64 every
+//! [`EvoOptions::reproject_every`] generations) and follows [`EvoOptions::newton`] clamped
+//! Newton steps of its own, free to cross segment and patch borders. Anchored points (a
+//! chain's ends, tied to the first and last data points as in `fit_curve`) add their squared
+//! distance in f64. The final design is re-measured in f64 with a global foot-point search.
+//!
+//! **Reproducibility.** Random numbers come from ChaCha8 streams fixed by the seed, the
+//! generation and the individual; sorting breaks ties by index; sums over individuals run in
+//! fixed chunks. The same seed and backend give bit-identical runs whatever the thread count,
+//! and a checkpoint holds everything else (population or strategy, parameters, counters).
+
+pub mod checkpoint;
+pub mod cmaes;
+pub mod ga;
+pub mod problem;
+mod rng;
+
+pub use checkpoint::Checkpoint;
+pub use cmaes::{default_lambda, CmaesOptions, CmaesState};
+pub use ga::GaOptions;
+pub use problem::{EvoProblem, Score};
+
+use self::cmaes::Cmaes;
+use self::ga::{initial_population, Ga};
+use self::problem::{Fnv, Session, SessionOptions};
+use self::rng::Streams;
+use super::lsq::{lsq_each_guarded, Guard, LsqOptions, Start};
+use super::objective::{SolveReport, StopReason};
+use super::offset::{grid_offset_stats, OffsetStats};
+use super::problem::{FitProblem, GridProblem};
+use super::shape::Shape;
+use crate::chain::{GridLayout, PatchGrid};
+use crate::error::{Error, Result};
+use crate::eval::{Backend, BackendInfo, GpuOptions};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// An evolutionary method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Algorithm {
+    /// The real-coded genetic algorithm.
+    Ga,
+    /// CMA-ES.
+    Cmaes,
+}
+
+impl Algorithm {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Algorithm::Ga => "ga",
+            Algorithm::Cmaes => "cmaes",
+        }
+    }
+}
+
+impl fmt::Display for Algorithm {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Algorithm {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "ga" => Ok(Algorithm::Ga),
+            "cmaes" | "cma-es" => Ok(Algorithm::Cmaes),
+            _ => Err(Error::invalid(format!(
+                "unknown evolutionary method '{s}' (expected ga or cmaes)"
+            ))),
+        }
+    }
+}
+
+/// Options of the evolutionary methods.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvoOptions {
+    /// Individuals per generation (CMA-ES: `λ`), at least 4. `None`: 1024 for the GA,
+    /// `4 + ⌊3 ln n⌋` for CMA-ES with `n` design variables. Default `None`.
+    pub population: Option<usize>,
+    /// Generations after the initial population, at least 1 (a resumed run counts the
+    /// generations before its checkpoint). `None`: 500 for the GA, pycma's
+    /// `100 + 150 (n + 3)² / √λ` for CMA-ES (which usually stops earlier, when the objective
+    /// is flat). Default `None`.
+    pub generations: Option<usize>,
+    /// Seed of every random stream. Default 1.
+    pub seed: u64,
+    /// Where populations are evaluated. Default [`Backend::Auto`].
+    pub backend: Backend,
+    /// Foot-point Newton steps per data point and individual (0: offsets at the parameters of
+    /// the last projection, a corresponding-point measure). Default 3.
+    pub newton: u32,
+    /// Generations between projections of the data onto the best design so far, in f64.
+    /// Default 1 (every generation).
+    pub reproject_every: usize,
+    /// Samples per segment (per patch side for grids) of those projections. Default 16.
+    pub samples: usize,
+    /// Stop once the best sum of squares is at most this (model units squared); 0: no
+    /// target. Default 0.
+    pub target: f64,
+    /// Stop when the best sum of squares has not improved by the fraction
+    /// [`stall_tolerance`](Self::stall_tolerance) for this many generations; 0: never.
+    /// Default 0.
+    pub stall_generations: usize,
+    /// Relative improvement that resets the stall count. Default 1e-6.
+    pub stall_tolerance: f64,
+    /// Standard deviation of the initial population around the start (GA), or the initial
+    /// step size `σ` (CMA-ES), as a fraction of the data extent. Default 0.02.
+    pub spread: f64,
+    /// Box bounds: the bounding box of the data (and, for grids, of the start) grown on every
+    /// side by this fraction of its largest side. Default 0.1.
+    pub margin: f64,
+    /// Options of the GA.
+    pub ga: GaOptions,
+    /// Options of CMA-ES.
+    pub cmaes: CmaesOptions,
+    /// GPU settings. Default [`GpuOptions::default`].
+    pub gpu: GpuOptions,
+}
+
+impl Default for EvoOptions {
+    fn default() -> Self {
+        EvoOptions {
+            population: None,
+            generations: None,
+            seed: 1,
+            backend: Backend::Auto,
+            newton: 3,
+            reproject_every: 1,
+            samples: 16,
+            target: 0.0,
+            stall_generations: 0,
+            stall_tolerance: 1e-6,
+            spread: 0.02,
+            margin: 0.1,
+            ga: GaOptions::default(),
+            cmaes: CmaesOptions::default(),
+            gpu: GpuOptions::default(),
+        }
+    }
+}
+
+/// Default GA population.
+pub const GA_POPULATION: usize = 1024;
+/// Default GA generation limit.
+pub const GA_GENERATIONS: usize = 500;
+
+impl EvoOptions {
+    /// Check every field; the message names the option and its allowed range.
+    pub fn check(&self) -> Result<()> {
+        if let Some(p) = self.population {
+            if p < 4 {
+                return Err(Error::invalid(format!(
+                    "the population must be at least 4, not {p}"
+                )));
+            }
+        }
+        if self.generations == Some(0) {
+            return Err(Error::invalid("at least one generation is needed"));
+        }
+        if self.reproject_every == 0 {
+            return Err(Error::invalid(
+                "the projection interval must be at least one generation",
+            ));
+        }
+        if self.samples == 0 {
+            return Err(Error::invalid(
+                "the projection needs at least one sample per segment",
+            ));
+        }
+        if !(self.target >= 0.0) || !self.target.is_finite() {
+            return Err(Error::invalid(format!(
+                "the target must be finite and ≥ 0, not {}",
+                self.target
+            )));
+        }
+        if !(self.stall_tolerance >= 0.0) || !self.stall_tolerance.is_finite() {
+            return Err(Error::invalid(format!(
+                "the stall tolerance must be finite and ≥ 0, not {}",
+                self.stall_tolerance
+            )));
+        }
+        if !(self.spread > 0.0) || !self.spread.is_finite() {
+            return Err(Error::invalid(format!(
+                "the initial spread must be a finite fraction > 0 of the data extent, not {}",
+                self.spread
+            )));
+        }
+        if !(self.margin >= 0.0) || !self.margin.is_finite() {
+            return Err(Error::invalid(format!(
+                "the bounds margin must be finite and ≥ 0, not {}",
+                self.margin
+            )));
+        }
+        self.ga.check()?;
+        self.cmaes.check()
+    }
+
+    /// Individuals per generation of `algorithm` on `n` design variables.
+    #[must_use]
+    pub fn size(&self, algorithm: Algorithm, n: usize) -> usize {
+        self.population.unwrap_or(match algorithm {
+            Algorithm::Ga => GA_POPULATION,
+            Algorithm::Cmaes => default_lambda(n),
+        })
+    }
+
+    /// The generation limit of `algorithm` on `n` design variables.
+    #[must_use]
+    pub fn generation_limit(&self, algorithm: Algorithm, n: usize) -> usize {
+        self.generations.unwrap_or(match algorithm {
+            Algorithm::Ga => GA_GENERATIONS,
+            Algorithm::Cmaes => {
+                let lambda = self.size(algorithm, n) as f64;
+                100 + (150.0 * ((n + 3) as f64).powi(2) / lambda.sqrt()) as usize
+            }
+        })
+    }
+}
+
+/// One generation's line of the history.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    /// The generation (0: the initial population).
+    pub generation: u64,
+    /// The best sum of squares so far (the evaluator's f32 measure plus anchors).
+    pub best: f64,
+    /// The mean sum of squares of this generation (finite scores only).
+    pub mean: f64,
+    /// Individuals evaluated so far.
+    pub evaluations: u64,
+    /// Wall-clock seconds so far.
+    pub seconds: f64,
+}
+
+/// Why an evolutionary run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum EvoStop {
+    /// The generation limit.
+    Generations,
+    /// The target sum of squares was reached.
+    Target,
+    /// No improvement for the stall limit.
+    Stall,
+    /// CMA-ES: the sampling spread fell below the tolerance.
+    StepSize,
+    /// CMA-ES: the covariance became too ill-conditioned.
+    Condition,
+    /// CMA-ES: the generation bests have been flat for the flatness window.
+    Flat,
+}
+
+impl EvoStop {
+    /// The solver-neutral reason.
+    #[must_use]
+    pub fn reason(self) -> StopReason {
+        match self {
+            EvoStop::Generations => StopReason::MaxIterations,
+            EvoStop::Target | EvoStop::StepSize | EvoStop::Flat => StopReason::Converged,
+            EvoStop::Stall | EvoStop::Condition => StopReason::NoProgress,
+        }
+    }
+}
+
+impl fmt::Display for EvoStop {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            EvoStop::Generations => "generation limit",
+            EvoStop::Target => "target reached",
+            EvoStop::Stall => "stalled",
+            EvoStop::StepSize => "step size below tolerance",
+            EvoStop::Condition => "covariance ill-conditioned",
+            EvoStop::Flat => "objective flat",
+        })
+    }
+}
+
+// One per run: the size difference does not matter.
+#[allow(clippy::large_enum_variant)]
+enum Engine {
+    Ga(Ga),
+    Cmaes(Cmaes),
+}
+
+/// One evolutionary run on a problem, advanced a generation at a time.
+pub struct Evolution<'p> {
+    problem: &'p EvoProblem,
+    algorithm: Algorithm,
+    options: EvoOptions,
+    fingerprint: u64,
+    size: usize,
+    streams: Streams,
+    session: Session,
+    engine: Engine,
+    generation: u64,
+    evaluations: u64,
+    seconds_before: f64,
+    clock: Instant,
+    best: Vec<f32>,
+    best_score: Score,
+    stall_reference: f64,
+    stall_since: u64,
+    history: Vec<Progress>,
+}
+
+/// The fingerprint of a run: the problem's, the method and the options that shape the run.
+fn run_fingerprint(problem: &EvoProblem, algorithm: Algorithm, options: &EvoOptions, size: usize) -> u64 {
+    let mut h = Fnv::new();
+    h.bytes(&problem.fingerprint().to_le_bytes());
+    h.bytes(algorithm.name().as_bytes());
+    h.usize(size);
+    h.bytes(&options.seed.to_le_bytes());
+    h.usize(options.newton as usize);
+    h.usize(options.reproject_every);
+    h.usize(options.samples);
+    h.f64s(&[options.spread]);
+    match algorithm {
+        Algorithm::Ga => {
+            let g = &options.ga;
+            h.usize(g.tournament);
+            h.f64s(&[
+                g.crossover_rate,
+                g.crossover_eta,
+                g.mutation_rate.unwrap_or(-1.0),
+                g.mutation_eta,
+                g.elite_fraction,
+            ]);
+        }
+        Algorithm::Cmaes => {
+            h.usize(options.cmaes.resample);
+        }
+    }
+    h.finish()
+}
+
+/// The mean of the finite sums of squares (`+∞` when none is finite), summed in order.
+fn mean_finite(scores: &[Score]) -> f64 {
+    let (sum, count) = scores
+        .iter()
+        .filter(|s| s.sum_sq.is_finite())
+        .fold((0.0, 0usize), |(s, c), x| (s + x.sum_sq, c + 1));
+    if count == 0 {
+        f64::INFINITY
+    } else {
+        sum / count as f64
+    }
+}
+
+/// The index of the best score (ties: the first).
+fn best_index(scores: &[Score]) -> usize {
+    (0..scores.len())
+        .min_by(|&a, &b| scores[a].before(a, &scores[b], b))
+        .unwrap_or(0)
+}
+
+impl<'p> Evolution<'p> {
+    /// Start a run: check the options, project the data onto the start, build the evaluator
+    /// and evaluate generation 0 (the GA's initial population; CMA-ES's start point).
+    pub fn new(problem: &'p EvoProblem, algorithm: Algorithm, options: &EvoOptions) -> Result<Self> {
+        options.check()?;
+        let n = problem.dim();
+        let size = options.size(algorithm, n);
+        let streams = Streams::new(options.seed);
+        let (params, _) = problem.project(problem.start(), options.samples)?;
+        let mut session = Session::new(problem, params, &session_options(options))?;
+        let spread = options.spread * problem.extent();
+        let clock = Instant::now();
+        let (engine, best, best_score, evaluations) = match algorithm {
+            Algorithm::Ga => {
+                let pop = initial_population(problem, size, spread, &streams);
+                let mut scores = vec![Score::WORST; size];
+                session.evaluate(problem, &pop, &mut scores)?;
+                let k = best_index(&scores);
+                let best = pop[k * n..(k + 1) * n].to_vec();
+                let s = scores[k];
+                (Engine::Ga(Ga::new(pop, scores)), best, s, size as u64)
+            }
+            Algorithm::Cmaes => {
+                let bounds = problem.bounds();
+                let start: Vec<f32> = problem
+                    .start()
+                    .iter()
+                    .zip(bounds)
+                    .map(|(&x, &[lo, hi])| ga::to_f32(x.clamp(lo, hi), lo, hi))
+                    .collect();
+                let mut s = [Score::WORST];
+                session.evaluate(problem, &start, &mut s)?;
+                let state = CmaesState::new(problem.start(), spread);
+                (Engine::Cmaes(Cmaes::new(state, size)), start, s[0], 1)
+            }
+        };
+        let mean = match &engine {
+            Engine::Ga(g) => mean_finite(&g.scores),
+            Engine::Cmaes(_) => best_score.sum_sq,
+        };
+        let history = vec![Progress {
+            generation: 0,
+            best: best_score.sum_sq,
+            mean,
+            evaluations,
+            seconds: clock.elapsed().as_secs_f64(),
+        }];
+        Ok(Evolution {
+            problem,
+            algorithm,
+            fingerprint: run_fingerprint(problem, algorithm, options, size),
+            options: options.clone(),
+            size,
+            streams,
+            session,
+            engine,
+            generation: 0,
+            evaluations,
+            seconds_before: 0.0,
+            clock,
+            best,
+            best_score,
+            stall_reference: best_score.sum_sq,
+            stall_since: 0,
+            history,
+        })
+    }
+
+    /// Continue a run from a checkpoint. The problem, method and the options that shape the
+    /// run (population, seed, Newton steps, projection, operators) must be those it was
+    /// written with (else [`Error::Invalid`]); the generation limit, target and stall options
+    /// may differ. On the same backend the continuation is bit-identical to a run that was
+    /// never interrupted.
+    pub fn resume(
+        problem: &'p EvoProblem,
+        algorithm: Algorithm,
+        options: &EvoOptions,
+        checkpoint: &Checkpoint,
+    ) -> Result<Self> {
+        options.check()?;
+        let n = problem.dim();
+        let size = options.size(algorithm, n);
+        let fingerprint = run_fingerprint(problem, algorithm, options, size);
+        if checkpoint.algorithm != algorithm {
+            return Err(Error::invalid(format!(
+                "the checkpoint is of a {} run, not {algorithm}",
+                checkpoint.algorithm
+            )));
+        }
+        if checkpoint.fingerprint != fingerprint || checkpoint.dim != n || checkpoint.size != size {
+            return Err(Error::invalid(format!(
+                "the checkpoint was written for another problem or other settings (fingerprint {:016x}, \
+                 this run {fingerprint:016x}): the data, layout, method, population, seed and optimiser \
+                 options must be those of the interrupted run",
+                checkpoint.fingerprint
+            )));
+        }
+        let mut session = Session::new(problem, checkpoint.params.clone(), &session_options(options))?;
+        session.eval_seconds = checkpoint.eval_seconds;
+        session.point_evals = checkpoint.point_evals;
+        let engine = match (&checkpoint.cmaes, algorithm) {
+            (None, Algorithm::Ga) => {
+                Engine::Ga(Ga::new(checkpoint.population.clone(), checkpoint.scores.clone()))
+            }
+            (Some(state), Algorithm::Cmaes) => {
+                state.check(n)?;
+                Engine::Cmaes(Cmaes::new(state.clone(), size))
+            }
+            _ => {
+                return Err(Error::invalid(
+                    "the checkpoint's strategy does not match its method",
+                ))
+            }
+        };
+        Ok(Evolution {
+            problem,
+            algorithm,
+            fingerprint,
+            options: options.clone(),
+            size,
+            streams: Streams::new(options.seed),
+            session,
+            engine,
+            generation: checkpoint.generation,
+            evaluations: checkpoint.evaluations,
+            seconds_before: checkpoint.seconds,
+            clock: Instant::now(),
+            best: checkpoint.best.clone(),
+            best_score: checkpoint.best_score,
+            stall_reference: checkpoint.stall_reference,
+            stall_since: checkpoint.stall_since,
+            history: checkpoint.history.clone(),
+        })
+    }
+
+    /// Run one generation: project the data onto the best design (when due), breed or sample
+    /// the population, evaluate it in one evaluator call, update the best and the history.
+    pub fn step(&mut self) -> Result<&Progress> {
+        let g = self.generation + 1;
+        let problem = self.problem;
+        let n = problem.dim();
+        if g.is_multiple_of(self.options.reproject_every as u64) {
+            let design: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
+            self.session.reproject(problem, &design, self.options.samples)?;
+        }
+        let (pop, scores): (&[f32], &[Score]) = match &mut self.engine {
+            Engine::Ga(ga) => {
+                ga.breed(problem, &self.options.ga, &self.streams, g);
+                self.session.evaluate(problem, &ga.next, &mut ga.next_scores)?;
+                ga.advance();
+                (&ga.population, &ga.scores)
+            }
+            Engine::Cmaes(es) => {
+                es.sample(problem, &self.options.cmaes, &self.streams, g);
+                self.session.evaluate(problem, &es.samples, &mut es.scores)?;
+                es.update();
+                (&es.samples, &es.scores)
+            }
+        };
+        let k = best_index(scores);
+        if scores[k].sum_sq < self.best_score.sum_sq {
+            self.best_score = scores[k];
+            self.best.copy_from_slice(&pop[k * n..(k + 1) * n]);
+        }
+        if self.best_score.sum_sq < self.stall_reference * (1.0 - self.options.stall_tolerance) {
+            self.stall_reference = self.best_score.sum_sq;
+            self.stall_since = g;
+        }
+        self.generation = g;
+        self.evaluations += self.size as u64;
+        self.history.push(Progress {
+            generation: g,
+            best: self.best_score.sum_sq,
+            mean: mean_finite(scores),
+            evaluations: self.evaluations,
+            seconds: self.seconds(),
+        });
+        Ok(&self.history[self.history.len() - 1])
+    }
+
+    /// Why the run should stop now, if it should.
+    #[must_use]
+    pub fn stop(&self) -> Option<EvoStop> {
+        let o = &self.options;
+        if o.target > 0.0 && self.best_score.sum_sq <= o.target {
+            return Some(EvoStop::Target);
+        }
+        if self.generation >= o.generation_limit(self.algorithm, self.problem.dim()) as u64 {
+            return Some(EvoStop::Generations);
+        }
+        if o.stall_generations > 0 && self.generation - self.stall_since >= o.stall_generations as u64 {
+            return Some(EvoStop::Stall);
+        }
+        if let Engine::Cmaes(es) = &self.engine {
+            if es.state.spread() < o.cmaes.tol_x * self.problem.extent() {
+                return Some(EvoStop::StepSize);
+            }
+            if es.state.condition() > o.cmaes.max_condition {
+                return Some(EvoStop::Condition);
+            }
+            if es.state.flat(self.problem.dim(), self.size, o.cmaes.tol_fun) {
+                return Some(EvoStop::Flat);
+            }
+        }
+        None
+    }
+
+    /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step (an
+    /// error from it ends the run with that error). Returns the reason.
+    pub fn run(&mut self, mut on_generation: impl FnMut(&Evolution<'_>) -> Result<()>) -> Result<EvoStop> {
+        loop {
+            if let Some(why) = self.stop() {
+                return Ok(why);
+            }
+            self.step()?;
+            on_generation(self)?;
+        }
+    }
+
+    /// Everything needed to continue this run bit-identically.
+    #[must_use]
+    pub fn checkpoint(&self) -> Checkpoint {
+        let (population, scores, cmaes) = match &self.engine {
+            Engine::Ga(ga) => (ga.population.clone(), ga.scores.clone(), None),
+            Engine::Cmaes(es) => (Vec::new(), Vec::new(), Some(es.state.clone())),
+        };
+        Checkpoint {
+            fingerprint: self.fingerprint,
+            algorithm: self.algorithm,
+            backend: self.session.info().to_string(),
+            dim: self.problem.dim(),
+            size: self.size,
+            generation: self.generation,
+            evaluations: self.evaluations,
+            seconds: self.seconds(),
+            eval_seconds: self.session.eval_seconds,
+            point_evals: self.session.point_evals,
+            params: self.session.params().to_vec(),
+            best: self.best.clone(),
+            best_score: self.best_score,
+            stall_reference: self.stall_reference,
+            stall_since: self.stall_since,
+            history: self.history.clone(),
+            population,
+            scores,
+            cmaes,
+        }
+    }
+
+    /// The method.
+    #[must_use]
+    pub fn algorithm(&self) -> Algorithm {
+        self.algorithm
+    }
+
+    /// Generations completed.
+    #[must_use]
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The generation limit.
+    #[must_use]
+    pub fn generations(&self) -> usize {
+        self.options.generation_limit(self.algorithm, self.problem.dim())
+    }
+
+    /// Individuals per generation.
+    #[must_use]
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The best individual so far (f32, as evaluated) and its score.
+    #[must_use]
+    pub fn best(&self) -> (&[f32], Score) {
+        (&self.best, self.best_score)
+    }
+
+    /// One line per generation so far (generation 0 first).
+    #[must_use]
+    pub fn history(&self) -> &[Progress] {
+        &self.history
+    }
+
+    /// The backend and adapter that run the evaluations.
+    #[must_use]
+    pub fn info(&self) -> &BackendInfo {
+        self.session.info()
+    }
+
+    /// CMA-ES's strategy (`None` for the GA).
+    #[must_use]
+    pub fn strategy(&self) -> Option<&CmaesState> {
+        match &self.engine {
+            Engine::Cmaes(es) => Some(&es.state),
+            Engine::Ga(_) => None,
+        }
+    }
+
+    /// Wall-clock seconds so far, including those before a checkpoint.
+    #[must_use]
+    pub fn seconds(&self) -> f64 {
+        self.seconds_before + self.clock.elapsed().as_secs_f64()
+    }
+
+    /// Individual × point evaluations per second of evaluator time.
+    #[must_use]
+    pub fn evals_per_second(&self) -> f64 {
+        if self.session.eval_seconds > 0.0 {
+            self.session.point_evals as f64 / self.session.eval_seconds
+        } else {
+            0.0
+        }
+    }
+
+    /// End the run: re-measure the candidates in f64 (the best individual; for CMA-ES also
+    /// the mean) and return the better.
+    pub fn finish(self, stop: EvoStop) -> Result<EvoResult> {
+        let samples = self.options.samples.max(48);
+        let mut candidates = vec![self.best.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>()];
+        if let Engine::Cmaes(es) = &self.engine {
+            candidates.push(es.state.mean.clone());
+        }
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        for c in candidates {
+            let m = self.problem.measure(&c, samples)?;
+            if best.as_ref().is_none_or(|(_, b)| m < *b) {
+                best = Some((c, m));
+            }
+        }
+        let (design, sum_sq) = best.ok_or_else(|| Error::Numerical("no candidate design".into()))?;
+        if design.iter().any(|x| !x.is_finite()) || !sum_sq.is_finite() {
+            return Err(Error::Numerical(format!(
+                "{} produced a non-finite design",
+                self.algorithm
+            )));
+        }
+        let seconds = self.seconds();
+        Ok(EvoResult {
+            design,
+            sum_sq,
+            score: self.best_score,
+            report: SolveReport {
+                iterations: self.generation as usize,
+                evaluations: self.evaluations as usize,
+                seconds,
+                stop: stop.reason(),
+            },
+            stop,
+            size: self.size,
+            backend: self.session.info().clone(),
+            eval_seconds: self.session.eval_seconds,
+            point_evals: self.session.point_evals,
+            evals_per_second: self.evals_per_second(),
+            history: self.history,
+        })
+    }
+}
+
+fn session_options(options: &EvoOptions) -> SessionOptions {
+    SessionOptions {
+        backend: options.backend,
+        newton: options.newton,
+        gpu: options.gpu.clone(),
+    }
+}
+
+/// The outcome of an evolutionary run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvoResult {
+    /// The best design found, flat.
+    pub design: Vec<f64>,
+    /// Its objective re-measured in f64 (closest-point offsets by a global search, plus the
+    /// anchored points).
+    pub sum_sq: f64,
+    /// The best score the evaluator gave (f32 arithmetic).
+    pub score: Score,
+    /// Generations (`iterations`), individuals evaluated, seconds, stop reason.
+    pub report: SolveReport,
+    /// The evolutionary stop reason.
+    pub stop: EvoStop,
+    /// Individuals per generation.
+    pub size: usize,
+    /// The backend and adapter that ran the evaluations.
+    pub backend: BackendInfo,
+    /// Seconds spent in the evaluator.
+    pub eval_seconds: f64,
+    /// Individual × point evaluations.
+    pub point_evals: u64,
+    /// `point_evals / eval_seconds`.
+    pub evals_per_second: f64,
+    /// One line per generation.
+    pub history: Vec<Progress>,
+}
+
+/// A per-generation callback.
+pub type GenerationHook<'a> = &'a mut dyn FnMut(&Evolution<'_>) -> Result<()>;
+
+/// What a caller may hook into a long run.
+#[derive(Default)]
+pub struct EvoHooks<'a> {
+    /// Called after every generation (progress display, history file, checkpoints); an error
+    /// ends the run with that error.
+    pub on_generation: Option<GenerationHook<'a>>,
+    /// Continue from this checkpoint instead of starting afresh.
+    pub resume: Option<Checkpoint>,
+}
+
+/// A whole run: from the start (or `hooks.resume`) until a stop criterion holds.
+pub fn evolve(
+    problem: &EvoProblem,
+    algorithm: Algorithm,
+    options: &EvoOptions,
+    hooks: &mut EvoHooks<'_>,
+) -> Result<EvoResult> {
+    let mut run = match &hooks.resume {
+        Some(c) => Evolution::resume(problem, algorithm, options, c)?,
+        None => Evolution::new(problem, algorithm, options)?,
+    };
+    let stop = match hooks.on_generation.as_mut() {
+        Some(f) => run.run(|e| f(e))?,
+        None => run.run(|_| Ok(()))?,
+    };
+    run.finish(stop)
+}
+
+/// One stage of a fit, for reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stage {
+    /// `ga`, `cmaes` or `lsq`.
+    pub method: String,
+    /// Its effort.
+    pub report: SolveReport,
+}
+
+/// What an evolutionary fit adds to a fit's report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvoSummary {
+    /// The evolutionary run.
+    pub run: EvoResult,
+    /// The stages: the evolutionary one, then the least-squares polish when asked for.
+    pub stages: Vec<Stage>,
+    /// For a curve hybrid's polish (which also tries the least-squares method's own starts):
+    /// whether the fit polished from the evolved design won. `None` without a polish.
+    pub polish_from_evolved: Option<bool>,
+}
+
+/// The least-squares polish: Levenberg-Marquardt on `problem` from `design` and its foot
+/// points, kept where `guard` admits once it holds (see [`levenberg_marquardt_guarded`]).
+/// Returns the polished design and the solver's report.
+///
+/// [`levenberg_marquardt_guarded`]: crate::fit::lsq::levenberg_marquardt_guarded
+pub fn polish<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    design: Vec<S::Point>,
+    opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+) -> Result<(Vec<S::Point>, SolveReport)> {
+    let params: Vec<[f64; K]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
+    let fit = lsq_each_guarded(problem, &[Start::Design(design, params)], opts, guard)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::Numerical("lsq: the polish produced no fit".into()))?;
+    Ok((fit.design, fit.report))
+}
+
+/// The evolutionary stage on `evo`, then (with `polish_after`) the least-squares polish on
+/// `problem` under `guard`: the design, the combined report and the summary.
+#[allow(clippy::too_many_arguments)]
+pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
+    evo: &EvoProblem,
+    problem: &FitProblem<'_, S, K>,
+    algorithm: Algorithm,
+    polish_after: bool,
+    options: &EvoOptions,
+    lsq: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+    hooks: &mut EvoHooks<'_>,
+) -> Result<(Vec<S::Point>, SolveReport, EvoSummary)> {
+    let run = evolve(evo, algorithm, options, hooks)?;
+    let clock = Instant::now();
+    let mut design = FitProblem::<S, K>::from_flat(&run.design);
+    let mut stages = vec![Stage {
+        method: algorithm.name().to_string(),
+        report: run.report,
+    }];
+    let mut report = run.report;
+    if polish_after {
+        let (polished, r) = polish(problem, design, lsq, guard)?;
+        design = polished;
+        stages.push(Stage {
+            method: "lsq".to_string(),
+            report: r,
+        });
+        report.iterations += r.iterations;
+        report.evaluations += r.evaluations;
+        report.stop = r.stop;
+    }
+    // The run's seconds (with those before a checkpoint it resumed from), then the polish.
+    report.seconds = run.report.seconds + clock.elapsed().as_secs_f64();
+    let polish_from_evolved = polish_after.then_some(true);
+    Ok((
+        design,
+        report,
+        EvoSummary {
+            run,
+            stages,
+            polish_from_evolved,
+        },
+    ))
+}
+
+/// A patch grid fitted by an evolutionary method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridEvoFit {
+    /// The fitted grid.
+    pub grid: PatchGrid<DVec3>,
+    /// Its closest-point offsets, re-measured in f64.
+    pub closest: OffsetStats<DVec3>,
+    /// Generations and evaluations of every stage, total seconds.
+    pub report: SolveReport,
+    /// The evolutionary run and the stages.
+    pub summary: EvoSummary,
+}
+
+/// Fit a patch grid of `layout` to `points` by `algorithm` from the design net `start`, then
+/// (with `polish_after`) polish by least squares. `params` (one `(u, v)` per point) start the
+/// least-squares problem's foot points and serve no other purpose.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_grid_evo(
+    points: &[DVec3],
+    params: Vec<[f64; 2]>,
+    layout: GridLayout,
+    start: &[DVec3],
+    algorithm: Algorithm,
+    polish_after: bool,
+    options: &EvoOptions,
+    lsq: &LsqOptions,
+    hooks: &mut EvoHooks<'_>,
+) -> Result<GridEvoFit> {
+    let evo = EvoProblem::grid(points, layout.clone(), start, options.margin)?;
+    let problem = GridProblem::grid(layout, points, params, super::offset::Metric::Closest)?;
+    let (design, report, summary) =
+        evolve_then_polish(&evo, &problem, algorithm, polish_after, options, lsq, None, hooks)?;
+    let grid = problem.patch_grid(&design)?;
+    let closest = grid_offset_stats(&grid, points)?;
+    Ok(GridEvoFit {
+        grid,
+        closest,
+        report,
+        summary,
+    })
+}

@@ -1,0 +1,384 @@
+//! `bezchain fit --method ga|cmaes|ga+lsq|cmaes+lsq` and `bezchain compare` end to end: the
+//! report (checked by `verify.py`), the history file, checkpoints that resume bit-identically
+//! and survive a killed run, and every bad setting answered with exit status 2.
+
+mod common;
+
+use bezchain::fit::evo::Checkpoint;
+use common::{bin, crate_root, scratch, verify_py};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(bin())
+        .args(args)
+        .current_dir(crate_root())
+        .output()
+        .expect("run bezchain")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// Exit status 2, one `error:` line of ours naming `needle` (the Vulkan loader may print
+/// lines of its own), and no panic.
+fn assert_user_error(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("error:") && !l.contains("XDG_RUNTIME_DIR"))
+        .collect();
+    assert_eq!(lines.len(), 1, "one error line expected: {err}");
+    assert!(lines[0].contains(needle), "'{needle}' not in: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// `fit` on case 1 with the given method and extra arguments.
+fn fit(method: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--method",
+        method,
+        "--backend",
+        "cpu",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    run(&args)
+}
+
+#[test]
+fn ga_reports_history_and_checkpoints_and_resumes_bit_identically() {
+    let dir = scratch("cli-evo-ga");
+    let p = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let common = ["--population", "64", "--seed", "3"];
+    let (report, history, ck) = (p("ga.json"), p("ga.csv"), p("ga.ckpt"));
+    let mut args = common.to_vec();
+    args.extend_from_slice(&["--generations", "12", "--json", &report, "--history", &history]);
+    args.extend_from_slice(&["--checkpoint", &ck, "--checkpoint-every", "5"]);
+    let out = fit("ga", &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(summary.contains("point evaluations/s"), "{summary}");
+    let rep = json(Path::new(&report));
+    assert_eq!(rep["fit"]["method"], "ga");
+    assert_eq!(rep["fit"]["iterations"], 12);
+    assert_eq!(rep["fit"]["evaluations"], 64 * 13);
+    assert_eq!(rep["fit"]["backend"], "cpu");
+    assert!(rep["fit"]["evals_per_second"].as_f64().unwrap() > 0.0);
+    // The independent checker agrees with the report's offsets.
+    let out = Command::new("python3")
+        .arg(verify_py())
+        .args(["curve", &report, "data/naca4413.dat"])
+        .current_dir(crate_root())
+        .output()
+        .expect("python3 runs verify.py");
+    assert!(out.status.success(), "verify.py: {}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (ours, theirs) = (
+        rep["offset"]["sum_sq"].as_f64().unwrap(),
+        v["sum_sq"].as_f64().unwrap(),
+    );
+    assert!(
+        (ours - theirs).abs() <= 1e-6 * theirs,
+        "report {ours:e} vs verify.py {theirs:e}"
+    );
+    // One history line per generation, the best never worse.
+    let text = std::fs::read_to_string(&history).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "generation,best,mean,evaluations,seconds");
+    assert_eq!(lines.len(), 14);
+    let best: Vec<f64> = lines[1..]
+        .iter()
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert!(best.windows(2).all(|w| w[1] <= w[0]), "{best:?}");
+    assert_eq!(Checkpoint::read(Path::new(&ck)).unwrap().generation, 12);
+    // Interrupted after generation 6 (the run's last checkpoint), resumed to 12: the same
+    // design as the uninterrupted run, and the same history.
+    let (part, part_ck, rest, rest_h) = (p("part.json"), p("part.ckpt"), p("rest.json"), p("rest.csv"));
+    let mut a = common.to_vec();
+    a.extend_from_slice(&["--generations", "6", "--json", &part, "--checkpoint", &part_ck]);
+    assert!(fit("ga", &a).status.success());
+    let mut b = common.to_vec();
+    b.extend_from_slice(&[
+        "--generations",
+        "12",
+        "--resume",
+        &part_ck,
+        "--json",
+        &rest,
+        "--history",
+        &rest_h,
+    ]);
+    let out = fit("ga", &b);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (full, resumed) = (rep, json(Path::new(&rest)));
+    assert_eq!(full["design_points"], resumed["design_points"]);
+    assert_eq!(full["offset"], resumed["offset"]);
+    assert_eq!(resumed["fit"]["evaluations"], 64 * 13);
+    let cols = |t: &str| {
+        t.lines()
+            .map(|l| l.split(',').take(4).collect::<Vec<_>>().join(","))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(cols(&text), cols(&std::fs::read_to_string(&rest_h).unwrap()));
+}
+
+#[test]
+fn hybrids_report_both_stages_and_end_at_a_least_squares_optimum() {
+    let dir = scratch("cli-evo-hybrid");
+    let bfgs = dir.join("bfgs.json");
+    let out = run(&[
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--method",
+        "bfgs",
+        "--json",
+        bfgs.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let b = json(&bfgs)["offset"]["sum_sq"].as_f64().unwrap();
+    let lsq = dir.join("lsq.json");
+    let out = run(&[
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--json",
+        lsq.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let l = json(&lsq)["offset"]["sum_sq"].as_f64().unwrap();
+    for (method, population, generations) in [("cmaes+lsq", "64", "60"), ("ga+lsq", "256", "30")] {
+        let report = dir.join(format!("{method}.json"));
+        let out = fit(
+            method,
+            &[
+                "--population",
+                population,
+                "--generations",
+                generations,
+                "--json",
+                report.to_str().unwrap(),
+            ],
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let rep = json(&report);
+        assert_eq!(rep["fit"]["method"], method);
+        let stages = rep["fit"]["stages"].as_array().unwrap();
+        assert_eq!(stages.len(), 2);
+        assert_eq!(stages[0]["method"], &method[..method.len() - 4]);
+        assert_eq!(stages[0]["iterations"], generations.parse::<u64>().unwrap());
+        assert!(stages[0]["evals_per_second"].as_f64().unwrap() > 0.0);
+        assert_eq!(stages[1]["method"], "lsq");
+        assert!(stages[1]["iterations"].as_u64().unwrap() > 0);
+        // The polish also tries lsq's own starts, so it ends at the lsq optimum (within 1 %),
+        // below the minimum that BFGS reaches from the paper's start.
+        let h = rep["offset"]["sum_sq"].as_f64().unwrap();
+        assert!((h - l).abs() <= 0.01 * l, "{method} {h:e} vs lsq {l:e}");
+        assert!(h <= b, "{method} {h:e} vs bfgs {b:e}");
+    }
+}
+
+#[test]
+fn bad_settings_exit_2_with_a_clear_message() {
+    let dir = scratch("cli-evo-bad");
+    assert_user_error(
+        &fit("ga", &["--population", "3"]),
+        "--population must be at least 4",
+    );
+    assert_user_error(
+        &fit("cmaes", &["--generations", "0"]),
+        "--generations must be at least 1",
+    );
+    assert_user_error(
+        &fit("ga", &["--mutation-rate", "-0.1"]),
+        "mutation rate must lie in [0, 1]",
+    );
+    assert_user_error(
+        &fit("ga", &["--crossover-rate=-1"]),
+        "crossover rate must lie in [0, 1]",
+    );
+    assert_user_error(&fit("ga", &["--spread", "0"]), "spread");
+    assert_user_error(&fit("ga", &["--target", "-1"]), "target");
+    let lsq = run(&[
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "5",
+        "--population",
+        "64",
+    ]);
+    assert_user_error(&lsq, "--population applies only");
+    // A checkpoint of another problem (another layout), of another seed, of another method.
+    let ck = dir.join("c.ckpt");
+    let out = fit(
+        "ga",
+        &[
+            "--population",
+            "16",
+            "--generations",
+            "2",
+            "--checkpoint",
+            ck.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let c = ck.to_str().unwrap();
+    let other = run(&[
+        "fit",
+        "data/naca4413.dat",
+        "--degree",
+        "3",
+        "--segments",
+        "4",
+        "--method",
+        "ga",
+        "--population",
+        "16",
+        "--backend",
+        "cpu",
+        "--resume",
+        c,
+    ]);
+    assert_user_error(&other, "another problem");
+    // A failed resume leaves an existing history file alone.
+    let history = dir.join("keep.csv");
+    std::fs::write(&history, "precious").unwrap();
+    let h = history.to_str().unwrap();
+    let seed5 = fit(
+        "ga",
+        &["--population", "16", "--seed", "5", "--resume", c, "--history", h],
+    );
+    assert_user_error(&seed5, "another problem");
+    assert_eq!(std::fs::read_to_string(&history).unwrap(), "precious");
+    assert_user_error(&fit("cmaes", &["--population", "16", "--resume", c]), "ga run");
+    // Unreadable checkpoints: garbage, truncated, missing.
+    let garbage = dir.join("garbage.ckpt");
+    std::fs::write(&garbage, "not a checkpoint").unwrap();
+    assert_user_error(
+        &fit("ga", &["--resume", garbage.to_str().unwrap()]),
+        "garbage.ckpt",
+    );
+    let bytes = std::fs::read(&ck).unwrap();
+    let cut = dir.join("cut.ckpt");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    assert_user_error(
+        &fit("ga", &["--population", "16", "--resume", cut.to_str().unwrap()]),
+        "cut.ckpt",
+    );
+    let missing = dir.join("missing.ckpt");
+    assert_user_error(
+        &fit("ga", &["--resume", missing.to_str().unwrap()]),
+        "missing.ckpt",
+    );
+    // The good checkpoint was never touched by the failed runs.
+    assert_eq!(std::fs::read(&ck).unwrap(), bytes);
+}
+
+#[test]
+fn a_killed_run_leaves_a_whole_checkpoint_that_resumes() {
+    let dir = scratch("cli-evo-kill");
+    let ck = dir.join("k.ckpt");
+    let c = ck.to_str().unwrap();
+    // A checkpoint every generation of a large population: the kill lands during or between
+    // writes, never leaving a partial file under the checkpoint's name.
+    let mut child = Command::new(bin())
+        .args([
+            "fit",
+            "data/naca4413.dat",
+            "--degree",
+            "3",
+            "--segments",
+            "5",
+            "--method",
+            "ga",
+            "--backend",
+            "cpu",
+            "--population",
+            "4096",
+            "--generations",
+            "100000",
+            "--checkpoint",
+            c,
+            "--checkpoint-every",
+            "1",
+            "--quiet",
+        ])
+        .current_dir(crate_root())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let clock = Instant::now();
+    while !ck.exists() && clock.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(700));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let saved = Checkpoint::read(&ck).expect("the last checkpoint is whole");
+    assert!(saved.generation >= 1);
+    let next = (saved.generation + 1).to_string();
+    let out = fit(
+        "ga",
+        &["--population", "4096", "--generations", &next, "--resume", c],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+}
+
+#[test]
+fn compare_prints_every_method_on_the_three_cases() {
+    let out = run(&[
+        "compare",
+        "data/naca4413.dat",
+        "--methods",
+        "ga,cmaes,ga+lsq",
+        "--population",
+        "16",
+        "--generations",
+        "4",
+        "--backend",
+        "cpu",
+        "--json",
+        "-",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 9);
+    for (row, method) in rows.iter().zip(["ga", "cmaes", "ga+lsq"].iter().cycle()) {
+        assert_eq!(row["method"], *method);
+        assert_eq!(row["backend"], "cpu");
+        assert!(row["sum_sq"].as_f64().unwrap() > 0.0);
+    }
+    assert_eq!(rows[0]["iterations"], 4);
+    assert_eq!(rows[0]["evaluations"], 16 * 5);
+    let table = stderr(&out);
+    assert!(table.contains("| 3 | 5 | 3 | 14 / 16 | cmaes | 28 |"), "{table}");
+    assert_user_error(
+        &run(&["compare", "data/naca4413.dat", "--population", "2"]),
+        "--population",
+    );
+}
