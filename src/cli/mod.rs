@@ -6,6 +6,7 @@ pub mod blade;
 pub mod compare;
 pub mod eval;
 pub mod fit;
+pub mod fit_surface;
 pub mod naca;
 
 use anyhow::Result;

@@ -41,6 +41,7 @@
 //! paper's cases both took about as many iterations and more often stopped in a worse local
 //! minimum.
 
+use super::band::{rcm_order, BandMatrix};
 use super::foot::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use super::objective::{SolveReport, StopReason};
 use super::offset::Metric;
@@ -70,6 +71,9 @@ pub struct LsqOptions {
     /// How often a global foot-point search may restart the iteration after convergence, when
     /// it finds closer foot points elsewhere on the shape. Default 3.
     pub global_checks: usize,
+    /// Iterations over which the `ftol` test measures the decrease. Default 10: on aerofoils
+    /// the iteration crosses flat stretches of a valley where single steps gain little.
+    pub window: usize,
 }
 
 impl Default for LsqOptions {
@@ -80,6 +84,7 @@ impl Default for LsqOptions {
             xtol: 1e-13,
             initial_damping: 10.0,
             global_checks: 3,
+            window: 10,
         }
     }
 }
@@ -133,6 +138,27 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
             m[k][k] *= 1.0 + lambda;
         }
         let mut m_inv = [[0.0; K]; K];
+        // Two free parameters (patch grids): the closed-form inverse, with solve_spd's test
+        // for positive definiteness; a tenth of the cost of two Cholesky solves.
+        if K == 2 && free.iter().all(|&f| f) {
+            let (a, b, d) = (m[0][K - 1], m[K - 1][0], m[K - 1][K - 1]);
+            let a00 = m[0][0];
+            let scale = a00.abs().max(d.abs());
+            let det = a00 * d - a * b;
+            if a00 > 1e-13 * scale && det > 1e-13 * scale * a00 && scale.is_finite() {
+                m_inv[0][0] = d / det;
+                m_inv[0][K - 1] = -a / det;
+                m_inv[K - 1][0] = -b / det;
+                m_inv[K - 1][K - 1] = a00 / det;
+            }
+            return PointModel {
+                r,
+                tangents,
+                g,
+                m_diag,
+                m_inv,
+            };
+        }
         for l in 0..K {
             if !free[l] {
                 continue;
@@ -312,8 +338,14 @@ fn assemble<S: Shape<K>, const K: usize>(
     .0
 }
 
-/// Assemble the dense reduced matrix, damp it and solve for the design step. Returns the step
-/// and the floored diagonal `Dx`, or `None` when the system is not positive definite.
+/// Systems with at least this many unknowns are solved in band form (see [`BandMatrix`]);
+/// below it (every curve) the dense Cholesky factorisation is as fast.
+const BAND_MIN: usize = 256;
+
+/// Assemble the reduced matrix, damp it and solve for the design step: dense for small
+/// systems, in band form for large ones (patch grids with many patches, whose matrix couples
+/// each design point only with its neighbours). Returns the step and the floored diagonal
+/// `Dx`, or `None` when the system is not positive definite.
 fn solve_step<S: Shape<K>, const K: usize>(
     shape: &S,
     normal: &Normal,
@@ -322,25 +354,19 @@ fn solve_step<S: Shape<K>, const K: usize>(
     let dim = S::Point::DIM;
     let m = shape.design_count();
     let nn = m * dim;
-    let mut s = DMatrix::<f64>::zeros(nn, nn);
-    let mut b = DVector::<f64>::zeros(nn);
     let mut dx = vec![0.0; m];
+    let mut b = vec![0.0; nn];
+    // Largest index distance between design points that share a cell, in points.
+    let mut reach = 0;
     for cell in 0..shape.cell_count() {
         let support = shape.support(cell);
-        let n = support.len();
-        let block = &normal.blocks[cell];
+        if let (Some(&lo), Some(&hi)) = (support.iter().min(), support.iter().max()) {
+            reach = reach.max((hi - lo) as usize);
+        }
         for (a, &ia) in support.iter().enumerate() {
             dx[ia as usize] += normal.diag[cell][a];
             for c1 in 0..dim {
-                let row = ia as usize * dim + c1;
-                b[row] += normal.rhs[cell][a * dim + c1];
-                for (bb, &ib) in support.iter().enumerate() {
-                    for c2 in 0..dim {
-                        // G_c1c2 is symmetric in the support indices, and P in the coordinates.
-                        let g = pair(c1.min(c2), c1.max(c2), dim);
-                        s[(row, ib as usize * dim + c2)] += block[g * n * n + a * n + bb];
-                    }
-                }
+                b[ia as usize * dim + c1] += normal.rhs[cell][a * dim + c1];
             }
         }
     }
@@ -350,22 +376,83 @@ fn solve_step<S: Shape<K>, const K: usize>(
     for v in &mut dx {
         *v = v.max(floor);
     }
-    for i in 0..m {
-        for c in 0..dim {
-            s[(i * dim + c, i * dim + c)] += lambda * dx[i];
+    // Calls `add(row, col, value)` for every entry of the cells' blocks.
+    let for_entries = |add: &mut dyn FnMut(usize, usize, f64)| {
+        for cell in 0..shape.cell_count() {
+            let support = shape.support(cell);
+            let n = support.len();
+            let block = &normal.blocks[cell];
+            for (a, &ia) in support.iter().enumerate() {
+                for c1 in 0..dim {
+                    let row = ia as usize * dim + c1;
+                    for (bb, &ib) in support.iter().enumerate() {
+                        for c2 in 0..dim {
+                            // G_c1c2 is symmetric in the support indices, and P in the coordinates.
+                            let g = pair(c1.min(c2), c1.max(c2), dim);
+                            add(row, ib as usize * dim + c2, block[g * n * n + a * n + bb]);
+                        }
+                    }
+                }
+            }
         }
-    }
-    let x = s.cholesky()?.solve(&(-b));
+    };
+    let band = (reach + 1) * dim - 1;
+    let x: Vec<f64> = if nn >= BAND_MIN && band < nn / 2 {
+        // Reorder the design points (reverse Cuthill-McKee) when that narrows the band: the
+        // factorisation costs O(n b²).
+        let order = rcm_order(m, (0..shape.cell_count()).map(|c| shape.support(c)));
+        let mut pos: Vec<usize> = vec![0; m];
+        for (k, &i) in order.iter().enumerate() {
+            pos[i as usize] = k;
+        }
+        let reach_rcm = (0..shape.cell_count())
+            .map(|c| {
+                let (lo, hi) = shape.support(c).iter().fold((usize::MAX, 0), |(lo, hi), &i| {
+                    (lo.min(pos[i as usize]), hi.max(pos[i as usize]))
+                });
+                hi.saturating_sub(lo)
+            })
+            .max()
+            .unwrap_or(0);
+        if reach_rcm >= reach {
+            pos = (0..m).collect();
+        }
+        let band = (reach.min(reach_rcm) + 1) * dim - 1;
+        let at = |row: usize| pos[row / dim] * dim + row % dim;
+        let mut s = BandMatrix::zeros(nn, band);
+        for_entries(&mut |r, c, v| {
+            let (r, c) = (at(r), at(c));
+            if c <= r {
+                s.add_lower(r, c, v);
+            }
+        });
+        for i in 0..m {
+            for c in 0..dim {
+                let k = pos[i] * dim + c;
+                s.add_lower(k, k, lambda * dx[i]);
+            }
+        }
+        let mut y = vec![0.0; nn];
+        for (row, v) in b.iter().enumerate() {
+            y[at(row)] = -v;
+        }
+        s.cholesky()?.solve_in_place(&mut y);
+        (0..nn).map(|row| y[at(row)]).collect()
+    } else {
+        let mut s = DMatrix::<f64>::zeros(nn, nn);
+        for_entries(&mut |r, c, v| s[(r, c)] += v);
+        for i in 0..m {
+            for c in 0..dim {
+                s[(i * dim + c, i * dim + c)] += lambda * dx[i];
+            }
+        }
+        let x = s.cholesky()?.solve(&(-DVector::from_vec(b)));
+        x.as_slice().to_vec()
+    };
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    Some((
-        x.as_slice()
-            .chunks_exact(dim)
-            .map(S::Point::from_coords)
-            .collect(),
-        dx,
-    ))
+    Some((x.chunks_exact(dim).map(S::Point::from_coords).collect(), dx))
 }
 
 /// The trial of a design step: every parameter's start `t + dt` and the predicted decrease of
@@ -425,7 +512,7 @@ pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     params: Vec<[f64; K]>,
     opts: &LsqOptions,
 ) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_guarded(problem, design, params, opts, None)
+    levenberg_marquardt_core(problem, design, params, opts, None, &mut |_| true)
 }
 
 /// A test of a design and its parameters that [`levenberg_marquardt_guarded`] keeps true.
@@ -441,6 +528,43 @@ pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
     params: Vec<[f64; K]>,
     opts: &LsqOptions,
     guard: Option<Guard<'_, S::Point, K>>,
+) -> Result<LsqFit<S::Point, K>> {
+    levenberg_marquardt_core(problem, design, params, opts, guard, &mut |_| true)
+}
+
+/// The state after one Levenberg-Marquardt iteration, for progress reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LsqIterate {
+    /// Iterations so far (steps tried).
+    pub iteration: usize,
+    /// The sum of squares at the current design, in squared model units.
+    pub sum_sq: f64,
+    /// The damping `λ` for the next step.
+    pub lambda: f64,
+    /// True when this iteration's step was accepted.
+    pub accepted: bool,
+}
+
+/// [`levenberg_marquardt`], calling `observe` after every iteration; the iteration stops
+/// (reason [`StopReason::MaxIterations`]) when `observe` returns false.
+pub fn levenberg_marquardt_observed<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    design: Vec<S::Point>,
+    params: Vec<[f64; K]>,
+    opts: &LsqOptions,
+    observe: &mut dyn FnMut(&LsqIterate) -> bool,
+) -> Result<LsqFit<S::Point, K>> {
+    levenberg_marquardt_core(problem, design, params, opts, None, observe)
+}
+
+/// Levenberg-Marquardt with an optional guard and an observer (see the two wrappers above).
+fn levenberg_marquardt_core<S: Shape<K>, const K: usize>(
+    problem: &FitProblem<'_, S, K>,
+    design: Vec<S::Point>,
+    params: Vec<[f64; K]>,
+    opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+    observe: &mut dyn FnMut(&LsqIterate) -> bool,
 ) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
     if design.len() != problem.design_count() || params.len() != problem.points().len() {
@@ -463,7 +587,7 @@ pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
     let mut lambda = opts.initial_damping;
     let mut nu = 2.0;
     // The sum of squares after every iteration, for the windowed convergence test.
-    const WINDOW: usize = 10;
+    let window = opts.window.max(1);
     let mut history = vec![phi];
     let mut checks = 0;
     let stop = loop {
@@ -507,8 +631,17 @@ pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
                 }
             }
             history.push(phi);
-            if history.len() > WINDOW && history[history.len() - 1 - WINDOW] - phi <= opts.ftol * phi {
+            if history.len() > window && history[history.len() - 1 - window] - phi <= opts.ftol * phi {
                 done = done.or(Some(StopReason::Converged));
+            }
+            let state = LsqIterate {
+                iteration: iterations,
+                sum_sq: phi,
+                lambda,
+                accepted,
+            };
+            if !observe(&state) && done.is_none() {
+                break StopReason::MaxIterations;
             }
         }
         if let Some(reason) = done {

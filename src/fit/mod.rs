@@ -8,15 +8,19 @@
 //! - [`problem`]: [`FitProblem`], the one problem every solver consumes (objective, gradient,
 //!   residual blocks, linear least squares, the paper's start).
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
+//! - [`band`]: banded Cholesky for the large, sparse normal equations of patch grids.
 //! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
 //! - [`evo`]: the genetic algorithm and CMA-ES on the population evaluator, for chains and
 //!   grids, with checkpoints; `ga+lsq` / `cmaes+lsq` polish their result by least squares.
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
+//! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
+//! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod band;
 pub mod bfgs;
 pub mod curve;
 pub mod evo;
@@ -26,15 +30,17 @@ pub mod nelder_mead;
 pub mod objective;
 pub mod offset;
 pub mod paper;
+pub mod param;
 pub mod problem;
 pub mod shape;
+pub mod surface;
 
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
 pub use lsq::{
-    alternate, levenberg_marquardt, levenberg_marquardt_guarded, lsq, lsq_each, lsq_each_guarded, lsq_from,
-    Guard, LsqFit, LsqOptions, Start,
+    alternate, levenberg_marquardt, levenberg_marquardt_guarded, levenberg_marquardt_observed, lsq, lsq_each,
+    lsq_each_guarded, lsq_from, Guard, LsqFit, LsqIterate, LsqOptions, Start,
 };
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
@@ -43,5 +49,10 @@ pub use offset::{
     offset_stats, point_offsets, shape_offsets, span_ratio, Metric, OffsetStats,
 };
 pub use paper::{PaperCase, PAPER_CASES};
+pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};
+pub use surface::{
+    fit_surface, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod,
+    SurfaceOptions, SurfaceProgress, SurfaceStage,
+};

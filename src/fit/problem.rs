@@ -53,7 +53,13 @@ pub struct Residual<P, const K: usize> {
     pub tangents: [P; K],
 }
 
-/// Sum `body` over chunks of `0..n`, on rayon's pool when `n` is large.
+/// Groups the per-point sums of large point sets are split into: each group is summed on its
+/// own and the groups are merged in order, so the result does not depend on how rayon
+/// schedules the work (the same bits on any number of threads).
+const SUM_GROUPS: usize = 16;
+
+/// Sum `body` over chunks of `0..n`, on rayon's pool when `n` is large (in [`SUM_GROUPS`]
+/// fixed groups merged in order, so the result is reproducible).
 pub(crate) fn chunked_sum<T: Send>(
     n: usize,
     init: impl Fn() -> T + Sync + Send,
@@ -65,14 +71,18 @@ pub(crate) fn chunked_sum<T: Send>(
         body(&mut acc, 0..n);
         return acc;
     }
-    let chunks = n.div_ceil(CHUNK);
-    (0..chunks)
+    let groups = n.div_ceil(CHUNK).min(SUM_GROUPS);
+    let parts: Vec<T> = (0..groups)
         .into_par_iter()
-        .fold(&init, |mut acc, c| {
-            body(&mut acc, c * CHUNK..((c + 1) * CHUNK).min(n));
+        .map(|g| {
+            let mut acc = init();
+            body(&mut acc, g * n / groups..(g + 1) * n / groups);
             acc
         })
-        .reduce(&init, &merge)
+        .collect();
+    let mut parts = parts.into_iter();
+    let first = parts.next().unwrap_or_else(&init);
+    parts.fold(first, merge)
 }
 
 impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
@@ -299,11 +309,13 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         if params.len() < PARALLEL_MIN {
             run(0, params)
         } else {
-            params
+            // Per-chunk sums added in order: the same bits on any number of threads.
+            let sums: Vec<f64> = params
                 .par_chunks_mut(CHUNK)
                 .enumerate()
                 .map(|(c, ts)| run(c * CHUNK, ts))
-                .sum()
+                .collect();
+            sums.iter().sum()
         }
     }
 
@@ -798,5 +810,36 @@ mod tests {
                 g[i]
             );
         }
+    }
+
+    #[test]
+    fn large_sums_do_not_depend_on_the_thread_count() {
+        let n = 50_000;
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i as f64) * 0.73).sin() * 1e-3 + 1.0 / (1.0 + i as f64))
+            .collect();
+        let sum = || {
+            chunked_sum(
+                n,
+                || 0.0,
+                |acc, range| {
+                    for j in range {
+                        *acc += x[j];
+                    }
+                },
+                |a, b| a + b,
+            )
+        };
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(sum);
+        let three = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap()
+            .install(sum);
+        assert_eq!(one.to_bits(), three.to_bits());
     }
 }

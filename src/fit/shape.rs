@@ -84,6 +84,30 @@ pub trait Shape<const K: usize>: Sync {
     /// derivatives up to `order` (0, 1 or 2).
     fn basis(&self, t: [f64; K], order: usize, out: &mut Basis<K>);
 
+    /// A bound, in model units, on the distance between cell `cell` and the piecewise
+    /// multilinear interpolant of its values on a regular grid of `samples` intervals per
+    /// direction, so that the cell lies within that distance of the samples' bounding box.
+    /// `None` (the default) when the shape offers none; the foot-point search then falls back
+    /// to a bound of 1.5 sample spacings.
+    fn sample_deviation(&self, _cell: usize, _design: &[Self::Point], _samples: usize) -> Option<f64> {
+        None
+    }
+
+    /// The point and its derivatives up to `order` at global parameter `t` for the design
+    /// points `design`; `scratch` is working space. The default fills `scratch` with the
+    /// basis and applies [`Shape::jet`]; shapes may evaluate more directly.
+    #[must_use]
+    fn eval_jet(
+        &self,
+        t: [f64; K],
+        order: usize,
+        design: &[Self::Point],
+        scratch: &mut Basis<K>,
+    ) -> Jet<Self::Point, K> {
+        self.basis(t, order, scratch);
+        self.jet(scratch, design, order)
+    }
+
     /// Evaluate the shape from its basis at some parameter and the design points.
     #[must_use]
     fn jet(&self, basis: &Basis<K>, design: &[Self::Point], order: usize) -> Jet<Self::Point, K> {
@@ -133,7 +157,13 @@ pub struct ChainBasis {
     inv_len: Vec<f64>,
     /// True when the breaks are uniform, so the segment is found by one multiplication.
     uniform: bool,
+    /// For non-uniform breaks: the segment holding the start of each of [`LOOKUP`] equal bins
+    /// of `[0, 1]`, so that locating a parameter scans at most a few breaks.
+    lookup: Vec<u32>,
 }
+
+/// Bins of the segment lookup table of non-uniform chains.
+const LOOKUP: usize = 256;
 
 impl ChainBasis {
     /// The basis of `layout` (degree at most 16).
@@ -154,8 +184,14 @@ impl ChainBasis {
                 .iter()
                 .enumerate()
                 .all(|(k, &b)| (b - k as f64 / segments as f64).abs() <= 4.0 * f64::EPSILON),
+            lookup: Vec::new(),
             layout: layout.clone(),
         };
+        if !basis.uniform {
+            basis.lookup = (0..LOOKUP)
+                .map(|i| layout.locate(i as f64 / LOOKUP as f64).0 as u32)
+                .collect();
+        }
         for k in 0..segments {
             let mut support: Vec<u32> = (k * d..=(k + 1) * d)
                 .flat_map(|r| map.row(r).0.to_vec())
@@ -220,6 +256,13 @@ impl ChainBasis {
         &self.supports[k]
     }
 
+    /// The extraction map restricted to segment `k`: row `a` holds support point `a`'s weights
+    /// in the segment's `degree + 1` Bezier control points.
+    #[must_use]
+    pub fn local(&self, k: usize) -> &[f64] {
+        &self.local[k]
+    }
+
     /// Number of design points supporting each segment (the same for every segment).
     #[must_use]
     pub fn support_len(&self) -> usize {
@@ -232,7 +275,21 @@ impl ChainBasis {
     fn locate(&self, t: f64) -> (usize, f64) {
         let s = self.inv_len.len();
         if !self.uniform {
-            return self.layout.locate(t);
+            // The bin's first segment, then forward past every break at or below t (the same
+            // segment as ChainLayout::locate: the last whose break is <= t).
+            let t = t.clamp(0.0, 1.0);
+            let breaks = self.layout.breaks();
+            let mut k = self
+                .lookup
+                .get(((t * LOOKUP as f64) as usize).min(LOOKUP - 1))
+                .map_or(0, |&k| k as usize);
+            while k + 1 < s && breaks[k + 1] <= t {
+                k += 1;
+            }
+            return (
+                k,
+                ((t - breaks[k]) / self.layout.segment_length(k)).clamp(0.0, 1.0),
+            );
         }
         let t = t.clamp(0.0, 1.0);
         let k = ((t * s as f64) as usize).min(s - 1);
@@ -454,6 +511,111 @@ impl<P: Vector> Shape<2> for GridShape<P> {
         ([bu[a], bv[b]], [bu[a + 1], bv[b + 1]])
     }
 
+    /// The Bezier patch's second differences bound its second derivatives (each is a convex
+    /// combination of `d (d - 1) Δ²P`), and the bilinear interpolant on a grid of local spacing
+    /// `h` is within `h² (max|S_uu| + max|S_vv|) / 8` of the patch.
+    fn sample_deviation(&self, cell: usize, design: &[P], samples: usize) -> Option<f64> {
+        let pv = self.v.layout().segments();
+        let (a, b) = (cell / pv, cell % pv);
+        let (du, dv) = (self.u.layout().degree(), self.v.layout().degree());
+        let (su, sv) = (self.u.support(a), self.v.support(b));
+        let (lu, lv) = (self.u.local(a), self.v.local(b));
+        let nv = self.v.layout().design_count();
+        let (wu, wv) = (du + 1, dv + 1);
+        // T[i][c] = Σ_j Lv[j][c] x[su[i], sv[j]], then net[r][c] = Σ_i Lu[i][r] T[i][c].
+        let mut half = vec![P::ZERO; su.len() * wv];
+        for (i, &ri) in su.iter().enumerate() {
+            for (j, &cj) in sv.iter().enumerate() {
+                let x = design[ri as usize * nv + cj as usize];
+                for c in 0..wv {
+                    half[i * wv + c] += x * lv[j * wv + c];
+                }
+            }
+        }
+        let mut net = vec![P::ZERO; wu * wv];
+        for i in 0..su.len() {
+            for r in 0..wu {
+                let w = lu[i * wu + r];
+                if w == 0.0 {
+                    continue;
+                }
+                for c in 0..wv {
+                    net[r * wv + c] += half[i * wv + c] * w;
+                }
+            }
+        }
+        let mut m_uu: f64 = 0.0;
+        let mut m_vv: f64 = 0.0;
+        for r in 0..wu {
+            for c in 0..wv {
+                let at = |r: usize, c: usize| net[r * wv + c];
+                if r + 2 < wu {
+                    m_uu = m_uu.max((at(r + 2, c) - at(r + 1, c) * 2.0 + at(r, c)).length());
+                }
+                if c + 2 < wv {
+                    m_vv = m_vv.max((at(r, c + 2) - at(r, c + 1) * 2.0 + at(r, c)).length());
+                }
+            }
+        }
+        let h = 1.0 / samples.max(1) as f64;
+        let dev = h * h / 8.0
+            * ((du * du.saturating_sub(1)) as f64 * m_uu + (dv * dv.saturating_sub(1)) as f64 * m_vv);
+        // A hair more, so that rounding in the samples never makes the bound too tight.
+        dev.is_finite()
+            .then_some(dev * (1.0 + 1e-9) + 1e-15 * net.iter().fold(0.0_f64, |m, p| m.max(p.length())))
+    }
+
+    /// By the tensor structure: each supporting row of design points is combined with the v
+    /// basis, then the rows with the u basis (about half the work of the 16-term sums).
+    fn eval_jet(&self, t: [f64; 2], order: usize, design: &[P], _scratch: &mut Basis<2>) -> Jet<P, 2> {
+        let (mut vu, mut du, mut ddu) = (
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+        );
+        let (mut vv, mut dv, mut ddv) = (
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+            [0.0; MAX_DEGREE + 1],
+        );
+        let a = self.u.eval(t[0], order, &mut vu, &mut du, &mut ddu);
+        let b = self.v.eval(t[1], order, &mut vv, &mut dv, &mut ddv);
+        let (su, sv) = (self.u.support(a), self.v.support(b));
+        let nv = self.v.layout().design_count();
+        let zero = P::ZERO;
+        let mut jet = Jet {
+            point: zero,
+            d1: [zero; 2],
+            d2: [[zero; 2]; 2],
+        };
+        for (i, &ri) in su.iter().enumerate() {
+            let row = &design[ri as usize * nv..(ri as usize + 1) * nv];
+            let (mut p, mut pv, mut pvv) = (zero, zero, zero);
+            for (j, &cj) in sv.iter().enumerate() {
+                let x = row[cj as usize];
+                p += x * vv[j];
+                if order >= 1 {
+                    pv += x * dv[j];
+                }
+                if order >= 2 {
+                    pvv += x * ddv[j];
+                }
+            }
+            jet.point += p * vu[i];
+            if order >= 1 {
+                jet.d1[0] += p * du[i];
+                jet.d1[1] += pv * vu[i];
+            }
+            if order >= 2 {
+                jet.d2[0][0] += p * ddu[i];
+                jet.d2[0][1] += pv * du[i];
+                jet.d2[1][1] += pvv * vu[i];
+            }
+        }
+        jet.d2[1][0] = jet.d2[0][1];
+        jet
+    }
+
     fn basis(&self, t: [f64; 2], order: usize, out: &mut Basis<2>) {
         let (mut vu, mut du, mut ddu) = (
             [0.0; MAX_DEGREE + 1],
@@ -569,6 +731,93 @@ mod tests {
                     assert!((jet.d2[1][1] - fd_vv).length() < 1e-5 * (1.0 + fd_vv.length()));
                 }
             }
+        }
+    }
+
+    fn wavy_grid() -> (PatchGrid<DVec3>, GridShape<DVec3>) {
+        let u = ChainLayout::with_breaks(3, vec![0.0, 0.15, 0.6, 1.0], Continuity::C1).unwrap();
+        let v = ChainLayout::with_breaks(3, vec![0.0, 0.7, 0.95, 1.0], Continuity::C2).unwrap();
+        let layout = GridLayout::new(u, v);
+        let (nu, nv) = layout.design_shape();
+        let design: Vec<DVec3> = (0..nu * nv)
+            .map(|i| {
+                let (a, b) = ((i / nv) as f64, (i % nv) as f64);
+                DVec3::new(a * 0.3, (1.9 * a).sin() * 0.4, b * 0.5 + 0.2 * (a * b).cos())
+            })
+            .collect();
+        (
+            PatchGrid::new(layout.clone(), design).unwrap(),
+            GridShape::new(layout),
+        )
+    }
+
+    #[test]
+    fn grid_eval_jet_matches_the_basis_and_locates_like_the_layout() {
+        let (grid, shape) = wavy_grid();
+        let mut b = Basis::new();
+        for i in 0..=60 {
+            for j in 0..=45 {
+                // Parameters on and next to the (non-uniform) breaks included.
+                let t = [i as f64 / 60.0, j as f64 / 45.0];
+                for t in [t, [0.15, 0.95], [0.6 - 1e-17, 0.7], [1.0, 0.0]] {
+                    let direct = shape.eval_jet(t, 2, grid.design(), &mut b);
+                    shape.basis(t, 2, &mut b);
+                    let via = shape.jet(&b, grid.design(), 2);
+                    assert!((direct.point - via.point).length() < 1e-13);
+                    for k in 0..2 {
+                        assert!((direct.d1[k] - via.d1[k]).length() < 1e-11);
+                        for l in 0..2 {
+                            assert!((direct.d2[k][l] - via.d2[k][l]).length() < 1e-9);
+                        }
+                    }
+                    let (a, _) = grid.layout().u.locate(t[0]);
+                    let (c, _) = grid.layout().v.locate(t[1]);
+                    assert_eq!(b.cell, a * 3 + c, "{t:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sample_deviation_bounds_the_distance_to_the_bilinear_interpolant() {
+        let (grid, shape) = wavy_grid();
+        let samples = 4;
+        let mut b = Basis::new();
+        for cell in 0..shape.cell_count() {
+            let dev = shape.sample_deviation(cell, grid.design(), samples).unwrap();
+            let (lo, hi) = shape.cell_box(cell);
+            let mut at = |x: f64, y: f64| {
+                let t = [lo[0] + x * (hi[0] - lo[0]), lo[1] + y * (hi[1] - lo[1])];
+                let j = shape.eval_jet(t, 0, grid.design(), &mut b);
+                j.point
+            };
+            let h = 1.0 / samples as f64;
+            let mut worst: f64 = 0.0;
+            for i in 0..samples {
+                for j in 0..samples {
+                    let (x0, y0) = (i as f64 * h, j as f64 * h);
+                    let c = [at(x0, y0), at(x0 + h, y0), at(x0, y0 + h), at(x0 + h, y0 + h)];
+                    for a in 0..=8 {
+                        for e in 0..=8 {
+                            let (s, t) = (a as f64 / 8.0, e as f64 / 8.0);
+                            let bilinear = c[0] * ((1.0 - s) * (1.0 - t))
+                                + c[1] * (s * (1.0 - t))
+                                + c[2] * ((1.0 - s) * t)
+                                + c[3] * (s * t);
+                            worst = worst.max((at(x0 + s * h, y0 + t * h) - bilinear).length());
+                        }
+                    }
+                }
+            }
+            assert!(
+                worst <= dev,
+                "cell {cell}: deviation {worst} above the bound {dev}"
+            );
+            // and the bound is not wildly loose
+            assert!(
+                dev < 20.0 * worst.max(1e-12),
+                "cell {cell}: bound {dev} for deviation {worst}"
+            );
         }
     }
 }

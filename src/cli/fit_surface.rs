@@ -1,0 +1,364 @@
+//! `bezchain fit-surface`: fit a grid of chained Bezier patches to a 3D point cloud and write
+//! the report, meshes and a picture.
+
+use super::{parse_pair, usage, warn_all, write_json, Target};
+use anyhow::{Context, Result};
+use bezchain::chain::Continuity;
+use bezchain::export::{render, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::fit::{
+    fit_surface, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
+    SurfaceProgress,
+};
+use bezchain::geometry::{read_cloud, Blade};
+use glam::DVec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Arguments of `bezchain fit-surface`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Point cloud: CSV/XYZ rows of `x y z`; a CSV with complete `section,index` columns is a
+    /// structured cloud whose parameters come from its sections.
+    pub cloud: PathBuf,
+    /// Degrees around the section (u) and along the span (v), as DUxDV (e.g. 3x3).
+    #[arg(long, value_parser = parse_pair)]
+    pub degree: [usize; 2],
+    /// Patches around the section and along the span, as PUxPV (e.g. 4x2).
+    #[arg(long, value_parser = parse_pair)]
+    pub patches: [usize; 2],
+    /// Continuity across patch borders: c0, c1 or c2 in both directions, or CUxCV (e.g. c1xc2).
+    #[arg(long, default_value = "c1", value_parser = parse_continuity)]
+    pub continuity: [Continuity; 2],
+    /// Breaks around the section: `uniform`, or parameters in [0, 1] (the PU-1 interior ones,
+    /// or all PU+1), comma-separated.
+    #[arg(long, default_value = "uniform")]
+    pub breaks_u: String,
+    /// Breaks along the span: `uniform`; parameters in [0, 1] as for --breaks-u; `span:R1,R2,...`,
+    /// positions along the span axis in model units (e.g. radii); or `stations:BLADE.json`, the
+    /// station radii of a blade file (a lofted blade is only C1 there, so its patches should
+    /// end there).
+    #[arg(long, default_value = "uniform")]
+    pub breaks_v: String,
+    /// Method: lsq (the evolutionary methods come with the population evaluator).
+    #[arg(long, default_value = "lsq", value_parser = parse_method)]
+    pub method: SurfaceMethod,
+    /// Initial parameters: auto (sections when the cloud has them, else blade-aware), sections
+    /// or blade.
+    #[arg(long, default_value = "auto", value_parser = parse_params)]
+    pub params: ParamSource,
+    /// Span axis: x, y, z, or auto (the cloud's principal axis).
+    #[arg(long, default_value = "z", value_parser = parse_span)]
+    pub span: SpanArg,
+    /// Clouds larger than this are fitted on a subsample of about this many points first
+    /// (0: never).
+    #[arg(long, default_value_t = SurfaceOptions::default().subsample)]
+    pub subsample: usize,
+    /// Joint iterations on the whole cloud after the subsample fit.
+    #[arg(long, default_value_t = SurfaceOptions::default().polish_iterations)]
+    pub polish: usize,
+    /// Most Levenberg-Marquardt iterations of the main fit.
+    #[arg(long, default_value_t = SurfaceOptions::default().lsq.max_iterations)]
+    pub max_iterations: usize,
+    /// Seed of the subsample.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Write the JSON report here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the fitted surface as a Wavefront OBJ mesh here.
+    #[arg(long)]
+    pub obj: Option<PathBuf>,
+    /// Write the fitted surface as a binary STL mesh here.
+    #[arg(long)]
+    pub stl: Option<PathBuf>,
+    /// Mesh samples per patch side for --obj and --stl.
+    #[arg(long, default_value_t = 16)]
+    pub mesh_density: usize,
+    /// Write a PNG picture of the surface and its control net (two views) here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Size of the picture, WxH pixels.
+    #[arg(long, default_value = "1600x900", value_parser = parse_pair)]
+    pub png_size: [usize; 2],
+}
+
+/// The span axis as given on the command line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SpanArg {
+    /// A coordinate axis.
+    Axis(DVec3),
+    /// The cloud's principal axis.
+    Auto,
+}
+
+fn parse_continuity(s: &str) -> std::result::Result<[Continuity; 2], String> {
+    let one = |t: &str| t.parse::<Continuity>().map_err(|e| e.to_string());
+    match s.split_once(['x', 'X']) {
+        Some((a, b)) => Ok([one(a)?, one(b)?]),
+        None => one(s).map(|c| [c, c]),
+    }
+}
+
+fn parse_method(s: &str) -> std::result::Result<SurfaceMethod, String> {
+    s.parse().map_err(|e: bezchain::Error| e.to_string())
+}
+
+fn parse_params(s: &str) -> std::result::Result<ParamSource, String> {
+    s.parse().map_err(|e: bezchain::Error| e.to_string())
+}
+
+fn parse_span(s: &str) -> std::result::Result<SpanArg, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "x" => Ok(SpanArg::Axis(DVec3::X)),
+        "y" => Ok(SpanArg::Axis(DVec3::Y)),
+        "z" => Ok(SpanArg::Axis(DVec3::Z)),
+        "auto" => Ok(SpanArg::Auto),
+        _ => Err(format!("unknown span axis '{s}' (expected x, y, z or auto)")),
+    }
+}
+
+/// Breaks from `--breaks-u` / `--breaks-v` text (`flag` names the option in errors).
+fn parse_breaks(text: &str, flag: &str) -> Result<Breaks> {
+    let numbers = |list: &str| -> Result<Vec<f64>> {
+        list.split(',')
+            .map(|t| {
+                let v: f64 = t
+                    .trim()
+                    .parse()
+                    .map_err(|_| usage(format!("{flag}: '{}' is not a number", t.trim())))?;
+                if v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(usage(format!("{flag}: '{}' is not a finite number", t.trim())))
+                }
+            })
+            .collect()
+    };
+    let text = text.trim();
+    if text.eq_ignore_ascii_case("uniform") {
+        Ok(Breaks::Uniform)
+    } else if let Some(list) = text.strip_prefix("span:") {
+        Ok(Breaks::Span(numbers(list)?))
+    } else if let Some(file) = text.strip_prefix("stations:") {
+        let path = Path::new(file);
+        let blade = Blade::from_file(path).with_context(|| flag.to_string())?;
+        warn_all(path, &blade.warnings);
+        Ok(Breaks::Span(blade.stations.iter().map(|s| s.radius).collect()))
+    } else {
+        Ok(Breaks::Params(numbers(text)?))
+    }
+}
+
+/// The report's `offset` block.
+fn offset_report(fit: &SurfaceFit) -> OffsetReport {
+    let s = &fit.stats;
+    OffsetReport {
+        metric: s.metric.to_string(),
+        sum_sq: s.sum_sq,
+        sum: s.sum,
+        rms: s.rms,
+        max: s.max,
+        max_at: s.max_at.to_array().to_vec(),
+    }
+}
+
+/// The JSON report of a finished fit.
+fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) -> SurfaceReport {
+    let stages = fit
+        .stages
+        .iter()
+        .map(|s| FitInfo {
+            method: format!("{method}-{}", s.name),
+            iterations: s.report.iterations as u64,
+            evaluations: s.report.evaluations as u64,
+            seconds: s.report.seconds,
+            backend: "cpu".into(),
+            stages: Vec::new(),
+            evals_per_second: None,
+        })
+        .collect();
+    let info = FitInfo {
+        method: method.name().into(),
+        iterations: fit.report.iterations as u64,
+        evaluations: fit.report.evaluations as u64,
+        seconds: fit.report.seconds,
+        backend: "cpu".into(),
+        stages,
+        evals_per_second: None,
+    };
+    SurfaceReport::new(
+        &fit.grid,
+        offset_report(fit),
+        info,
+        InputInfo {
+            path: input.display().to_string(),
+            points,
+        },
+    )
+}
+
+/// Fit, report, mesh and draw.
+pub fn run(args: Args) -> Result<()> {
+    let clock = Instant::now();
+    // Every argument is checked before the (possibly long) read and fit.
+    let layout = SurfaceLayout {
+        degree: args.degree,
+        patches: args.patches,
+        continuity: args.continuity,
+        breaks_u: parse_breaks(&args.breaks_u, "--breaks-u")?,
+        breaks_v: parse_breaks(&args.breaks_v, "--breaks-v")?,
+    };
+    // Layouts that do not depend on the cloud are checked now, not after a long read.
+    if !matches!(layout.breaks_v, Breaks::Span(_)) {
+        let unit = bezchain::fit::SpanAxis {
+            dir: DVec3::Z,
+            lo: 0.0,
+            hi: 1.0,
+        };
+        layout.grid_layout(&unit).map_err(|e| usage(e.to_string()))?;
+    }
+    if args.mesh_density == 0 || args.mesh_density > 1024 {
+        return Err(usage("--mesh-density must be between 1 and 1024"));
+    }
+    let [png_w, png_h] = args.png_size;
+    if !(16..=16384).contains(&png_w) || !(16..=16384).contains(&png_h) {
+        return Err(usage("--png-size must be between 16x16 and 16384x16384"));
+    }
+    let loaded = read_cloud(&args.cloud)?;
+    warn_all(&args.cloud, &loaded.warnings);
+    let n = loaded.points.len();
+    let structure = match loaded.grid {
+        Some(g) => format!("{} sections x {} points", g.sections, g.per_section),
+        None => "unordered".into(),
+    };
+    eprintln!(
+        "{}: {n} points ({structure}), read in {:.2} s",
+        args.cloud.display(),
+        clock.elapsed().as_secs_f64()
+    );
+    let mut opts = SurfaceOptions {
+        method: args.method,
+        params: args.params,
+        subsample: args.subsample,
+        polish_iterations: args.polish,
+        seed: args.seed,
+        ..SurfaceOptions::default()
+    };
+    opts.lsq.max_iterations = args.max_iterations;
+    opts.blade.span = match args.span {
+        SpanArg::Axis(d) => Some(d),
+        SpanArg::Auto => None,
+    };
+
+    let bar = ProgressBar::new_spinner();
+    bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    let mut stage = "";
+    let mut stage_points = 0usize;
+    let fit = fit_surface(&loaded.points, loaded.grid, &layout, &opts, &mut |p| match p {
+        SurfaceProgress::Params { source, seconds } => {
+            bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
+        }
+        SurfaceProgress::Stage { name, points } => {
+            stage = name;
+            stage_points = points;
+            bar.suspend(|| eprintln!("{name}: least squares on {points} points"));
+        }
+        SurfaceProgress::Iteration(it) => {
+            let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
+            bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
+        }
+        SurfaceProgress::Offsets { points } => {
+            bar.set_message(format!("closest points of all {points} points"));
+        }
+    })
+    .with_context(|| format!("{}: fitting {n} points", args.cloud.display()))?;
+    bar.finish_and_clear();
+
+    let rep = report(&fit, args.method, &args.cloud, n);
+    let json_target = args.json.as_deref().map(Target::parse);
+    if let Some(target) = &json_target {
+        write_json(target, &rep)?;
+    }
+    let name = args
+        .cloud
+        .file_stem()
+        .map_or_else(|| "surface".to_string(), |s| s.to_string_lossy().into_owned());
+    if args.obj.is_some() || args.stl.is_some() {
+        let mesh = SurfaceMesh::from_grid(&fit.grid, args.mesh_density)?;
+        if let Some(path) = &args.obj {
+            Target::parse(path).write(mesh.to_obj(&name).as_bytes())?;
+        }
+        if let Some(path) = &args.stl {
+            Target::parse(path).write(&mesh.to_stl(&name))?;
+        }
+    }
+    if let Some(path) = &args.png {
+        let mut ropts = RenderOptions {
+            width: png_w as u32,
+            height: png_h as u32,
+            ..RenderOptions::default()
+        };
+        // The default views look at a blade along +z; turn them with the span axis.
+        if let Some(v) = &mut ropts.views.first_mut() {
+            v.right = fit.axis.dir;
+        }
+        if let Some(v) = ropts.views.get_mut(1) {
+            v.right = fit.axis.dir;
+        }
+        let image = render(&fit.grid, &ropts)?;
+        Target::parse(path).write(&image.to_png()?)?;
+    }
+    let text = summary(&args, &fit, n, clock.elapsed().as_secs_f64());
+    if matches!(json_target, Some(Target::Stdout)) {
+        eprint!("{text}");
+    } else {
+        print!("{text}");
+    }
+    Ok(())
+}
+
+/// A few readable lines about the fit.
+fn summary(args: &Args, fit: &SurfaceFit, n: usize, total: f64) -> String {
+    let l = fit.grid.layout();
+    let (du, dv) = (l.u.degree(), l.v.degree());
+    let (pu, pv) = l.patches();
+    let (nu, nv) = l.design_shape();
+    let (mu, mv) = l.net_shape();
+    let s = &fit.stats;
+    let mut out = format!(
+        "grid: degree {du}x{dv}, {pu}x{pv} patches, {}x{}: design net {nu}x{nv} ({} variables), control net {mu}x{mv}\n",
+        l.u.continuity(),
+        l.v.continuity(),
+        3 * nu * nv
+    );
+    let fmt_breaks = |b: &[f64]| b.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(" ");
+    out += &format!(
+        "breaks u: {}\nbreaks v: {}\n",
+        fmt_breaks(l.u.breaks()),
+        fmt_breaks(l.v.breaks())
+    );
+    out += &format!(
+        "{}: rms {:.4e}  max {:.4e} at ({:.4}, {:.4}, {:.4})  sum_sq {:.4e}  [closest point, {n} points]\n",
+        args.method, s.rms, s.max, s.max_at.x, s.max_at.y, s.max_at.z, s.sum_sq
+    );
+    out += &format!(
+        "continuity error {:.1e}; parameters {}; {} iterations ({}), fit {:.2} s, total {:.2} s\n",
+        fit.grid.continuity_error(),
+        fit.param_source,
+        fit.report.iterations,
+        fit.stages
+            .iter()
+            .map(|st| format!("{} {} on {} points", st.name, st.report.iterations, st.points))
+            .collect::<Vec<_>>()
+            .join(", "),
+        fit.report.seconds,
+        total
+    );
+    out
+}

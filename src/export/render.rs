@@ -1,0 +1,455 @@
+//! A PNG picture of a fitted patch grid with its control net (like the paper's Figs. 12–14):
+//! a CPU rasteriser with a z-buffer, the surface shaded, the net drawn as lines, design points
+//! and generated points as dots of two colours, one panel per view.
+
+use super::mesh::SurfaceMesh;
+use crate::chain::PatchGrid;
+use crate::error::{Error, Result};
+use glam::DVec3;
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// The background.
+pub const BACKGROUND: Rgb = [255, 255, 255];
+/// The surface's base colour (shaded by the light).
+pub const SURFACE: Rgb = [150, 178, 214];
+/// Control-net lines.
+pub const NET: Rgb = [60, 60, 60];
+/// Design points (the optimisation variables).
+pub const DESIGN_POINT: Rgb = [214, 40, 40];
+/// Generated points (expanded control points along the patch borders).
+pub const GENERATED_POINT: Rgb = [30, 110, 220];
+
+/// A direction to look from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// From the scene towards the camera (any length).
+    pub eye: DVec3,
+    /// A direction that should point right in the picture (made perpendicular to `eye`), e.g.
+    /// a blade's span.
+    pub right: DVec3,
+}
+
+/// How to draw the picture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Picture width in pixels. Default 1600.
+    pub width: u32,
+    /// Picture height in pixels, shared by the views stacked top to bottom. Default 900.
+    pub height: u32,
+    /// The views, one panel each. Default: a blade along +z seen from the suction side and
+    /// the leading edge, then from the pressure side and the trailing edge (like Figs. 13, 14).
+    pub views: Vec<View>,
+    /// Samples per patch side of the shaded surface. Default 16.
+    pub per_patch: usize,
+    /// Supersampling factor per axis (anti-aliasing). Default 2.
+    pub supersample: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 1600,
+            height: 900,
+            views: vec![
+                View {
+                    eye: DVec3::new(-0.45, 0.75, -0.55),
+                    right: DVec3::Z,
+                },
+                View {
+                    eye: DVec3::new(0.5, -0.75, -0.5),
+                    right: DVec3::Z,
+                },
+            ],
+            per_patch: 16,
+            supersample: 2,
+        }
+    }
+}
+
+/// An RGB picture, row-major from the top left.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `3 * width * height` bytes.
+    pub rgb: Vec<u8>,
+}
+
+impl Image {
+    /// The colour at `(x, y)`.
+    #[must_use]
+    pub fn pixel(&self, x: u32, y: u32) -> Rgb {
+        let k = 3 * (y as usize * self.width as usize + x as usize);
+        [self.rgb[k], self.rgb[k + 1], self.rgb[k + 2]]
+    }
+
+    /// The picture as PNG bytes (8-bit RGB).
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let mut out = Vec::new();
+        let mut enc = png::Encoder::new(&mut out, self.width, self.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc
+            .write_header()
+            .map_err(|e| Error::Output(format!("png: {e}")))?;
+        w.write_image_data(&self.rgb)
+            .map_err(|e| Error::Output(format!("png: {e}")))?;
+        w.finish().map_err(|e| Error::Output(format!("png: {e}")))?;
+        Ok(out)
+    }
+}
+
+/// A render target with depth, at the supersampled size.
+struct Canvas {
+    w: usize,
+    h: usize,
+    rgb: Vec<[f32; 3]>,
+    depth: Vec<f64>,
+}
+
+impl Canvas {
+    fn new(w: usize, h: usize) -> Canvas {
+        let bg = BACKGROUND.map(f32::from);
+        Canvas {
+            w,
+            h,
+            rgb: vec![bg; w * h],
+            depth: vec![f64::NEG_INFINITY; w * h],
+        }
+    }
+
+    /// Blend `c` over pixel `(x, y)` with opacity `a`.
+    fn blend(&mut self, x: i64, y: i64, c: Rgb, a: f32) {
+        if x < 0 || y < 0 || x >= self.w as i64 || y >= self.h as i64 {
+            return;
+        }
+        let k = y as usize * self.w + x as usize;
+        for (d, s) in self.rgb[k].iter_mut().zip(c) {
+            *d = *d * (1.0 - a) + f32::from(s) * a;
+        }
+    }
+
+    /// Opacity for an overlay at depth `z` (larger is nearer): full in front of the surface,
+    /// faint behind it.
+    fn overlay_alpha(&self, x: i64, y: i64, z: f64, tol: f64) -> f32 {
+        if x < 0 || y < 0 || x >= self.w as i64 || y >= self.h as i64 {
+            return 0.0;
+        }
+        if z + tol >= self.depth[y as usize * self.w + x as usize] {
+            1.0
+        } else {
+            0.22
+        }
+    }
+}
+
+/// An orthographic camera fitted to a panel.
+struct Camera {
+    right: DVec3,
+    up: DVec3,
+    eye: DVec3,
+    scale: f64,
+    offset: (f64, f64),
+}
+
+impl Camera {
+    fn new(view: &View, points: &[DVec3], panel: (f64, f64, f64, f64)) -> Result<Camera> {
+        let eye = view
+            .eye
+            .try_normalize()
+            .ok_or_else(|| Error::invalid("a view direction is zero"))?;
+        let right = (view.right - eye * view.right.dot(eye))
+            .try_normalize()
+            .or_else(|| eye.any_orthonormal_vector().try_normalize())
+            .ok_or_else(|| Error::invalid("a view direction is not finite"))?;
+        let up = eye.cross(right);
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in points {
+            let (x, y) = (p.dot(right), p.dot(up));
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        let (px, py, pw, ph) = panel;
+        let margin = 0.06;
+        let span_x = (x1 - x0).max(f64::MIN_POSITIVE);
+        let span_y = (y1 - y0).max(f64::MIN_POSITIVE);
+        let scale = ((1.0 - 2.0 * margin) * pw / span_x).min((1.0 - 2.0 * margin) * ph / span_y);
+        if !scale.is_finite() {
+            return Err(Error::Output("nothing to draw: the surface has no extent".into()));
+        }
+        // Centre the drawing in the panel.
+        let offset = (
+            px + 0.5 * pw - scale * 0.5 * (x0 + x1),
+            py + 0.5 * ph + scale * 0.5 * (y0 + y1),
+        );
+        Ok(Camera {
+            right,
+            up,
+            eye,
+            scale,
+            offset,
+        })
+    }
+
+    /// Pixel coordinates and depth (larger is nearer) of `p`.
+    fn project(&self, p: DVec3) -> (f64, f64, f64) {
+        (
+            self.offset.0 + self.scale * p.dot(self.right),
+            self.offset.1 - self.scale * p.dot(self.up),
+            p.dot(self.eye),
+        )
+    }
+}
+
+/// Draw `grid` (with its control net) in every view of `opts`.
+pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
+    if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
+        return Err(Error::invalid(format!(
+            "picture size {} x {} is outside 16 to 16384 pixels each way",
+            opts.width, opts.height
+        )));
+    }
+    if opts.views.is_empty() {
+        return Err(Error::invalid("a picture needs at least one view"));
+    }
+    let ss = opts.supersample.clamp(1, 4) as usize;
+    let (w, h) = (opts.width as usize * ss, opts.height as usize * ss);
+    let mesh = SurfaceMesh::from_grid(grid, opts.per_patch.max(1))?;
+    let l = grid.layout();
+    let (mu, mv) = l.net_shape();
+    let net = grid.net();
+    let mut everything: Vec<DVec3> = mesh.positions.clone();
+    everything.extend_from_slice(net);
+    let size = everything
+        .iter()
+        .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let tol = 2e-3 * (size.1 - size.0).max_element();
+    let mut canvas = Canvas::new(w, h);
+    let panel_h = h as f64 / opts.views.len() as f64;
+    for (k, view) in opts.views.iter().enumerate() {
+        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w as f64, panel_h))?;
+        // Light from above left of the camera, so curvature shows as a gradient.
+        let light = (cam.eye * 0.6 + cam.up * 1.0 - cam.right * 0.35).normalize();
+        // Shaded surface.
+        let shade: Vec<f32> = mesh
+            .normals
+            .iter()
+            .map(|n| (0.28 + 0.8 * n.dot(light).abs()) as f32)
+            .collect();
+        let screen: Vec<(f64, f64, f64)> = mesh.positions.iter().map(|p| cam.project(*p)).collect();
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| i as usize);
+            fill_triangle(
+                &mut canvas,
+                [screen[a], screen[b], screen[c]],
+                [shade[a], shade[b], shade[c]],
+            );
+        }
+        // Control net: lines, then generated points, then design points on top.
+        let at = |r: usize, c: usize| cam.project(net[r * mv + c]);
+        let thick = ss as f64 * 0.6;
+        for r in 0..mu {
+            for c in 0..mv {
+                if c + 1 < mv {
+                    draw_line(&mut canvas, at(r, c), at(r, c + 1), thick, tol);
+                }
+                if r + 1 < mu {
+                    draw_line(&mut canvas, at(r, c), at(r + 1, c), thick, tol);
+                }
+            }
+        }
+        for design in [false, true] {
+            for r in 0..mu {
+                for c in 0..mv {
+                    let is_design = l.u.map().is_copy(r) && l.v.map().is_copy(c);
+                    if is_design != design {
+                        continue;
+                    }
+                    let (colour, radius) = if design {
+                        (DESIGN_POINT, 2.6 * ss as f64)
+                    } else {
+                        (GENERATED_POINT, 2.0 * ss as f64)
+                    };
+                    draw_disc(&mut canvas, at(r, c), radius, colour, tol);
+                }
+            }
+        }
+        // A thin rule between panels.
+        if k > 0 {
+            let y = (k as f64 * panel_h) as i64;
+            for x in 0..w as i64 {
+                canvas.blend(x, y, [200, 200, 200], 1.0);
+            }
+        }
+    }
+    // Box-filter down to the requested size.
+    let (ow, oh) = (opts.width as usize, opts.height as usize);
+    let mut rgb = Vec::with_capacity(3 * ow * oh);
+    for y in 0..oh {
+        for x in 0..ow {
+            let mut acc = [0.0f32; 3];
+            for sy in 0..ss {
+                for sx in 0..ss {
+                    let p = canvas.rgb[(y * ss + sy) * w + x * ss + sx];
+                    for (a, v) in acc.iter_mut().zip(p) {
+                        *a += v;
+                    }
+                }
+            }
+            let n = (ss * ss) as f32;
+            rgb.extend(acc.map(|a| (a / n).round().clamp(0.0, 255.0) as u8));
+        }
+    }
+    Ok(Image {
+        width: opts.width,
+        height: opts.height,
+        rgb,
+    })
+}
+
+/// Fill a triangle with per-vertex shading, keeping the nearest surface per pixel.
+fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [f32; 3]) {
+    let (x0, x1) = (
+        v.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+        v.iter().map(|p| p.0).fold(f64::MIN, f64::max),
+    );
+    let (y0, y1) = (
+        v.iter().map(|p| p.1).fold(f64::MAX, f64::min),
+        v.iter().map(|p| p.1).fold(f64::MIN, f64::max),
+    );
+    let area = (v[1].0 - v[0].0) * (v[2].1 - v[0].1) - (v[2].0 - v[0].0) * (v[1].1 - v[0].1);
+    if area.abs() <= 1e-12 || !area.is_finite() {
+        return;
+    }
+    let xa = x0.floor().max(0.0) as i64;
+    let xb = (x1.ceil() as i64).min(canvas.w as i64 - 1);
+    let ya = y0.floor().max(0.0) as i64;
+    let yb = (y1.ceil() as i64).min(canvas.h as i64 - 1);
+    for y in ya..=yb {
+        for x in xa..=xb {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            let w0 = ((v[1].0 - px) * (v[2].1 - py) - (v[2].0 - px) * (v[1].1 - py)) / area;
+            let w1 = ((v[2].0 - px) * (v[0].1 - py) - (v[0].0 - px) * (v[2].1 - py)) / area;
+            let w2 = 1.0 - w0 - w1;
+            if w0 < -1e-9 || w1 < -1e-9 || w2 < -1e-9 {
+                continue;
+            }
+            let z = w0 * v[0].2 + w1 * v[1].2 + w2 * v[2].2;
+            let k = y as usize * canvas.w + x as usize;
+            if z > canvas.depth[k] {
+                canvas.depth[k] = z;
+                let s = w0 as f32 * shade[0] + w1 as f32 * shade[1] + w2 as f32 * shade[2];
+                canvas.rgb[k] = SURFACE.map(|c| (f32::from(c) * s).min(255.0));
+            }
+        }
+    }
+}
+
+/// A line of half-width `thick`, opaque where in front of the surface, faint behind it.
+fn draw_line(canvas: &mut Canvas, a: (f64, f64, f64), b: (f64, f64, f64), thick: f64, tol: f64) {
+    let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+    if !len.is_finite() {
+        return;
+    }
+    let steps = (len * 2.0).ceil().max(1.0) as usize;
+    let r = thick.ceil() as i64;
+    for s in 0..=steps {
+        let f = s as f64 / steps as f64;
+        let (x, y, z) = (
+            a.0 + f * (b.0 - a.0),
+            a.1 + f * (b.1 - a.1),
+            a.2 + f * (b.2 - a.2),
+        );
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if ((dx * dx + dy * dy) as f64).sqrt() > thick {
+                    continue;
+                }
+                let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                let alpha = canvas.overlay_alpha(px, py, z, tol);
+                canvas.blend(px, py, NET, 0.7 * alpha);
+            }
+        }
+    }
+}
+
+/// A filled disc with a thin white rim, opaque in front of the surface, faint behind it.
+fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, tol: f64) {
+    if !(p.0.is_finite() && p.1.is_finite()) {
+        return;
+    }
+    let r = (radius + 1.0).ceil() as i64;
+    let (cx, cy) = (p.0.round() as i64, p.1.round() as i64);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let d = ((dx * dx + dy * dy) as f64).sqrt();
+            if d > radius + 1.0 {
+                continue;
+            }
+            let alpha = canvas.overlay_alpha(cx + dx, cy + dy, p.2, tol);
+            let c = if d > radius { BACKGROUND } else { colour };
+            canvas.blend(cx + dx, cy + dy, c, alpha);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::{ChainLayout, Continuity, GridLayout};
+
+    #[test]
+    fn a_saddle_is_drawn_where_it_projects() {
+        let layout = GridLayout::new(
+            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
+            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
+        );
+        let (nu, nv) = layout.design_shape();
+        let design = (0..nu * nv)
+            .map(|i| {
+                let (a, b) = (
+                    (i / nv) as f64 / (nu - 1) as f64 - 0.5,
+                    (i % nv) as f64 / (nv - 1) as f64 - 0.5,
+                );
+                DVec3::new(a, b, 0.3 * a * b)
+            })
+            .collect();
+        let grid = PatchGrid::new(layout, design).unwrap();
+        let opts = RenderOptions {
+            width: 200,
+            height: 120,
+            views: vec![View {
+                eye: DVec3::Z,
+                right: DVec3::X,
+            }],
+            ..RenderOptions::default()
+        };
+        let img = render(&grid, &opts).unwrap();
+        assert_eq!((img.width, img.height, img.rgb.len()), (200, 120, 200 * 120 * 3));
+        // Seen from above the unit square fills the middle of the panel: surface there,
+        // background in the corners and at the sides beyond the square.
+        assert_eq!(img.pixel(0, 0), BACKGROUND);
+        assert_eq!(img.pixel(10, 60), BACKGROUND);
+        let centre = img.pixel(100, 60);
+        assert_ne!(centre, BACKGROUND);
+        let reddish = |c: Rgb| c[0] > 150 && c[1] < 110 && c[2] < 110;
+        let bluish = |c: Rgb| c[2] > 170 && c[0] < 90;
+        let pixels: Vec<Rgb> = (0..120)
+            .flat_map(|y| (0..200).map(move |x| (x, y)))
+            .map(|(x, y)| img.pixel(x, y))
+            .collect();
+        assert!(pixels.iter().any(|&c| reddish(c)), "design points drawn");
+        assert!(pixels.iter().any(|&c| bluish(c)), "generated points drawn");
+        let png = img.to_png().unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        assert!(render(&grid, &RenderOptions { width: 4, ..opts }).is_err());
+    }
+}

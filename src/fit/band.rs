@@ -1,0 +1,259 @@
+//! `BandMatrix`: a symmetric positive definite matrix stored as its lower band, with an
+//! in-place Cholesky factorisation and solve in `O(n b²)` and `O(n b)` for bandwidth `b`.
+//!
+//! The reduced normal equations of a patch grid couple a design point only with the design
+//! points within one patch's support of it, so in row-major design order their bandwidth is
+//! about `(du + 1) nv` points: for the 26 x 24 design nets of the blade fits that is a few
+//! hundred unknowns out of a couple of thousand, and the banded factorisation is 10 to 50 times
+//! cheaper than the dense one.
+
+/// A reverse Cuthill-McKee ordering of the graph with `n` nodes whose edges join every two
+/// nodes of each clique in `cliques`: `order[k]` is the node placed at position `k`. It keeps
+/// linked nodes close together, so a matrix with this sparsity has a small bandwidth in that
+/// order (a patch grid's design net gets its shorter side as the bandwidth). Deterministic.
+#[must_use]
+pub fn rcm_order<'a>(n: usize, cliques: impl Iterator<Item = &'a [u32]>) -> Vec<u32> {
+    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for c in cliques {
+        for &a in c {
+            for &b in c {
+                if a != b && (a as usize) < n && (b as usize) < n {
+                    adj[a as usize].push(b);
+                }
+            }
+        }
+    }
+    for a in &mut adj {
+        a.sort_unstable();
+        a.dedup();
+    }
+    let mut placed = vec![false; n];
+    let mut order: Vec<u32> = Vec::with_capacity(n);
+    while order.len() < n {
+        // Start each component at an unplaced node of least degree (a peripheral one).
+        let Some(start) = (0..n).filter(|&i| !placed[i]).min_by_key(|&i| (adj[i].len(), i)) else {
+            break;
+        };
+        placed[start] = true;
+        let mut head = order.len();
+        order.push(start as u32);
+        while head < order.len() {
+            let node = order[head] as usize;
+            head += 1;
+            let mut next: Vec<u32> = adj[node]
+                .iter()
+                .copied()
+                .filter(|&b| !placed[b as usize])
+                .collect();
+            next.sort_unstable_by_key(|&b| (adj[b as usize].len(), b));
+            for b in next {
+                placed[b as usize] = true;
+                order.push(b);
+            }
+        }
+    }
+    order.reverse();
+    order
+}
+
+/// A symmetric `n x n` matrix with `a[i][j] = 0` for `|i - j| > b`, lower band stored row by
+/// row: row `i` holds columns `i - b ..= i` (entries left of column 0 are unused zeros).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BandMatrix {
+    n: usize,
+    b: usize,
+    data: Vec<f64>,
+}
+
+impl BandMatrix {
+    /// The zero matrix of size `n` and bandwidth `b` (clamped to `n - 1`).
+    #[must_use]
+    pub fn zeros(n: usize, b: usize) -> Self {
+        let b = b.min(n.saturating_sub(1));
+        BandMatrix {
+            n,
+            b,
+            data: vec![0.0; n * (b + 1)],
+        }
+    }
+
+    /// Size `n`.
+    #[must_use]
+    pub fn size(&self) -> usize {
+        self.n
+    }
+
+    /// Bandwidth `b`.
+    #[must_use]
+    pub fn bandwidth(&self) -> usize {
+        self.b
+    }
+
+    /// Storage index of entry `(i, j)`, `j <= i <= j + b`.
+    #[inline]
+    fn at(&self, i: usize, j: usize) -> usize {
+        debug_assert!(
+            j <= i && i - j <= self.b,
+            "band entry ({i}, {j}) outside bandwidth {}",
+            self.b
+        );
+        i * (self.b + 1) + self.b + j - i
+    }
+
+    /// Add `v` to entry `(i, j)` of the lower triangle (`j <= i`, within the band).
+    #[inline]
+    pub fn add_lower(&mut self, i: usize, j: usize, v: f64) {
+        let k = self.at(i, j);
+        self.data[k] += v;
+    }
+
+    /// Entry `(i, j)` of the symmetric matrix (zero outside the band).
+    #[must_use]
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let (i, j) = if j > i { (j, i) } else { (i, j) };
+        if i - j > self.b {
+            0.0
+        } else {
+            self.data[self.at(i, j)]
+        }
+    }
+
+    /// Factor in place into `L Lᵀ` (the band then holds `L`). `None` when a pivot is not
+    /// positive and finite: the matrix is not positive definite.
+    #[must_use]
+    pub fn cholesky(mut self) -> Option<BandCholesky> {
+        let (n, b, w) = (self.n, self.b, self.b + 1);
+        for i in 0..n {
+            let lo_i = i.saturating_sub(b);
+            for j in lo_i..=i {
+                // L[i][j] = (A[i][j] - Σ_{k < j} L[i][k] L[j][k]) / L[j][j], k within both bands.
+                let lo = lo_i.max(j.saturating_sub(b));
+                let (ri, rj) = (i * w + b - i, j * w + b - j);
+                let mut s = self.data[ri + j];
+                let dot: f64 = self.data[ri + lo..ri + j]
+                    .iter()
+                    .zip(&self.data[rj + lo..rj + j])
+                    .map(|(x, y)| x * y)
+                    .sum();
+                s -= dot;
+                if i == j {
+                    if !(s > 0.0) || !s.is_finite() {
+                        return None;
+                    }
+                    self.data[ri + i] = s.sqrt();
+                } else {
+                    self.data[ri + j] = s / self.data[rj + j];
+                }
+            }
+        }
+        Some(BandCholesky { l: self })
+    }
+}
+
+/// The Cholesky factor `L` of a [`BandMatrix`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BandCholesky {
+    l: BandMatrix,
+}
+
+impl BandCholesky {
+    /// Solve `L Lᵀ x = rhs` in place.
+    pub fn solve_in_place(&self, x: &mut [f64]) {
+        let (n, b, w) = (self.l.n, self.l.b, self.l.b + 1);
+        debug_assert_eq!(x.len(), n, "band solve: right-hand side of the wrong length");
+        let d = &self.l.data;
+        for i in 0..n {
+            let lo = i.saturating_sub(b);
+            let ri = i * w + b - i;
+            let s: f64 = d[ri + lo..ri + i].iter().zip(&x[lo..i]).map(|(a, y)| a * y).sum();
+            x[i] = (x[i] - s) / d[ri + i];
+        }
+        for i in (0..n).rev() {
+            x[i] /= d[i * w + b];
+            let xi = x[i];
+            let lo = i.saturating_sub(b);
+            let ri = i * w + b - i;
+            for (xk, &l) in x[lo..i].iter_mut().zip(&d[ri + lo..ri + i]) {
+                *xk -= l * xi;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+
+    #[test]
+    fn matches_the_dense_solve() {
+        let (n, b) = (40, 5);
+        let mut band = BandMatrix::zeros(n, b);
+        let mut dense = DMatrix::<f64>::zeros(n, n);
+        for i in 0..n {
+            for j in i.saturating_sub(b)..=i {
+                let v = if i == j {
+                    10.0 + i as f64 * 0.1
+                } else {
+                    ((i * 7 + j * 3) as f64).sin()
+                };
+                band.add_lower(i, j, v);
+                dense[(i, j)] = v;
+                dense[(j, i)] = v;
+            }
+        }
+        assert_eq!(band.get(3, 20), 0.0);
+        assert_eq!(band.get(2, 5), dense[(2, 5)]);
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
+        let want = dense.cholesky().unwrap().solve(&DVector::from_vec(rhs.clone()));
+        let mut x = rhs;
+        band.cholesky().unwrap().solve_in_place(&mut x);
+        for i in 0..n {
+            assert!((x[i] - want[i]).abs() < 1e-12, "{i}: {} vs {}", x[i], want[i]);
+        }
+    }
+
+    #[test]
+    fn rcm_puts_the_short_side_of_a_grid_across_the_band() {
+        // A 5 x 30 grid of nodes (row-major, 30 per row) linked in 2 x 2 cliques: bandwidth 31
+        // in the natural order, about 5 to 6 after reordering.
+        let (rows, cols) = (5usize, 30usize);
+        let mut cliques = Vec::new();
+        for i in 0..rows - 1 {
+            for j in 0..cols - 1 {
+                let id = |a: usize, b: usize| (a * cols + b) as u32;
+                cliques.push(vec![id(i, j), id(i, j + 1), id(i + 1, j), id(i + 1, j + 1)]);
+            }
+        }
+        let order = rcm_order(rows * cols, cliques.iter().map(|c| c.as_slice()));
+        let mut pos = vec![0usize; rows * cols];
+        for (k, &node) in order.iter().enumerate() {
+            pos[node as usize] = k;
+        }
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(
+            sorted,
+            (0..(rows * cols) as u32).collect::<Vec<_>>(),
+            "a permutation"
+        );
+        let band = cliques
+            .iter()
+            .flat_map(|c| c.iter().flat_map(|&a| c.iter().map(move |&b| (a, b))))
+            .map(|(a, b)| pos[a as usize].abs_diff(pos[b as usize]))
+            .max()
+            .unwrap();
+        assert!(band <= 2 * rows, "bandwidth {band}");
+    }
+
+    #[test]
+    fn indefinite_matrices_are_refused() {
+        let mut m = BandMatrix::zeros(3, 1);
+        m.add_lower(0, 0, 1.0);
+        m.add_lower(1, 0, 2.0);
+        m.add_lower(1, 1, 1.0);
+        m.add_lower(2, 2, 1.0);
+        assert!(m.cholesky().is_none());
+        assert!(BandMatrix::zeros(4, 2).cholesky().is_none());
+    }
+}

@@ -1,0 +1,519 @@
+//! `fit_surface`: one call from a 3D cloud and a patch-grid layout to a fitted grid, with the
+//! closest-point offsets and the solver's effort (what the CLI's `fit-surface` reports).
+//!
+//! The fit is the joint Levenberg-Marquardt of [`mod@super::lsq`] (design net and every point's
+//! `(u, v)` together, the parameters eliminated blockwise), so each iteration costs `O(n)` in
+//! the number of points plus a banded solve independent of `n`. Large clouds are fitted in two
+//! stages: a random subsample of [`SurfaceOptions::subsample`] points is fitted to convergence
+//! from the initial parameters (see [`mod@super::param`]); then every point is projected onto
+//! that surface (Newton's method from its own initial parameters) and a few joint iterations
+//! on the whole cloud ([`SurfaceOptions::polish_iterations`]) let every point count. The
+//! reported offsets are true closest-point distances, found by a global search warm-started
+//! from the final parameters.
+
+use super::lsq::{levenberg_marquardt_observed, LsqIterate, LsqOptions};
+use super::objective::{SolveReport, StopReason};
+use super::offset::{Metric, OffsetStats};
+use super::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
+use super::problem::GridProblem;
+use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
+use crate::error::{Error, Result};
+use crate::geometry::Grid;
+use glam::DVec3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// A surface-fitting method. Only least squares exists so far; the evolutionary methods
+/// (through the population evaluator) will join it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SurfaceMethod {
+    /// Joint Levenberg-Marquardt over the design net and the foot points. The default.
+    #[default]
+    Lsq,
+}
+
+impl SurfaceMethod {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceMethod::Lsq => "lsq",
+        }
+    }
+}
+
+impl fmt::Display for SurfaceMethod {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for SurfaceMethod {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "lsq" => Ok(SurfaceMethod::Lsq),
+            "nelder-mead" | "bfgs" | "ga" | "cmaes" | "ga+lsq" | "cmaes+lsq" => Err(Error::invalid(format!(
+                "method '{s}' is not available for surfaces yet (only lsq)"
+            ))),
+            _ => Err(Error::invalid(format!("unknown method '{s}' (surfaces: lsq)"))),
+        }
+    }
+}
+
+/// Where the breaks of one direction of a patch grid go.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Breaks {
+    /// Equal patches.
+    Uniform,
+    /// Parameters in `[0, 1]`: the interior breaks (one fewer than the patches), or all of
+    /// them from 0 to 1.
+    Params(Vec<f64>),
+    /// Positions along the span axis in model units (for `v` only, e.g. a blade's station
+    /// radii): the interior breaks, or all of them (the first and last then stand for the
+    /// cloud's ends). They are mapped to `v` the way the data points' initial parameters are.
+    Span(Vec<f64>),
+}
+
+/// A patch-grid layout to fit: degrees, patches, continuity and breaks per direction
+/// (`[u, v]`), with breaks that may depend on the cloud (see [`Breaks::Span`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceLayout {
+    /// `[du, dv]`.
+    pub degree: [usize; 2],
+    /// `[pu, pv]`.
+    pub patches: [usize; 2],
+    /// Continuity across the patch borders along u and along v.
+    pub continuity: [Continuity; 2],
+    /// Breaks along u.
+    pub breaks_u: Breaks,
+    /// Breaks along v.
+    pub breaks_v: Breaks,
+}
+
+impl From<&GridLayout> for SurfaceLayout {
+    fn from(l: &GridLayout) -> Self {
+        SurfaceLayout {
+            degree: [l.u.degree(), l.v.degree()],
+            patches: [l.u.segments(), l.v.segments()],
+            continuity: [l.u.continuity(), l.v.continuity()],
+            breaks_u: Breaks::Params(l.u.breaks().to_vec()),
+            breaks_v: Breaks::Params(l.v.breaks().to_vec()),
+        }
+    }
+}
+
+impl SurfaceLayout {
+    /// Uniform breaks in both directions.
+    #[must_use]
+    pub fn uniform(degree: [usize; 2], patches: [usize; 2], continuity: [Continuity; 2]) -> Self {
+        SurfaceLayout {
+            degree,
+            patches,
+            continuity,
+            breaks_u: Breaks::Uniform,
+            breaks_v: Breaks::Uniform,
+        }
+    }
+
+    /// The grid layout, with span positions mapped to `v` along `axis`.
+    pub fn grid_layout(&self, axis: &SpanAxis) -> Result<GridLayout> {
+        let chain = |k: usize, breaks: &Breaks, name: &str| -> Result<ChainLayout> {
+            let (d, p, c) = (self.degree[k], self.patches[k], self.continuity[k]);
+            if p == 0 {
+                return Err(Error::invalid(format!("patches along {name} must be at least 1")));
+            }
+            let values: Vec<f64> = match breaks {
+                Breaks::Uniform => {
+                    return ChainLayout::uniform(d, p, c)
+                        .map_err(|e| Error::invalid(format!("layout along {name}: {e}")))
+                }
+                Breaks::Params(b) => b.clone(),
+                Breaks::Span(_) if k == 0 => {
+                    return Err(Error::invalid(
+                        "breaks along u cannot be span positions (u runs around the section)",
+                    ))
+                }
+                Breaks::Span(b) => b.iter().map(|&s| (s - axis.lo) / (axis.hi - axis.lo)).collect(),
+            };
+            let full = if values.len() + 1 == p {
+                std::iter::once(0.0)
+                    .chain(values)
+                    .chain(std::iter::once(1.0))
+                    .collect()
+            } else if values.len() == p + 1 {
+                let mut v = values;
+                if matches!(breaks, Breaks::Span(_)) {
+                    v[0] = 0.0;
+                    v[p] = 1.0;
+                }
+                v
+            } else {
+                return Err(Error::invalid(format!(
+                    "breaks along {name}: {} values for {p} patches (give the {} interior breaks, or all {})",
+                    values.len(),
+                    p - 1,
+                    p + 1
+                )));
+            };
+            if full.iter().any(|b| !b.is_finite())
+                || full.windows(2).any(|w| w[1] <= w[0])
+                || full[0] != 0.0
+                || full[p] != 1.0
+            {
+                return Err(Error::invalid(format!(
+                    "breaks along {name} must increase strictly from 0 to 1 (as parameters: {})",
+                    full.iter()
+                        .map(|b| format!("{b:.6}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+            ChainLayout::with_breaks(d, full, c)
+                .map_err(|e| Error::invalid(format!("layout along {name}: {e}")))
+        };
+        Ok(GridLayout::new(
+            chain(0, &self.breaks_u, "u")?,
+            chain(1, &self.breaks_v, "v")?,
+        ))
+    }
+}
+
+/// Where the initial `(u, v)` of the data points come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ParamSource {
+    /// From the sections when the cloud has them, else blade-aware. The default.
+    #[default]
+    Auto,
+    /// From the sections ([`section_params`]); an error for an unordered cloud.
+    Sections,
+    /// Blade-aware, ignoring any sections ([`blade_params`]).
+    Blade,
+}
+
+impl ParamSource {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            ParamSource::Auto => "auto",
+            ParamSource::Sections => "sections",
+            ParamSource::Blade => "blade",
+        }
+    }
+}
+
+impl FromStr for ParamSource {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(ParamSource::Auto),
+            "sections" => Ok(ParamSource::Sections),
+            "blade" => Ok(ParamSource::Blade),
+            _ => Err(Error::invalid(format!(
+                "unknown parameterisation '{s}' (expected auto, sections or blade)"
+            ))),
+        }
+    }
+}
+
+/// Everything [`fit_surface`] needs besides the data and the layout.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceOptions {
+    /// The method. Default least squares.
+    pub method: SurfaceMethod,
+    /// Where the initial parameters come from. Default [`ParamSource::Auto`].
+    pub params: ParamSource,
+    /// Options of the blade-aware parameterisation.
+    pub blade: BladeParamOptions,
+    /// The Levenberg-Marquardt options of the main fit (the subsample, or the whole cloud when
+    /// it is small). Default: at most 100 iterations, converged when 3 iterations gain less
+    /// than 1e-4 of the sum of squares (on noisy clouds the iteration then only slides the
+    /// parameters along the surface), initial damping 1e-3, one global foot-point check.
+    pub lsq: LsqOptions,
+    /// Clouds with more points than this are fitted on a subsample of about this many first
+    /// (an equal share from every patch, plus the points nearest the four edges). 0 never
+    /// subsamples. Default 20,000.
+    pub subsample: usize,
+    /// Joint iterations on the whole cloud after a subsample fit. Default 2.
+    pub polish_iterations: usize,
+    /// Seed of the subsample. Default 0.
+    pub seed: u64,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        SurfaceOptions {
+            method: SurfaceMethod::Lsq,
+            params: ParamSource::Auto,
+            blade: BladeParamOptions::default(),
+            lsq: LsqOptions {
+                max_iterations: 100,
+                ftol: 1e-4,
+                window: 3,
+                initial_damping: 1e-3,
+                global_checks: 1,
+                ..LsqOptions::default()
+            },
+            subsample: 20_000,
+            polish_iterations: 2,
+            seed: 0,
+        }
+    }
+}
+
+/// One stage of a surface fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceStage {
+    /// `subsample`, `full` (the whole cloud after a subsample fit) or `lsq` (the whole cloud
+    /// in one stage).
+    pub name: &'static str,
+    /// Points the stage fitted.
+    pub points: usize,
+    /// The stage's solver report.
+    pub report: SolveReport,
+}
+
+/// What [`fit_surface`] tells its caller while it runs (the library never prints).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SurfaceProgress {
+    /// The initial parameters are ready (`source` says which method made them).
+    Params {
+        /// `sections` or `blade`.
+        source: &'static str,
+        /// Seconds spent.
+        seconds: f64,
+    },
+    /// A stage starts.
+    Stage {
+        /// The stage's name (see [`SurfaceStage::name`]).
+        name: &'static str,
+        /// Points it fits.
+        points: usize,
+    },
+    /// A Levenberg-Marquardt iteration ended.
+    Iteration(LsqIterate),
+    /// The final closest-point search over every point starts.
+    Offsets {
+        /// Points measured.
+        points: usize,
+    },
+}
+
+/// A fitted patch grid with its offsets and the effort spent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceFit {
+    /// The fitted grid.
+    pub grid: PatchGrid<DVec3>,
+    /// The closest-point parameters `(u, v)` of every data point.
+    pub params: Vec<[f64; 2]>,
+    /// True closest-point offsets of every data point, in f64.
+    pub stats: OffsetStats<DVec3>,
+    /// The span axis the parameters were measured along.
+    pub axis: SpanAxis,
+    /// `sections` or `blade`: where the initial parameters came from.
+    pub param_source: &'static str,
+    /// The stages, in order.
+    pub stages: Vec<SurfaceStage>,
+    /// Iterations and evaluations summed over the stages, wall-clock seconds of the whole fit
+    /// (parameters and final offsets included).
+    pub report: SolveReport,
+}
+
+/// Initial parameters of a cloud, and the name of the method that made them.
+pub fn initial_params(
+    points: &[DVec3],
+    grid: Option<Grid>,
+    opts: &SurfaceOptions,
+) -> Result<(Vec<[f64; 2]>, SpanAxis, &'static str)> {
+    match (opts.params, grid) {
+        (ParamSource::Sections | ParamSource::Auto, Some(g)) => {
+            let (p, a) = section_params(points, g, opts.blade.span)?;
+            Ok((p, a, "sections"))
+        }
+        (ParamSource::Sections, None) => Err(Error::invalid(
+            "parameters from sections need a structured cloud (CSV with section,index columns)",
+        )),
+        (ParamSource::Blade | ParamSource::Auto, _) => {
+            let (p, a) = blade_params(points, &opts.blade)?;
+            Ok((p, a, "blade"))
+        }
+    }
+}
+
+/// The indices of a subsample of about `count` points, sorted, without repeats: an equal
+/// share of random points from every patch (by the initial parameters; a patch with fewer
+/// points gives all it has, so small patches, like the blade's last span before the tip, keep
+/// their data), plus the `count / 50` points with the smallest and with the largest initial
+/// `u` and `v` each, so that the four edges of the surface keep theirs (a random 2% of the
+/// root section leaves the edge there free to pull back).
+fn subsample(params: &[[f64; 2]], layout: &GridLayout, count: usize, seed: u64) -> Vec<usize> {
+    let n = params.len();
+    let (pu, pv) = layout.patches();
+    let mut by_cell: Vec<Vec<usize>> = vec![Vec::new(); pu * pv];
+    for (j, t) in params.iter().enumerate() {
+        let (a, _) = layout.u.locate(t[0]);
+        let (b, _) = layout.v.locate(t[1]);
+        by_cell[a * pv + b].push(j);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let quota = count.div_ceil(pu * pv).max(1);
+    let mut idx = Vec::with_capacity(count + count / 10);
+    for cell in &by_cell {
+        if cell.len() <= quota {
+            idx.extend_from_slice(cell);
+        } else {
+            idx.extend(
+                rand::seq::index::sample(&mut rng, cell.len(), quota)
+                    .into_iter()
+                    .map(|k| cell[k]),
+            );
+        }
+    }
+    let edge = (count / 50).min(n / 4);
+    if edge > 0 {
+        let mut order: Vec<usize> = (0..n).collect();
+        for k in 0..2 {
+            let key = |i: &usize| params[*i][k];
+            order.select_nth_unstable_by(edge, |a, b| key(a).total_cmp(&key(b)));
+            idx.extend_from_slice(&order[..edge]);
+            order.select_nth_unstable_by(n - 1 - edge, |a, b| key(a).total_cmp(&key(b)));
+            idx.extend_from_slice(&order[n - edge..]);
+        }
+    }
+    idx.sort_unstable();
+    idx.dedup();
+    idx
+}
+
+/// Fit a patch grid of `layout` to `points` (with their section structure when known) by
+/// closest-point least squares; see the module docs for the stages.
+pub fn fit_surface(
+    points: &[DVec3],
+    grid: Option<Grid>,
+    layout: &SurfaceLayout,
+    opts: &SurfaceOptions,
+    progress: &mut dyn FnMut(SurfaceProgress),
+) -> Result<SurfaceFit> {
+    let clock = Instant::now();
+    if let Some(j) = points.iter().position(|p| !p.is_finite()) {
+        return Err(Error::invalid(format!(
+            "data point {j} has a non-finite coordinate"
+        )));
+    }
+    let (mut params, axis, source) = initial_params(points, grid, opts)?;
+    let layout = layout.grid_layout(&axis)?;
+    let (nu, nv) = layout.design_shape();
+    if points.len() < nu * nv {
+        return Err(Error::invalid(format!(
+            "{} data points cannot determine a {nu} x {nv} design net: at least {} are needed",
+            points.len(),
+            nu * nv
+        )));
+    }
+    progress(SurfaceProgress::Params {
+        source,
+        seconds: clock.elapsed().as_secs_f64(),
+    });
+    let n = points.len();
+    let sub = opts.subsample > 0 && n > opts.subsample && opts.subsample >= nu * nv;
+    let mut stages = Vec::new();
+    let full = GridProblem::grid(layout.clone(), points, params.clone(), Metric::Closest)?;
+    let design = if sub {
+        let idx = subsample(&params, &layout, opts.subsample, opts.seed);
+        let sub_points: Vec<DVec3> = idx.iter().map(|&i| points[i]).collect();
+        let sub_params: Vec<[f64; 2]> = idx.iter().map(|&i| params[i]).collect();
+        let problem = GridProblem::grid(layout.clone(), &sub_points, sub_params, Metric::Closest)?;
+        progress(SurfaceProgress::Stage {
+            name: "subsample",
+            points: sub_points.len(),
+        });
+        let start = problem.linear_fit(problem.params())?;
+        let fit = levenberg_marquardt_observed(
+            &problem,
+            start,
+            problem.params().to_vec(),
+            &opts.lsq,
+            &mut |it: &LsqIterate| {
+                progress(SurfaceProgress::Iteration(*it));
+                true
+            },
+        )?;
+        stages.push(SurfaceStage {
+            name: "subsample",
+            points: sub_points.len(),
+            report: fit.report,
+        });
+        // The whole cloud: Levenberg-Marquardt first moves every point to its own foot point on
+        // the subsample's surface (Newton's method from its initial parameters).
+        progress(SurfaceProgress::Stage {
+            name: "full",
+            points: n,
+        });
+        let polish = LsqOptions {
+            max_iterations: opts.polish_iterations,
+            global_checks: 0,
+            ..opts.lsq
+        };
+        if opts.polish_iterations > 0 {
+            let fit =
+                levenberg_marquardt_observed(&full, fit.design, params, &polish, &mut |it: &LsqIterate| {
+                    progress(SurfaceProgress::Iteration(*it));
+                    true
+                })?;
+            params = fit.params;
+            stages.push(SurfaceStage {
+                name: "full",
+                points: n,
+                report: fit.report,
+            });
+            fit.design
+        } else {
+            full.project(&fit.design, &mut params);
+            fit.design
+        }
+    } else {
+        progress(SurfaceProgress::Stage {
+            name: "lsq",
+            points: n,
+        });
+        let start = full.linear_fit(full.params())?;
+        let fit = levenberg_marquardt_observed(&full, start, params, &opts.lsq, &mut |it: &LsqIterate| {
+            progress(SurfaceProgress::Iteration(*it));
+            true
+        })?;
+        params = fit.params;
+        stages.push(SurfaceStage {
+            name: "lsq",
+            points: n,
+            report: fit.report,
+        });
+        fit.design
+    };
+    progress(SurfaceProgress::Offsets { points: n });
+    let (stats, feet) = full.closest_stats(&design, Some(&params));
+    let grid = full.patch_grid(&design)?;
+    let (iterations, evaluations) = stages.iter().fold((0, 0), |(i, e), s| {
+        (i + s.report.iterations, e + s.report.evaluations)
+    });
+    // The whole-cloud polish runs a fixed number of iterations: the main stage says whether
+    // the fit converged.
+    let stop = stages.first().map_or(StopReason::Converged, |s| s.report.stop);
+    Ok(SurfaceFit {
+        grid,
+        params: feet,
+        stats,
+        axis,
+        param_source: source,
+        stages,
+        report: SolveReport {
+            iterations,
+            evaluations: evaluations + 1,
+            seconds: clock.elapsed().as_secs_f64(),
+            stop,
+        },
+    })
+}
