@@ -7,7 +7,8 @@
 //!   counted, and the control points regenerated from them.
 //! - `engine`: the fast warm-started closest-point fit the search runs on every candidate.
 //! - `search`: growth by splitting, reduction, break tuning, the parallel outer search.
-//! - [`report`]: the JSON report, DESIGN.md §4's curve report with an `adapt` block.
+//! - [`report`]: the JSON reports, DESIGN.md §4's curve and surface reports with an `adapt` block.
+//! - [`surface`]: [`adapt_surface`], the same search for patch grids fitted to sectioned clouds.
 //!
 //! The search runs *families* in parallel (Fig. 8): a degree, a continuity of the joins
 //! (C1 as in the paper, C2, or the smoothest, `C(d-1)`), breaks equal or stored, and x
@@ -34,10 +35,15 @@ mod engine;
 pub mod report;
 mod search;
 pub mod spline;
+pub mod surface;
 
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
-pub use report::{AdaptBlock, AdaptReport};
+pub use report::{AdaptBlock, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
 pub use spline::{SplineLayout, MAX_DEGREE};
+pub use surface::{
+    adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, SpanRule, SurfaceAdaptOptions,
+    SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+};
 
 use crate::chain::{ChainLayout, Continuity, CurveChain};
 use crate::error::{Error, Result};
