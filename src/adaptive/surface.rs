@@ -67,6 +67,8 @@ pub struct SurfaceAdaptOptions {
     /// Refit the winning layout on every other point of each section and measure the rest.
     /// Default true.
     pub held_out: bool,
+    /// A family gives up after this many fits. Default 80.
+    pub max_family_fits: usize,
 }
 
 impl Default for SurfaceAdaptOptions {
@@ -80,6 +82,7 @@ impl Default for SurfaceAdaptOptions {
             max_scalars: None,
             minimax: true,
             held_out: true,
+            max_family_fits: 80,
         }
     }
 }
@@ -911,12 +914,18 @@ impl<'d, 'a> Search<'d, 'a> {
     /// The fit's own offsets meet the tolerance, and so do the checker's
     /// ([`sampled_offsets`]) on the grid the stored numbers regenerate.
     fn met(&self, fam: &Family, c: &Cand) -> bool {
+        self.check(fam, c)
+            .is_some_and(|e| norm_of(&e, self.opts.norm) <= self.opts.tol)
+    }
+
+    /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
+    /// tolerance; `None` when they do not.
+    fn check(&self, fam: &Family, c: &Cand) -> Option<Vec<f64>> {
         if c.fit.measure > self.opts.tol {
-            return false;
+            return None;
         }
-        encode(self.data, fam, c)
-            .grid()
-            .is_ok_and(|g| norm_of(&sampled_offsets(&g, self.data.points), self.opts.norm) <= self.opts.tol)
+        let grid = encode(self.data, fam, c).grid().ok()?;
+        Some(sampled_offsets(&grid, self.data.points))
     }
 
     /// The u split: in the segment holding the worst point, at the squared-error-weighted
@@ -1015,12 +1024,41 @@ impl<'d, 'a> Search<'d, 'a> {
             if closest.as_ref().is_none_or(|b| cur.fit.measure < b.fit.measure) {
                 closest = Some(cur.clone());
             }
-            if self.met(&fam, &cur) {
+            let checked = self.check(&fam, &cur);
+            if checked
+                .as_ref()
+                .is_some_and(|e| norm_of(e, self.opts.norm) <= self.opts.tol)
+            {
                 break Some(cur);
             }
             if cur.scalars >= self.bound.load(Ordering::Relaxed) {
                 trace.outcome = "stopped at the best count found".into();
                 break None;
+            }
+            if self.fits.load(Ordering::Relaxed) - fits0 >= self.opts.max_family_fits {
+                trace.outcome = "gave up (fits per family)".into();
+                break None;
+            }
+            if let Some(err) = checked {
+                // The fit meets the tolerance but the checker's coarse search does not find
+                // the closest points: more patches around, where it misses most.
+                let by_checker = Cand {
+                    fit: Fitted {
+                        err,
+                        ..cur.fit.clone()
+                    },
+                    ..cur.clone()
+                };
+                match self.fit(&fam, &self.split_u(&fam, &by_checker), &cur.bv, &cur.fit.u) {
+                    Some(next) => {
+                        cur = next;
+                        continue;
+                    }
+                    None => {
+                        trace.outcome = "reached the data's limit (the checker's search)".into();
+                        break None;
+                    }
+                }
             }
             let grow_u = self.fit(&fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
             let grow_v = self
@@ -1222,8 +1260,8 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
         format!(
             "tolerance {:e} ({}) not met: no family met it within the data's limits (at most half a \
              section's points around, one design column per section along the span, fewer stored \
-             scalars than the data's numbers{}); the closest layout found ({}) has {} {:.3e} with {} \
-             stored scalars",
+             scalars than the data's numbers{}); the closest layout found ({}) has {} {:.3e} ({:.3e} by the \
+             checker's search) with {} stored scalars",
             opts.tol,
             opts.norm,
             opts.max_scalars
@@ -1231,6 +1269,7 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
             fam.name(),
             opts.norm,
             measure,
+            checked_measure,
             count.total
         )
     });
