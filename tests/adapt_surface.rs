@@ -65,7 +65,7 @@ fn independent_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
                     let r = s - q;
                     let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
                     let det = a11 * a22 - a12 * a12;
-                    if !(det.abs() > 1e-300) {
+                    if det.abs() <= 1e-300 || det.is_nan() {
                         break;
                     }
                     let (b1, b2) = (-r.dot(su), -r.dot(sv));

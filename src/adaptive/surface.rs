@@ -9,7 +9,9 @@
 //! curve `S(·, v_k)` (Hoschek's parameter correction along u), then, for the max norm, by
 //! Lawson's reweighting towards the minimax fit. Its offsets are judged as the distance from
 //! every point to `S(u, v_k)`: a point of the surface, so never below the true closest-point
-//! distance, which the winner is re-measured with ([`crate::fit::grid_offset_stats`]).
+//! distance. The winner is re-measured by two global searches (the library's and the shared
+//! checker's, see [`sampled_offsets`]); it is accepted only when the checker's own search
+//! confirms the tolerance.
 //!
 //! **Span rule.** When every section lies in a plane `x_a = s_k` of one coordinate axis `a`,
 //! with `s_k` strictly monotone along the sections, the span coordinate of design column `j`
@@ -26,9 +28,10 @@
 //! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
 //! point, at the squared-error-weighted mean of its points' `u`; a v split in the span holding
 //! the worst section, at the weighted mean of its sections' `v`. Once the tolerance holds, it
-//! removes every break it can while the tolerance still holds. A family stops at the best
-//! count found so far, or when it would need more design points than the data allow (half the
-//! points of a section around, the number of sections along the span).
+//! removes every break it can while the tolerance still holds. A family stops when it would
+//! need more design points than the data allow (half the points of a section around, the
+//! number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
+//! Families do not prune each other, so the result does not depend on thread timing.
 
 #![allow(clippy::needless_range_loop)]
 
@@ -37,7 +40,7 @@ use super::spline::{SplineLayout, MAX_SUPPORT};
 use super::{HeldOut, Norm};
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-use crate::fit::{grid_offset_stats, OffsetStats};
+use crate::fit::{shape_offsets, FootOptions, GridShape, Metric, OffsetStats};
 use crate::geometry::Grid;
 use glam::DVec3;
 use nalgebra::DMatrix;
@@ -827,6 +830,38 @@ fn norm_of(err: &[f64], norm: Norm) -> f64 {
     }
 }
 
+/// Closest-point offsets of `points` from `grid`: every point's distance to the nearest of
+/// the surface points found by the library's global search
+/// ([`crate::fit::grid_offset_stats`]'s), by the checker's (`checked`, from
+/// [`sampled_offsets`]) and, when given, the fit's own foot points (`own`). Each search ends
+/// on a point of the surface, so each is an upper bound of the true distance and so is their
+/// minimum; near a collapsed edge (a blade tip) any one of them can stop in a local minimum.
+fn closest_offsets(
+    grid: &PatchGrid<DVec3>,
+    points: &[DVec3],
+    checked: &[f64],
+    own: Option<&[f64]>,
+) -> Result<OffsetStats<DVec3>> {
+    let shape = GridShape::<DVec3>::new(grid.layout().clone());
+    let opts = FootOptions {
+        samples: 12,
+        ..FootOptions::default()
+    };
+    let (_, feet) = shape_offsets(&shape, grid.design(), points, &opts)?;
+    let d2: Vec<f64> = feet
+        .iter()
+        .enumerate()
+        .map(|(p, f)| {
+            let mut d = f.dist_sq.min(checked[p] * checked[p]);
+            if let Some(o) = own {
+                d = d.min(o[p] * o[p]);
+            }
+            d
+        })
+        .collect();
+    Ok(OffsetStats::from_dist_sq(Metric::Closest, &d2, points))
+}
+
 /// One family of the search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Family {
@@ -867,7 +902,6 @@ struct Cand {
 struct Search<'d, 'a> {
     data: &'d Data<'a>,
     opts: &'d SurfaceAdaptOptions,
-    bound: AtomicUsize,
     fits: AtomicUsize,
     limit_u: usize,
     limit_scalars: usize,
@@ -890,7 +924,7 @@ impl<'d, 'a> Search<'d, 'a> {
         Some(lu.coeff_count() * lv.coeff_count() * per + rule + breaks(bu) + breaks(bv))
     }
 
-    fn fit(&self, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
+    fn fit(&self, count: &mut usize, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
         let lu = fam.layout(fam.du, fam.ou, bu)?;
         let lv = fam.layout(fam.dv, fam.ov, bv)?;
         if lu.coeff_count() > self.limit_u || lv.coeff_count() > self.data.sections {
@@ -901,6 +935,7 @@ impl<'d, 'a> Search<'d, 'a> {
             return None;
         }
         self.fits.fetch_add(1, Ordering::Relaxed);
+        *count += 1;
         let f = Fitter::new(self.data, lu, lv);
         let fit = f.fit(u0, self.opts)?;
         Some(Cand {
@@ -1010,9 +1045,9 @@ impl<'d, 'a> Search<'d, 'a> {
             best_measure: f64::INFINITY,
             outcome: String::new(),
         };
-        let fits0 = self.fits.load(Ordering::Relaxed);
+        let mut nfits = 0;
         let mut closest: Option<Cand> = None;
-        let mut cur = match self.fit(&fam, &[0.0, 1.0], &[0.0, 1.0], &self.data.u0) {
+        let mut cur = match self.fit(&mut nfits, &fam, &[0.0, 1.0], &[0.0, 1.0], &self.data.u0) {
             Some(c) => c,
             None => {
                 trace.outcome = "the first layout could not be fitted".into();
@@ -1031,11 +1066,7 @@ impl<'d, 'a> Search<'d, 'a> {
             {
                 break Some(cur);
             }
-            if cur.scalars >= self.bound.load(Ordering::Relaxed) {
-                trace.outcome = "stopped at the best count found".into();
-                break None;
-            }
-            if self.fits.load(Ordering::Relaxed) - fits0 >= self.opts.max_family_fits {
+            if nfits >= self.opts.max_family_fits {
                 trace.outcome = "gave up (fits per family)".into();
                 break None;
             }
@@ -1049,7 +1080,13 @@ impl<'d, 'a> Search<'d, 'a> {
                     },
                     ..cur.clone()
                 };
-                match self.fit(&fam, &self.split_u(&fam, &by_checker), &cur.bv, &cur.fit.u) {
+                match self.fit(
+                    &mut nfits,
+                    &fam,
+                    &self.split_u(&fam, &by_checker),
+                    &cur.bv,
+                    &cur.fit.u,
+                ) {
                     Some(next) => {
                         cur = next;
                         continue;
@@ -1060,10 +1097,10 @@ impl<'d, 'a> Search<'d, 'a> {
                     }
                 }
             }
-            let grow_u = self.fit(&fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
+            let grow_u = self.fit(&mut nfits, &fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
             let grow_v = self
                 .split_v(&fam, &cur)
-                .and_then(|bv| self.fit(&fam, &cur.bu, &bv, &cur.fit.u));
+                .and_then(|bv| self.fit(&mut nfits, &fam, &cur.bu, &bv, &cur.fit.u));
             // Accuracy bought per stored scalar added.
             let gain = |c: &Cand| {
                 (cur.fit.measure / c.fit.measure).ln() / (c.scalars.saturating_sub(cur.scalars).max(1)) as f64
@@ -1105,7 +1142,7 @@ impl<'d, 'a> Search<'d, 'a> {
                     .filter(|_| fam.split)
                     .collect();
                 for (bu, bv) in tries {
-                    if let Some(c) = self.fit(&fam, &bu, &bv, &w.fit.u) {
+                    if let Some(c) = self.fit(&mut nfits, &fam, &bu, &bv, &w.fit.u) {
                         if c.scalars < w.scalars && self.met(&fam, &c) {
                             w = c;
                             improved = true;
@@ -1117,13 +1154,12 @@ impl<'d, 'a> Search<'d, 'a> {
                     break;
                 }
             }
-            self.bound.fetch_min(w.scalars, Ordering::Relaxed);
             trace.outcome = "met".into();
             trace.best_scalars = Some(w.scalars);
             w
         });
         trace.best_measure = closest.as_ref().map_or(f64::INFINITY, |c| c.fit.measure);
-        trace.fits = self.fits.load(Ordering::Relaxed) - fits0;
+        trace.fits = nfits;
         (winner, closest, trace)
     }
 }
@@ -1184,7 +1220,6 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
     let search = Search {
         data: &data,
         opts,
-        bound: AtomicUsize::new(limit_scalars + 1),
         fits: AtomicUsize::new(0),
         limit_u: data.per / 2,
         limit_scalars,
@@ -1241,12 +1276,16 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
         "the encoding counts what the search counted"
     );
     let grid_fit = encoding.grid()?;
-    let offset = grid_offset_stats(&grid_fit, points)?;
+    let checked = sampled_offsets(&grid_fit, points);
+    // The fit's own foot points `(u_p, v_k)`, on the regenerated grid.
+    let own: Vec<f64> = (0..points.len())
+        .map(|p| (grid_fit.eval(cand.fit.u[p], data.v[p / data.per]) - points[p]).length())
+        .collect();
+    let offset = closest_offsets(&grid_fit, points, &checked, Some(&own))?;
     let measure = match opts.norm {
         Norm::Max => offset.max,
         Norm::Rms => offset.rms,
     };
-    let checked = sampled_offsets(&grid_fit, points);
     let checked = CheckedOffsets {
         max: norm_of(&checked, Norm::Max),
         rms: norm_of(&checked, Norm::Rms),
@@ -1304,7 +1343,7 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
     f.active = (0..data.points.len())
         .map(|p| {
             let i = p % per;
-            i % 2 == 0 || i == per - 1
+            i.is_multiple_of(2) || i == per - 1
         })
         .collect();
     let fit = f.fit(&data.u0, opts)?;
@@ -1321,7 +1360,8 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
         .filter(|&p| !f.active[p])
         .map(|p| data.points[p])
         .collect();
-    let stats = grid_offset_stats(&grid, &rest).ok()?;
+    let checked = sampled_offsets(&grid, &rest);
+    let stats = closest_offsets(&grid, &rest, &checked, None).ok()?;
     Some(HeldOut {
         fitted: data.points.len() - rest.len(),
         measured: rest.len(),

@@ -214,7 +214,7 @@ pub fn run(args: Args) -> Result<()> {
             tol: t * scale,
             ..base
         };
-        if !(opts.tol > 0.0) || !opts.tol.is_finite() {
+        if opts.tol <= 0.0 || !opts.tol.is_finite() {
             return Err(usage(format!("--tol {t}: the tolerance must be positive")));
         }
         let r = adapt_surface(points, grid, &opts)?;
