@@ -39,6 +39,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    give_mesa_a_runtime_dir();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
@@ -58,4 +59,28 @@ fn main() -> ExitCode {
             ExitCode::from(cli::exit_status(&e))
         }
     }
+}
+
+/// Mesa's Vulkan drivers print `error: XDG_RUNTIME_DIR is invalid or not set` when the
+/// variable is missing (headless machines, CI), which reads like one of bezchain's own errors.
+/// Point it at a private directory of the user's in the temporary folder instead (created
+/// once, mode 0700); an existing setting is left alone, and so is a directory we do not own.
+fn give_mesa_a_runtime_dir() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_else(|_| "user".to_string());
+    let dir = std::env::temp_dir().join(format!("bezchain-runtime-{user}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).is_err() {
+            return;
+        }
+    }
+    // Still single-threaded: nothing else reads the environment yet.
+    std::env::set_var("XDG_RUNTIME_DIR", &dir);
 }

@@ -287,3 +287,72 @@ fn bad_layouts_and_clouds_are_refused() {
     .unwrap_err();
     assert!(e.to_string().contains("section,index"), "{e}");
 }
+
+/// The paper's blade lofted to `per_section x sections` points with noise of `1e-4` of the
+/// largest chord, shuffled, and fitted as an unordered cloud by bicubic 8 x 11 patches ending
+/// at the stations, the first stage on a subsample of about `subsample` points. Returns the
+/// fit's rms over the noise's sigma and the fit's seconds.
+fn noisy_unordered_fit(per_section: usize, sections: usize, subsample: usize) -> (f64, f64) {
+    let blade = paper_blade();
+    let noise = 1e-4;
+    let cloud = blade
+        .loft(&LoftOptions {
+            points_per_section: Some(per_section),
+            sections: Some(sections),
+            noise,
+            shuffle: true,
+            seed: 5,
+        })
+        .unwrap();
+    assert_eq!(cloud.points.len(), per_section * sections);
+    assert!(cloud.grid.is_none());
+    let layout = SurfaceLayout {
+        breaks_v: Breaks::Span(blade.stations.iter().map(|s| s.radius).collect()),
+        ..SurfaceLayout::uniform([3, 3], [8, 11], [Continuity::C1, Continuity::C1])
+    };
+    let t = std::time::Instant::now();
+    let opts = SurfaceOptions {
+        subsample,
+        ..SurfaceOptions::default()
+    };
+    let fit = fit_surface(&cloud.points, None, &layout, &opts, &mut |_| {}).unwrap();
+    let seconds = t.elapsed().as_secs_f64();
+    assert_eq!(
+        fit.stages.iter().map(|s| s.name).collect::<Vec<_>>(),
+        vec!["subsample", "full"]
+    );
+    assert_eq!(fit.stats.points, cloud.points.len());
+    assert!(fit.grid.continuity_error() < 1e-9);
+    let sigma = noise * blade.max_chord();
+    println!(
+        "{} points: rms {:.4e} = {:.3} sigma, max {:.3e}, fit {seconds:.2} s ({:?})",
+        cloud.points.len(),
+        fit.stats.rms,
+        fit.stats.rms / sigma,
+        fit.stats.max,
+        fit.stages
+            .iter()
+            .map(|s| (s.name, s.points, s.report.iterations, s.report.seconds))
+            .collect::<Vec<_>>()
+    );
+    (fit.stats.rms / sigma, seconds)
+}
+
+#[test]
+fn a_noisy_unordered_100k_cloud_is_fitted_to_the_noise() {
+    // A smaller first stage than the default keeps this quick in debug builds.
+    let (ratio, _) = noisy_unordered_fit(250, 400, 5000);
+    assert!(ratio < 1.5 && ratio > 0.8, "rms = {ratio} sigma");
+}
+
+/// The scale check (run in release): `cargo test --release --test surface_fit --
+/// --ignored --nocapture`. One million noisy, shuffled points in at most 20 s.
+#[test]
+#[ignore = "timing; run in release with --ignored"]
+fn a_noisy_unordered_million_point_cloud_in_twenty_seconds() {
+    let (ratio, seconds) = noisy_unordered_fit(1000, 1000, SurfaceOptions::default().subsample);
+    assert!(ratio < 1.5 && ratio > 0.8, "rms = {ratio} sigma");
+    if !cfg!(debug_assertions) {
+        assert!(seconds <= 20.0, "fit took {seconds:.1} s");
+    }
+}

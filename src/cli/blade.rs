@@ -26,7 +26,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Output cloud (CSV `x,y,z[,section,index]`); `-` for standard output.
-    #[arg(short, long)]
+    #[arg(short, long, default_value = "-")]
     pub output: PathBuf,
 }
 
@@ -49,11 +49,14 @@ pub fn run(args: Args) -> Result<()> {
         Some(g) => format!("{} sections × {} points", g.sections, g.per_section),
         None => "unordered".to_string(),
     };
+    let to = match Target::parse(&args.output) {
+        Target::Stdout => "standard output".to_string(),
+        Target::File(path) => path.display().to_string(),
+    };
     eprintln!(
-        "{}: {} points ({shape}) → {}",
+        "{}: {} points ({shape}) → {to}",
         args.blade.display(),
-        cloud.points.len(),
-        args.output.display()
+        cloud.points.len()
     );
     Ok(())
 }

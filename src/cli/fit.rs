@@ -103,7 +103,7 @@ pub struct EvoArgs {
 
 impl EvoArgs {
     /// The flags given, by name (to refuse them for methods that do not use them).
-    fn given(&self) -> Vec<&'static str> {
+    pub fn given(&self) -> Vec<&'static str> {
         let mut v = Vec::new();
         let mut add = |on: bool, name| {
             if on {
@@ -270,7 +270,7 @@ pub fn report(fit: &CurveFit<DVec2>, input: &Path, points: usize) -> CurveReport
 }
 
 /// Progress display, history file and checkpoints of an evolutionary run.
-struct Monitor {
+pub struct Monitor {
     bar: Option<ProgressBar>,
     plain: bool,
     last_line: Instant,
@@ -284,7 +284,8 @@ struct Monitor {
 }
 
 impl Monitor {
-    fn new(args: &EvoArgs) -> Self {
+    /// A monitor for the runs that `args` ask for.
+    pub fn new(args: &EvoArgs) -> Self {
         Monitor {
             bar: None,
             plain: !args.quiet && !std::io::stderr().is_terminal(),
@@ -297,7 +298,8 @@ impl Monitor {
         }
     }
 
-    fn start_bar(&mut self, run: &Evolution<'_>, quiet: bool) {
+    /// Start the progress bar (unless quiet or not on a terminal).
+    pub fn start_bar(&mut self, run: &Evolution<'_>, quiet: bool) {
         if quiet || self.plain {
             return;
         }
@@ -314,7 +316,7 @@ impl Monitor {
 
     /// After a generation: the bar (or an occasional line), new history lines, a checkpoint
     /// when due.
-    fn generation(&mut self, run: &Evolution<'_>) -> bezchain::Result<()> {
+    pub fn generation(&mut self, run: &Evolution<'_>) -> bezchain::Result<()> {
         let io = |path: &Path| {
             let path = path.to_path_buf();
             move |source| bezchain::Error::Io { path, source }
@@ -372,7 +374,8 @@ impl Monitor {
         Ok(())
     }
 
-    fn finish(&mut self) {
+    /// Clear the progress bar.
+    pub fn finish(&mut self) {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }

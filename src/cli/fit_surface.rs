@@ -1,12 +1,16 @@
 //! `bezchain fit-surface`: fit a grid of chained Bezier patches to a 3D point cloud and write
 //! the report, meshes and a picture.
 
-use super::{parse_pair, usage, warn_all, write_json, Target};
+use super::fit::{backend_name, EvoArgs, Monitor};
+use super::{parse_pair, usage, warn_all, Target};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{render, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::export::{
+    render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
+};
+use bezchain::fit::evo::{Checkpoint, EvoHooks, EvoOptions, Evolution};
 use bezchain::fit::{
-    fit_surface, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
+    fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
 };
 use bezchain::geometry::{read_cloud, Blade};
@@ -40,7 +44,8 @@ pub struct Args {
     /// end there).
     #[arg(long, default_value = "uniform")]
     pub breaks_v: String,
-    /// Method: lsq (the evolutionary methods come with the population evaluator).
+    /// Method: lsq, ga, cmaes, ga+lsq or cmaes+lsq (the evolutionary ones on the population
+    /// evaluator, from the linear least-squares start, on the subsample of a large cloud).
     #[arg(long, default_value = "lsq", value_parser = parse_method)]
     pub method: SurfaceMethod,
     /// Initial parameters: auto (sections when the cloud has them, else blade-aware), sections
@@ -62,7 +67,7 @@ pub struct Args {
     pub max_iterations: usize,
     /// Seed of the subsample.
     #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    pub subsample_seed: u64,
     /// Write the JSON report here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -78,9 +83,14 @@ pub struct Args {
     /// Write a PNG picture of the surface and its control net (two views) here.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Size of the picture, WxH pixels.
+    /// Write the same views as an SVG drawing (surface iso-curves, control net, points) here.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Size of the picture (PNG and SVG), WxH pixels.
     #[arg(long, default_value = "1600x900", value_parser = parse_pair)]
     pub png_size: [usize; 2],
+    #[command(flatten)]
+    pub evo: EvoArgs,
 }
 
 /// The span axis as given on the command line.
@@ -163,19 +173,30 @@ fn offset_report(fit: &SurfaceFit) -> OffsetReport {
     }
 }
 
-/// The JSON report of a finished fit.
+/// The JSON report of a finished fit: the stages with the evolutionary run's backend and
+/// throughput.
 fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) -> SurfaceReport {
+    let evo_backend = fit.evolution.as_ref().map(|e| backend_name(&e.run.backend));
+    let rate = fit.evolution.as_ref().map(|e| e.run.evals_per_second);
     let stages = fit
         .stages
         .iter()
-        .map(|s| FitInfo {
-            method: format!("{method}-{}", s.name),
-            iterations: s.report.iterations as u64,
-            evaluations: s.report.evaluations as u64,
-            seconds: s.report.seconds,
-            backend: "cpu".into(),
-            stages: Vec::new(),
-            evals_per_second: None,
+        .enumerate()
+        .map(|(k, s)| {
+            let evolutionary = k == 0 && evo_backend.is_some();
+            FitInfo {
+                method: s.name.to_string(),
+                iterations: s.report.iterations as u64,
+                evaluations: s.report.evaluations as u64,
+                seconds: s.report.seconds,
+                backend: if evolutionary {
+                    evo_backend.clone().unwrap_or_default()
+                } else {
+                    "cpu".into()
+                },
+                stages: Vec::new(),
+                evals_per_second: if evolutionary { rate } else { None },
+            }
         })
         .collect();
     let info = FitInfo {
@@ -183,9 +204,9 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
         iterations: fit.report.iterations as u64,
         evaluations: fit.report.evaluations as u64,
         seconds: fit.report.seconds,
-        backend: "cpu".into(),
+        backend: evo_backend.unwrap_or_else(|| "cpu".into()),
         stages,
-        evals_per_second: None,
+        evals_per_second: rate,
     };
     SurfaceReport::new(
         &fit.grid,
@@ -218,12 +239,54 @@ pub fn run(args: Args) -> Result<()> {
         };
         layout.grid_layout(&unit).map_err(|e| usage(e.to_string()))?;
     }
+    let evolutionary = args.method.evolutionary().is_some();
+    let given = args.evo.given();
+    if !evolutionary && !given.is_empty() {
+        return Err(usage(format!(
+            "{} {} only to the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq), not {}",
+            given.join(", "),
+            if given.len() == 1 { "applies" } else { "apply" },
+            args.method
+        )));
+    }
+    let evo = if evolutionary {
+        args.evo.options()?
+    } else {
+        EvoOptions::default()
+    };
+    let resume = match &args.evo.resume {
+        Some(path) => Some(Checkpoint::read(path)?),
+        None => None,
+    };
     if args.mesh_density == 0 || args.mesh_density > 1024 {
         return Err(usage("--mesh-density must be between 1 and 1024"));
     }
     let [png_w, png_h] = args.png_size;
     if !(16..=16384).contains(&png_w) || !(16..=16384).contains(&png_h) {
         return Err(usage("--png-size must be between 16x16 and 16384x16384"));
+    }
+    // Outputs whose folder is missing are refused now, not after a long fit (and not after
+    // some of the other outputs were written).
+    for (flag, path) in [
+        ("--json", &args.json),
+        ("--obj", &args.obj),
+        ("--stl", &args.stl),
+        ("--png", &args.png),
+        ("--svg", &args.svg),
+    ] {
+        if let Some(Target::File(path)) = path.as_deref().map(Target::parse) {
+            let dir = path
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
+            if !dir.is_dir() {
+                return Err(usage(format!(
+                    "{flag} {}: the folder {} does not exist",
+                    path.display(),
+                    dir.display()
+                )));
+            }
+        }
     }
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
@@ -242,7 +305,8 @@ pub fn run(args: Args) -> Result<()> {
         params: args.params,
         subsample: args.subsample,
         polish_iterations: args.polish,
-        seed: args.seed,
+        seed: args.subsample_seed,
+        evo,
         ..SurfaceOptions::default()
     };
     opts.lsq.max_iterations = args.max_iterations;
@@ -251,8 +315,12 @@ pub fn run(args: Args) -> Result<()> {
         SpanArg::Auto => None,
     };
 
-    let bar = ProgressBar::new_spinner();
-    bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    // The spinner for least squares; an evolutionary run has the monitor's bar instead.
+    let bar = if evolutionary || args.evo.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
     bar.set_style(
         ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
@@ -260,59 +328,107 @@ pub fn run(args: Args) -> Result<()> {
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let fit = fit_surface(&loaded.points, loaded.grid, &layout, &opts, &mut |p| match p {
-        SurfaceProgress::Params { source, seconds } => {
-            bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
+    let mut monitor = Monitor::new(&args.evo);
+    let quiet = args.evo.quiet;
+    let mut started = false;
+    let mut on_generation = |run: &Evolution<'_>| {
+        if !started {
+            monitor.start_bar(run, quiet);
+            started = true;
         }
-        SurfaceProgress::Stage { name, points } => {
-            stage = name;
-            stage_points = points;
-            bar.suspend(|| eprintln!("{name}: least squares on {points} points"));
-        }
-        SurfaceProgress::Iteration(it) => {
-            let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
-            bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
-        }
-        SurfaceProgress::Offsets { points } => {
-            bar.set_message(format!("closest points of all {points} points"));
-        }
-    })
-    .with_context(|| format!("{}: fitting {n} points", args.cloud.display()))?;
+        monitor.generation(run)
+    };
+    let mut hooks = EvoHooks {
+        on_generation: if evolutionary {
+            Some(&mut on_generation)
+        } else {
+            None
+        },
+        resume,
+    };
+    let fit = fit_surface_with(
+        &loaded.points,
+        loaded.grid,
+        &layout,
+        &opts,
+        &mut |p| match p {
+            SurfaceProgress::Params { source, seconds } => {
+                bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
+            }
+            SurfaceProgress::Stage { name, points } => {
+                stage = name;
+                stage_points = points;
+                let what = if matches!(name, "ga" | "cmaes") {
+                    "evolution"
+                } else {
+                    "least squares"
+                };
+                bar.suspend(|| eprintln!("{name}: {what} on {points} points"));
+            }
+            SurfaceProgress::Iteration(it) => {
+                let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
+                bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
+            }
+            SurfaceProgress::Offsets { points } => {
+                bar.set_message(format!("closest points of all {points} points"));
+            }
+        },
+        &mut hooks,
+    );
+    drop(hooks);
+    monitor.finish();
     bar.finish_and_clear();
+    let fit = fit.with_context(|| match &args.evo.resume {
+        Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
+        None => format!("{}: fitting {n} points", args.cloud.display()),
+    })?;
 
     let rep = report(&fit, args.method, &args.cloud, n);
     let json_target = args.json.as_deref().map(Target::parse);
-    if let Some(target) = &json_target {
-        write_json(target, &rep)?;
-    }
     let name = args
         .cloud
         .file_stem()
         .map_or_else(|| "surface".to_string(), |s| s.to_string_lossy().into_owned());
+    // Every output is made in memory before the first is written, so a failure while making
+    // one leaves none behind; each file is then written whole or not at all (atomic rename).
+    let mut outputs: Vec<(Target, Vec<u8>)> = Vec::new();
+    if let Some(target) = json_target.clone() {
+        let mut text = serde_json::to_string_pretty(&rep)?;
+        text.push('\n');
+        outputs.push((target, text.into_bytes()));
+    }
     if args.obj.is_some() || args.stl.is_some() {
         let mesh = SurfaceMesh::from_grid(&fit.grid, args.mesh_density)?;
         if let Some(path) = &args.obj {
-            Target::parse(path).write(mesh.to_obj(&name).as_bytes())?;
+            outputs.push((Target::parse(path), mesh.to_obj(&name).into_bytes()));
         }
         if let Some(path) = &args.stl {
-            Target::parse(path).write(&mesh.to_stl(&name))?;
+            outputs.push((Target::parse(path), mesh.to_stl(&name)));
         }
     }
-    if let Some(path) = &args.png {
+    if args.png.is_some() || args.svg.is_some() {
         let mut ropts = RenderOptions {
             width: png_w as u32,
             height: png_h as u32,
             ..RenderOptions::default()
         };
+        // The data as dots: every point of a cloud up to 20,000, an even sample of a larger one.
+        let step = loaded.points.len().div_ceil(20_000).max(1);
+        ropts.cloud = loaded.points.iter().step_by(step).copied().collect();
         // The default views look at a blade along +z; turn them with the span axis.
-        if let Some(v) = &mut ropts.views.first_mut() {
+        for v in ropts.views.iter_mut() {
             v.right = fit.axis.dir;
         }
-        if let Some(v) = ropts.views.get_mut(1) {
-            v.right = fit.axis.dir;
+        if let Some(path) = &args.png {
+            let image = render(&fit.grid, &ropts)?;
+            outputs.push((Target::parse(path), image.to_png()?));
         }
-        let image = render(&fit.grid, &ropts)?;
-        Target::parse(path).write(&image.to_png()?)?;
+        if let Some(path) = &args.svg {
+            outputs.push((Target::parse(path), render_svg(&fit.grid, &ropts)?.into_bytes()));
+        }
+    }
+    for (target, bytes) in &outputs {
+        target.write(bytes)?;
     }
     let text = summary(&args, &fit, n, clock.elapsed().as_secs_f64());
     if matches!(json_target, Some(Target::Stdout)) {

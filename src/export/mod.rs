@@ -7,7 +7,8 @@ mod svg;
 
 pub use mesh::SurfaceMesh;
 pub use render::{
-    render, Image, RenderOptions, Rgb, View, BACKGROUND, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
+    render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT,
+    GENERATED_POINT, NET, SURFACE,
 };
 pub use report::{CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use svg::CurvePlot;

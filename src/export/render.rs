@@ -16,6 +16,10 @@ pub const BACKGROUND: Rgb = [255, 255, 255];
 pub const SURFACE: Rgb = [150, 178, 214];
 /// Control-net lines.
 pub const NET: Rgb = [60, 60, 60];
+/// Data points.
+pub const DATA_POINT: Rgb = [20, 20, 20];
+/// Patch borders drawn on the surface.
+pub const BORDER: Rgb = [38, 62, 110];
 /// Design points (the optimisation variables).
 pub const DESIGN_POINT: Rgb = [214, 40, 40];
 /// Generated points (expanded control points along the patch borders).
@@ -45,6 +49,9 @@ pub struct RenderOptions {
     pub per_patch: usize,
     /// Supersampling factor per axis (anti-aliasing). Default 2.
     pub supersample: u32,
+    /// Data points to draw as small dots (e.g. the fitted cloud or a sample of it). Default
+    /// none.
+    pub cloud: Vec<DVec3>,
 }
 
 impl Default for RenderOptions {
@@ -64,6 +71,7 @@ impl Default for RenderOptions {
             ],
             per_patch: 16,
             supersample: 2,
+            cloud: Vec::new(),
         }
     }
 }
@@ -236,13 +244,19 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     let panel_h = h as f64 / opts.views.len() as f64;
     for (k, view) in opts.views.iter().enumerate() {
         let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w as f64, panel_h))?;
-        // Light from above left of the camera, so curvature shows as a gradient.
+        // Light from above left of the camera, so curvature shows as a gradient; a soft
+        // highlight (Blinn-Phong) for the sheen of a smooth surface. Both sides are lit alike.
         let light = (cam.eye * 0.6 + cam.up * 1.0 - cam.right * 0.35).normalize();
-        // Shaded surface.
-        let shade: Vec<f32> = mesh
+        let half = (light + cam.eye).normalize();
+        let shade: Vec<[f32; 2]> = mesh
             .normals
             .iter()
-            .map(|n| (0.28 + 0.8 * n.dot(light).abs()) as f32)
+            .map(|n| {
+                let n = if n.dot(cam.eye) < 0.0 { -*n } else { *n };
+                let diffuse = 0.3 + 0.72 * n.dot(light).max(0.0);
+                let specular = 0.45 * n.dot(half).max(0.0).powi(40);
+                [diffuse as f32, specular as f32]
+            })
             .collect();
         let screen: Vec<(f64, f64, f64)> = mesh.positions.iter().map(|p| cam.project(*p)).collect();
         for t in &mesh.triangles {
@@ -253,16 +267,53 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                 [shade[a], shade[b], shade[c]],
             );
         }
+        // Patch borders (and the surface's edges) as curves on the surface.
+        let (bu, bv) = (l.u.breaks(), l.v.breaks());
+        let dense = 400;
+        for &u in bu {
+            let curve: Vec<_> = (0..=dense)
+                .map(|i| cam.project(grid.eval(u, i as f64 / dense as f64)))
+                .collect();
+            for w in curve.windows(2) {
+                draw_line(&mut canvas, w[0], w[1], ss as f64 * 0.7, tol, BORDER, 0.85, 0.0);
+            }
+        }
+        for &v in bv {
+            let curve: Vec<_> = (0..=dense)
+                .map(|i| cam.project(grid.eval(i as f64 / dense as f64, v)))
+                .collect();
+            for w in curve.windows(2) {
+                draw_line(&mut canvas, w[0], w[1], ss as f64 * 0.7, tol, BORDER, 0.85, 0.0);
+            }
+        }
+        // Data points: small dots, faint where the surface hides them.
+        for p in &opts.cloud {
+            let (x, y, z) = cam.project(*p);
+            if !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
+            let r = 0.9 * ss as f64;
+            let ri = r.ceil() as i64;
+            let (cx, cy) = (x.round() as i64, y.round() as i64);
+            for dy in -ri..=ri {
+                for dx in -ri..=ri {
+                    if ((dx * dx + dy * dy) as f64).sqrt() <= r {
+                        let a = canvas.overlay_alpha(cx + dx, cy + dy, z, tol);
+                        canvas.blend(cx + dx, cy + dy, DATA_POINT, 0.8 * a);
+                    }
+                }
+            }
+        }
         // Control net: lines, then generated points, then design points on top.
         let at = |r: usize, c: usize| cam.project(net[r * mv + c]);
         let thick = ss as f64 * 0.6;
         for r in 0..mu {
             for c in 0..mv {
                 if c + 1 < mv {
-                    draw_line(&mut canvas, at(r, c), at(r, c + 1), thick, tol);
+                    draw_line(&mut canvas, at(r, c), at(r, c + 1), thick, tol, NET, 0.75, 0.2);
                 }
                 if r + 1 < mu {
-                    draw_line(&mut canvas, at(r, c), at(r + 1, c), thick, tol);
+                    draw_line(&mut canvas, at(r, c), at(r + 1, c), thick, tol, NET, 0.75, 0.2);
                 }
             }
         }
@@ -274,9 +325,9 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                         continue;
                     }
                     let (colour, radius) = if design {
-                        (DESIGN_POINT, 2.6 * ss as f64)
+                        (DESIGN_POINT, 3.0 * ss as f64)
                     } else {
-                        (GENERATED_POINT, 2.0 * ss as f64)
+                        (GENERATED_POINT, 2.8 * ss as f64)
                     };
                     draw_disc(&mut canvas, at(r, c), radius, colour, tol);
                 }
@@ -315,8 +366,139 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     })
 }
 
-/// Fill a triangle with per-vertex shading, keeping the nearest surface per pixel.
-fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [f32; 3]) {
+/// The views of [`render`] as an SVG drawing (no supersampling, no hidden-line removal):
+/// iso-parameter curves of the surface (eight per patch side, the patch borders darker), the
+/// control net, generated and design points, and up to 3,000 of `opts.cloud` as dots.
+pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<String> {
+    use std::fmt::Write as _;
+    if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
+        return Err(Error::invalid(format!(
+            "picture size {} x {} is outside 16 to 16384 pixels each way",
+            opts.width, opts.height
+        )));
+    }
+    if opts.views.is_empty() {
+        return Err(Error::invalid("a picture needs at least one view"));
+    }
+    let (w, h) = (f64::from(opts.width), f64::from(opts.height));
+    let l = grid.layout();
+    let (mu, mv) = l.net_shape();
+    let net = grid.net();
+    let (bu, bv) = (l.u.breaks(), l.v.breaks());
+    // Iso-curves: eight per patch side, each sampled at 24 points per patch it crosses.
+    let iso = |b: &[f64]| -> Vec<(f64, bool)> {
+        let mut out = Vec::new();
+        for k in 0..b.len() - 1 {
+            for i in 0..8 {
+                out.push((b[k] + (b[k + 1] - b[k]) * f64::from(i) / 8.0, i == 0));
+            }
+        }
+        out.push((1.0, true));
+        out
+    };
+    let samples = |count: usize| (0..=24 * count).map(move |i| i as f64 / (24 * count) as f64);
+    let mut curves: Vec<(Vec<DVec3>, bool)> = Vec::new();
+    for (u, border) in iso(bu) {
+        curves.push((samples(l.v.segments()).map(|v| grid.eval(u, v)).collect(), border));
+    }
+    for (v, border) in iso(bv) {
+        curves.push((samples(l.u.segments()).map(|u| grid.eval(u, v)).collect(), border));
+    }
+    let mut everything: Vec<DVec3> = curves.iter().flat_map(|c| c.0.iter().copied()).collect();
+    everything.extend_from_slice(net);
+    let step = opts.cloud.len().div_ceil(3000).max(1);
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let hex = |c: Rgb| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
+    let panel_h = h / opts.views.len() as f64;
+    for (k, view) in opts.views.iter().enumerate() {
+        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w, panel_h))?;
+        let xy = |p: DVec3| {
+            let (x, y, _) = cam.project(p);
+            format!("{x:.1},{y:.1}")
+        };
+        let _ = writeln!(svg, r#"<g fill="none" stroke-linejoin="round">"#);
+        for (pts, border) in &curves {
+            let (colour, width, opacity) = if *border {
+                (BORDER, 1.3, 0.9)
+            } else {
+                (SURFACE, 0.8, 0.9)
+            };
+            let path: Vec<String> = pts.iter().map(|&p| xy(p)).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"/>"#,
+                path.join(" "),
+                hex(colour)
+            );
+        }
+        for r in 0..mu {
+            let row: Vec<String> = (0..mv).map(|c| xy(net[r * mv + c])).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
+                row.join(" "),
+                hex(NET)
+            );
+        }
+        for c in 0..mv {
+            let col: Vec<String> = (0..mu).map(|r| xy(net[r * mv + c])).collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
+                col.join(" "),
+                hex(NET)
+            );
+        }
+        let _ = writeln!(svg, "</g>");
+        let _ = writeln!(svg, r#"<g fill="{}" fill-opacity="0.6">"#, hex(DATA_POINT));
+        for p in opts.cloud.iter().step_by(step) {
+            let (x, y, _) = cam.project(*p);
+            if x.is_finite() && y.is_finite() {
+                let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="0.8"/>"#);
+            }
+        }
+        let _ = writeln!(svg, "</g>");
+        for design in [false, true] {
+            let (colour, radius) = if design {
+                (DESIGN_POINT, 3.0)
+            } else {
+                (GENERATED_POINT, 2.8)
+            };
+            let _ = writeln!(
+                svg,
+                r#"<g fill="{}" stroke="white" stroke-width="0.8">"#,
+                hex(colour)
+            );
+            for r in 0..mu {
+                for c in 0..mv {
+                    if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
+                        let (x, y, _) = cam.project(net[r * mv + c]);
+                        let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
+                    }
+                }
+            }
+            let _ = writeln!(svg, "</g>");
+        }
+        if k > 0 {
+            let y = k as f64 * panel_h;
+            let _ = writeln!(
+                svg,
+                r##"<line x1="0" y1="{y}" x2="{w}" y2="{y}" stroke="#c8c8c8"/>"##
+            );
+        }
+    }
+    svg.push_str("</svg>\n");
+    Ok(svg)
+}
+
+/// Fill a triangle with per-vertex shading (diffuse factor, white highlight), keeping the
+/// nearest surface per pixel.
+fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2]; 3]) {
     let (x0, x1) = (
         v.iter().map(|p| p.0).fold(f64::MAX, f64::min),
         v.iter().map(|p| p.0).fold(f64::MIN, f64::max),
@@ -346,15 +528,28 @@ fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [f32; 3]) 
             let k = y as usize * canvas.w + x as usize;
             if z > canvas.depth[k] {
                 canvas.depth[k] = z;
-                let s = w0 as f32 * shade[0] + w1 as f32 * shade[1] + w2 as f32 * shade[2];
-                canvas.rgb[k] = SURFACE.map(|c| (f32::from(c) * s).min(255.0));
+                let (w0, w1, w2) = (w0 as f32, w1 as f32, w2 as f32);
+                let d = w0 * shade[0][0] + w1 * shade[1][0] + w2 * shade[2][0];
+                let h = w0 * shade[0][1] + w1 * shade[1][1] + w2 * shade[2][1];
+                canvas.rgb[k] = SURFACE.map(|c| (f32::from(c) * d + 255.0 * h).min(255.0));
             }
         }
     }
 }
 
-/// A line of half-width `thick`, opaque where in front of the surface, faint behind it.
-fn draw_line(canvas: &mut Canvas, a: (f64, f64, f64), b: (f64, f64, f64), thick: f64, tol: f64) {
+/// A line of half-width `thick` and colour `colour`: opacity `front` where in front of the
+/// surface, `behind` behind it.
+#[allow(clippy::too_many_arguments)]
+fn draw_line(
+    canvas: &mut Canvas,
+    a: (f64, f64, f64),
+    b: (f64, f64, f64),
+    thick: f64,
+    tol: f64,
+    colour: Rgb,
+    front: f32,
+    behind: f32,
+) {
     let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
     if !len.is_finite() {
         return;
@@ -375,7 +570,14 @@ fn draw_line(canvas: &mut Canvas, a: (f64, f64, f64), b: (f64, f64, f64), thick:
                 }
                 let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
                 let alpha = canvas.overlay_alpha(px, py, z, tol);
-                canvas.blend(px, py, NET, 0.7 * alpha);
+                let alpha = if alpha >= 1.0 {
+                    front
+                } else if alpha > 0.0 {
+                    behind
+                } else {
+                    0.0
+                };
+                canvas.blend(px, py, colour, alpha);
             }
         }
     }
@@ -448,6 +650,24 @@ mod tests {
             .collect();
         assert!(pixels.iter().any(|&c| reddish(c)), "design points drawn");
         assert!(pixels.iter().any(|&c| bluish(c)), "generated points drawn");
+        // The SVG: one disc per net point in its colour, one polyline per net row and
+        // column and per iso-curve (8 per patch side plus the far edge, both ways).
+        let svg = render_svg(&grid, &opts).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        let (mu, mv) = grid.layout().net_shape();
+        let (nu, nv) = grid.layout().design_shape();
+        let group = |colour: Rgb| {
+            let head = format!(
+                r##"<g fill="#{:02x}{:02x}{:02x}" stroke="white""##,
+                colour[0], colour[1], colour[2]
+            );
+            let start = svg.find(&head).expect("point group");
+            let end = start + svg[start..].find("</g>").unwrap();
+            svg[start..end].matches("<circle").count()
+        };
+        assert_eq!(group(DESIGN_POINT), nu * nv);
+        assert_eq!(group(GENERATED_POINT), mu * mv - nu * nv);
+        assert_eq!(svg.matches("<polyline").count(), mu + mv + 2 * (8 * 2 + 1));
         let png = img.to_png().unwrap();
         assert_eq!(&png[1..4], b"PNG");
         assert!(render(&grid, &RenderOptions { width: 4, ..opts }).is_err());

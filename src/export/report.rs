@@ -102,6 +102,11 @@ pub struct SurfaceReport {
     pub design_net: Vec<Vec<[f64; 3]>>,
     /// The expanded control net, rows along u.
     pub control_net: Vec<Vec<[f64; 3]>>,
+    /// The largest relative jump of the first derivative across any patch border, in either
+    /// direction, measured on the control net ([`PatchGrid::continuity_error`]; rounding
+    /// for C1 and C2 grids, 0 for a single patch).
+    #[serde(default)]
+    pub continuity_error: f64,
     /// Offsets, re-measured in f64.
     pub offset: OffsetReport,
     /// How the fit ran.
@@ -184,6 +189,7 @@ impl SurfaceReport {
             breaks_v: l.v.breaks().to_vec(),
             design_net: nest(grid.design(), l.design_shape().1),
             control_net: nest(grid.net(), l.net_shape().1),
+            continuity_error: grid.continuity_error(),
             offset,
             fit,
             input,

@@ -53,6 +53,6 @@ pub use param::{blade_params, section_params, span_axis, BladeParamOptions, Span
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};
 pub use surface::{
-    fit_surface, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod,
-    SurfaceOptions, SurfaceProgress, SurfaceStage,
+    fit_surface, fit_surface_with, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout,
+    SurfaceMethod, SurfaceOptions, SurfaceProgress, SurfaceStage,
 };

@@ -11,6 +11,7 @@
 //! reported offsets are true closest-point distances, found by a global search warm-started
 //! from the final parameters.
 
+use super::evo::{fit_grid_evo, Algorithm, EvoHooks, EvoOptions, EvoSummary};
 use super::lsq::{levenberg_marquardt_observed, LsqIterate, LsqOptions};
 use super::objective::{SolveReport, StopReason};
 use super::offset::{Metric, OffsetStats};
@@ -26,13 +27,22 @@ use std::fmt;
 use std::str::FromStr;
 use std::time::Instant;
 
-/// A surface-fitting method. Only least squares exists so far; the evolutionary methods
-/// (through the population evaluator) will join it.
+/// A surface-fitting method: least squares, or an evolutionary method on the population
+/// evaluator (GPU where present) from the least-squares start, optionally polished by least
+/// squares.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SurfaceMethod {
     /// Joint Levenberg-Marquardt over the design net and the foot points. The default.
     #[default]
     Lsq,
+    /// The genetic algorithm around the linear least-squares start (see [`super::evo`]).
+    Ga,
+    /// CMA-ES from the linear least-squares start.
+    Cmaes,
+    /// The genetic algorithm, then the least-squares polish from its best net.
+    GaLsq,
+    /// CMA-ES, then the least-squares polish from its best net.
+    CmaesLsq,
 }
 
 impl SurfaceMethod {
@@ -41,6 +51,23 @@ impl SurfaceMethod {
     pub fn name(self) -> &'static str {
         match self {
             SurfaceMethod::Lsq => "lsq",
+            SurfaceMethod::Ga => "ga",
+            SurfaceMethod::Cmaes => "cmaes",
+            SurfaceMethod::GaLsq => "ga+lsq",
+            SurfaceMethod::CmaesLsq => "cmaes+lsq",
+        }
+    }
+
+    /// The evolutionary algorithm and whether least squares polishes its result; `None` for
+    /// least squares.
+    #[must_use]
+    pub fn evolutionary(self) -> Option<(Algorithm, bool)> {
+        match self {
+            SurfaceMethod::Ga => Some((Algorithm::Ga, false)),
+            SurfaceMethod::Cmaes => Some((Algorithm::Cmaes, false)),
+            SurfaceMethod::GaLsq => Some((Algorithm::Ga, true)),
+            SurfaceMethod::CmaesLsq => Some((Algorithm::Cmaes, true)),
+            SurfaceMethod::Lsq => None,
         }
     }
 }
@@ -56,10 +83,16 @@ impl FromStr for SurfaceMethod {
     fn from_str(s: &str) -> Result<Self> {
         match s.to_ascii_lowercase().as_str() {
             "lsq" => Ok(SurfaceMethod::Lsq),
-            "nelder-mead" | "bfgs" | "ga" | "cmaes" | "ga+lsq" | "cmaes+lsq" => Err(Error::invalid(format!(
-                "method '{s}' is not available for surfaces yet (only lsq)"
+            "ga" => Ok(SurfaceMethod::Ga),
+            "cmaes" => Ok(SurfaceMethod::Cmaes),
+            "ga+lsq" => Ok(SurfaceMethod::GaLsq),
+            "cmaes+lsq" => Ok(SurfaceMethod::CmaesLsq),
+            "nelder-mead" | "bfgs" => Err(Error::invalid(format!(
+                "method '{s}' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
             ))),
-            _ => Err(Error::invalid(format!("unknown method '{s}' (surfaces: lsq)"))),
+            _ => Err(Error::invalid(format!(
+                "unknown method '{s}' (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
+            ))),
         }
     }
 }
@@ -221,7 +254,7 @@ impl FromStr for ParamSource {
 }
 
 /// Everything [`fit_surface`] needs besides the data and the layout.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
     /// The method. Default least squares.
     pub method: SurfaceMethod,
@@ -242,6 +275,9 @@ pub struct SurfaceOptions {
     pub polish_iterations: usize,
     /// Seed of the subsample. Default 0.
     pub seed: u64,
+    /// Options of the evolutionary methods (population, generations, backend, seed, ...).
+    /// Default [`EvoOptions::default`].
+    pub evo: EvoOptions,
 }
 
 impl Default for SurfaceOptions {
@@ -261,6 +297,7 @@ impl Default for SurfaceOptions {
             subsample: 20_000,
             polish_iterations: 2,
             seed: 0,
+            evo: EvoOptions::default(),
         }
     }
 }
@@ -269,7 +306,8 @@ impl Default for SurfaceOptions {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceStage {
     /// `subsample`, `full` (the whole cloud after a subsample fit) or `lsq` (the whole cloud
-    /// in one stage).
+    /// in one stage); for the evolutionary methods `ga` or `cmaes`, then `lsq` for the polish
+    /// (on the subsample when there is one).
     pub name: &'static str,
     /// Points the stage fitted.
     pub points: usize,
@@ -321,6 +359,8 @@ pub struct SurfaceFit {
     /// Iterations and evaluations summed over the stages, wall-clock seconds of the whole fit
     /// (parameters and final offsets included).
     pub report: SolveReport,
+    /// The evolutionary run (backend, throughput, stop) for the evolutionary methods.
+    pub evolution: Option<EvoSummary>,
 }
 
 /// Initial parameters of a cloud, and the name of the method that made them.
@@ -390,13 +430,105 @@ fn subsample(params: &[[f64; 2]], layout: &GridLayout, count: usize, seed: u64) 
 }
 
 /// Fit a patch grid of `layout` to `points` (with their section structure when known) by
-/// closest-point least squares; see the module docs for the stages.
+/// closest-point least squares or an evolutionary method; see the module docs for the stages.
 pub fn fit_surface(
     points: &[DVec3],
     grid: Option<Grid>,
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
     progress: &mut dyn FnMut(SurfaceProgress),
+) -> Result<SurfaceFit> {
+    fit_surface_with(points, grid, layout, opts, progress, &mut EvoHooks::default())
+}
+
+/// What the main stage ends with.
+struct MainStage {
+    /// The fitted design net.
+    design: Vec<DVec3>,
+    /// The parameters of the stage's points on it.
+    params: Vec<[f64; 2]>,
+    /// The evolutionary run, for the evolutionary methods.
+    evolution: Option<EvoSummary>,
+}
+
+/// The main stage on `problem` (a subsample, or the whole cloud) from its parameters: least
+/// squares, or the evolutionary method from the linear least-squares start (then the polish
+/// when the method has one). Pushes the stages run; returns the design, the parameters on it
+/// and the evolutionary summary.
+fn main_stage(
+    problem: &GridProblem<'_, DVec3>,
+    layout: &GridLayout,
+    name: &'static str,
+    opts: &SurfaceOptions,
+    progress: &mut dyn FnMut(SurfaceProgress),
+    hooks: &mut EvoHooks<'_>,
+    stages: &mut Vec<SurfaceStage>,
+) -> Result<MainStage> {
+    let points = problem.points().len();
+    let start = problem.linear_fit(problem.params())?;
+    let Some((algorithm, polish)) = opts.method.evolutionary() else {
+        progress(SurfaceProgress::Stage { name, points });
+        let fit = levenberg_marquardt_observed(
+            problem,
+            start,
+            problem.params().to_vec(),
+            &opts.lsq,
+            &mut |it: &LsqIterate| {
+                progress(SurfaceProgress::Iteration(*it));
+                true
+            },
+        )?;
+        stages.push(SurfaceStage {
+            name,
+            points,
+            report: fit.report,
+        });
+        return Ok(MainStage {
+            design: fit.design,
+            params: fit.params,
+            evolution: None,
+        });
+    };
+    progress(SurfaceProgress::Stage {
+        name: algorithm.name(),
+        points,
+    });
+    let fit = fit_grid_evo(
+        problem.points(),
+        problem.params().to_vec(),
+        layout.clone(),
+        &start,
+        algorithm,
+        polish,
+        &opts.evo,
+        &opts.lsq,
+        hooks,
+    )?;
+    for (k, st) in fit.summary.stages.iter().enumerate() {
+        stages.push(SurfaceStage {
+            name: if k == 0 { algorithm.name() } else { "lsq" },
+            points,
+            report: st.report,
+        });
+    }
+    let design = fit.grid.design().to_vec();
+    let mut params = problem.params().to_vec();
+    problem.project(&design, &mut params);
+    Ok(MainStage {
+        design,
+        params,
+        evolution: Some(fit.summary),
+    })
+}
+
+/// [`fit_surface`] with hooks into an evolutionary run (progress, checkpoints, resume).
+pub fn fit_surface_with(
+    points: &[DVec3],
+    grid: Option<Grid>,
+    layout: &SurfaceLayout,
+    opts: &SurfaceOptions,
+    progress: &mut dyn FnMut(SurfaceProgress),
+    hooks: &mut EvoHooks<'_>,
 ) -> Result<SurfaceFit> {
     let clock = Instant::now();
     if let Some(j) = points.iter().position(|p| !p.is_finite()) {
@@ -422,45 +554,29 @@ pub fn fit_surface(
     let sub = opts.subsample > 0 && n > opts.subsample && opts.subsample >= nu * nv;
     let mut stages = Vec::new();
     let full = GridProblem::grid(layout.clone(), points, params.clone(), Metric::Closest)?;
-    let design = if sub {
+    let (design, evolution) = if sub {
         let idx = subsample(&params, &layout, opts.subsample, opts.seed);
         let sub_points: Vec<DVec3> = idx.iter().map(|&i| points[i]).collect();
         let sub_params: Vec<[f64; 2]> = idx.iter().map(|&i| params[i]).collect();
         let problem = GridProblem::grid(layout.clone(), &sub_points, sub_params, Metric::Closest)?;
-        progress(SurfaceProgress::Stage {
-            name: "subsample",
-            points: sub_points.len(),
-        });
-        let start = problem.linear_fit(problem.params())?;
-        let fit = levenberg_marquardt_observed(
-            &problem,
-            start,
-            problem.params().to_vec(),
-            &opts.lsq,
-            &mut |it: &LsqIterate| {
-                progress(SurfaceProgress::Iteration(*it));
-                true
-            },
-        )?;
-        stages.push(SurfaceStage {
-            name: "subsample",
-            points: sub_points.len(),
-            report: fit.report,
-        });
+        let MainStage {
+            design, evolution, ..
+        } = main_stage(&problem, &layout, "subsample", opts, progress, hooks, &mut stages)?;
         // The whole cloud: Levenberg-Marquardt first moves every point to its own foot point on
         // the subsample's surface (Newton's method from its initial parameters).
-        progress(SurfaceProgress::Stage {
-            name: "full",
-            points: n,
-        });
         let polish = LsqOptions {
             max_iterations: opts.polish_iterations,
             global_checks: 0,
             ..opts.lsq
         };
-        if opts.polish_iterations > 0 {
+        let polished = opts.method.evolutionary().is_none_or(|(_, p)| p);
+        if opts.polish_iterations > 0 && polished {
+            progress(SurfaceProgress::Stage {
+                name: "full",
+                points: n,
+            });
             let fit =
-                levenberg_marquardt_observed(&full, fit.design, params, &polish, &mut |it: &LsqIterate| {
+                levenberg_marquardt_observed(&full, design, params, &polish, &mut |it: &LsqIterate| {
                     progress(SurfaceProgress::Iteration(*it));
                     true
                 })?;
@@ -470,28 +586,15 @@ pub fn fit_surface(
                 points: n,
                 report: fit.report,
             });
-            fit.design
+            (fit.design, evolution)
         } else {
-            full.project(&fit.design, &mut params);
-            fit.design
+            full.project(&design, &mut params);
+            (design, evolution)
         }
     } else {
-        progress(SurfaceProgress::Stage {
-            name: "lsq",
-            points: n,
-        });
-        let start = full.linear_fit(full.params())?;
-        let fit = levenberg_marquardt_observed(&full, start, params, &opts.lsq, &mut |it: &LsqIterate| {
-            progress(SurfaceProgress::Iteration(*it));
-            true
-        })?;
-        params = fit.params;
-        stages.push(SurfaceStage {
-            name: "lsq",
-            points: n,
-            report: fit.report,
-        });
-        fit.design
+        let stage = main_stage(&full, &layout, "lsq", opts, progress, hooks, &mut stages)?;
+        params = stage.params;
+        (stage.design, stage.evolution)
     };
     progress(SurfaceProgress::Offsets { points: n });
     let (stats, feet) = full.closest_stats(&design, Some(&params));
@@ -515,5 +618,6 @@ pub fn fit_surface(
             seconds: clock.elapsed().as_secs_f64(),
             stop,
         },
+        evolution,
     })
 }
