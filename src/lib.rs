@@ -11,10 +11,12 @@
 //!   `CurveChain`, `PatchGrid`.
 //! - [`geometry`]: aerofoil generators, `.dat`/CSV/XYZ readers and writers, blade lofting.
 //! - [`fit`]: offset metrics, foot points, least squares, Nelder-Mead, BFGS, GA, CMA-ES.
+//! - [`adaptive`]: the fewest stored scalars that meet a tolerance (the paper's Figs. 7, 8).
 //! - [`eval`]: population evaluation on the CPU (rayon) and the GPU (wgpu).
 //! - [`export`]: JSON reports, SVG plots, meshes and renders.
 //! - [`error`]: the library's error type.
 
+pub mod adaptive;
 pub mod bezier;
 pub mod chain;
 pub mod error;

@@ -24,6 +24,12 @@ enum Command {
     Compare(cli::compare::Args),
     /// Loft a blade definition (JSON) into a 3D point cloud.
     Blade(cli::blade::Args),
+    /// Find the chain with the fewest stored scalars whose offsets meet a tolerance (exit
+    /// status 1, reports still written, when no layout meets it).
+    Adapt(cli::adapt::Args),
+    /// Find the patch grid with the fewest stored scalars whose offsets from a sectioned cloud
+    /// meet a tolerance (exit status 1, reports still written, when no layout meets it).
+    AdaptSurface(cli::adapt_surface::Args),
     /// Fit a grid of chained Bezier patches to a 3D point cloud.
     FitSurface(cli::fit_surface::Args),
     /// Evaluate a population of designs against data (one `sum_sq,max` line each).
@@ -40,6 +46,8 @@ fn main() -> ExitCode {
         Command::Fit(args) => cli::fit::run(*args),
         Command::Compare(args) => cli::compare::run(args),
         Command::Blade(args) => cli::blade::run(args),
+        Command::Adapt(args) => cli::adapt::run(args),
+        Command::AdaptSurface(args) => cli::adapt_surface::run(args),
         Command::FitSurface(args) => cli::fit_surface::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),

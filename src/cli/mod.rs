@@ -1,5 +1,7 @@
 //! Shared plumbing of the subcommands: error classification, output targets, warnings.
 
+pub mod adapt;
+pub mod adapt_surface;
 pub mod bench;
 pub mod blade;
 pub mod compare;

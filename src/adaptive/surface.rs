@@ -1,0 +1,1432 @@
+//! `adapt_surface`: the patch grid with the fewest stored scalars whose closest-point offsets
+//! from a sectioned 3D cloud meet a tolerance (the paper's Fig. 8 for surfaces).
+//!
+//! The cloud is a grid of sections (a blade's stations: `section,index` columns). Each
+//! direction of the tensor-product spline has its own [`SplineLayout`]: u around the sections,
+//! v along the span. The section `k` sits at span parameter `v_k`; every data point has its own
+//! `u`. A candidate is fitted by alternating a linear least-squares solve for the design net
+//! (all points at their `(u, v_k)`) with a Newton correction of each point's `u` on the section
+//! curve `S(·, v_k)` (Hoschek's parameter correction along u), then, for the max norm, by
+//! Lawson's reweighting towards the minimax fit. Its offsets are judged as the distance from
+//! every point to `S(u, v_k)`: a point of the surface, so never below the true closest-point
+//! distance. The winner is re-measured by two global searches (the library's and the shared
+//! checker's, see [`sampled_offsets`]); it is accepted only when the checker's own search
+//! confirms the tolerance.
+//!
+//! **Span rule.** When every section lies in a plane `x_a = s_k` of one coordinate axis `a`,
+//! with `s_k` strictly monotone along the sections, the span coordinate of design column `j`
+//! follows `s_first + g_j (s_last - s_first)` (`g_j` the Greville abscissa of column `j`) and
+//! `v_k = (s_k - s_first) / (s_last - s_first)`. The surface's span coordinate is then exactly
+//! linear in `v`, so section `k` of the surface lies in the plane of section `k` of the data;
+//! only the two other coordinates of every design point and the two numbers of the rule are
+//! stored (the surface counterpart of the curves' aerofoil rule, counted the same honest way).
+//! Without it all three coordinates are stored and `v_k` follows the distance between the
+//! sections' centroids.
+//!
+//! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
+//! data-driven positions) run in parallel. Each starts with one patch and grows the direction
+//! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
+//! point, at the squared-error-weighted mean of its points' `u`; a v split in the span holding
+//! the worst section, at the weighted mean of its sections' `v`. Once the tolerance holds, it
+//! removes every break it can while the tolerance still holds. A family stops when it would
+//! need more design points than the data allow (half the points of a section around, the
+//! number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
+//! Families do not prune each other, so the result does not depend on thread timing.
+
+#![allow(clippy::needless_range_loop)]
+
+use super::encoding::Breaks;
+use super::spline::{SplineLayout, MAX_SUPPORT};
+use super::{HeldOut, Norm};
+use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
+use crate::error::{Error, Result};
+use crate::fit::{shape_offsets, FootOptions, GridShape, Metric, OffsetStats};
+use crate::geometry::Grid;
+use glam::DVec3;
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Options of [`adapt_surface`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceAdaptOptions {
+    /// The tolerance, model units. No default: it must be set.
+    pub tol: f64,
+    /// The norm the tolerance bounds. Default [`Norm::Max`].
+    pub norm: Norm,
+    /// Degrees searched around the sections (u), inclusive. Default `[3, 6]`.
+    pub degrees_u: [usize; 2],
+    /// Degrees searched along the span (v), inclusive. Default `[2, 3]`.
+    pub degrees_v: [usize; 2],
+    /// Use the span rule where the sections are planar (see the module docs). Default true.
+    pub span_rule: bool,
+    /// Never report a result with more stored scalars than this. Default none.
+    pub max_scalars: Option<usize>,
+    /// Polish fits within twice the tolerance towards the minimax fit (Lawson's reweighting),
+    /// for [`Norm::Max`]. Default true.
+    pub minimax: bool,
+    /// Refit the winning layout on every other point of each section and measure the rest.
+    /// Default true.
+    pub held_out: bool,
+    /// A family gives up after this many fits. Default 80.
+    pub max_family_fits: usize,
+}
+
+impl Default for SurfaceAdaptOptions {
+    fn default() -> Self {
+        SurfaceAdaptOptions {
+            tol: 1e-3,
+            norm: Norm::Max,
+            degrees_u: [3, 6],
+            degrees_v: [2, 3],
+            span_rule: true,
+            max_scalars: None,
+            minimax: true,
+            held_out: true,
+            max_family_fits: 80,
+        }
+    }
+}
+
+/// The span rule: coordinate `axis` of design column `j` is `ends[0] + g_j (ends[1] - ends[0])`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpanRule {
+    /// The coordinate axis (0 x, 1 y, 2 z) the sections are planes of.
+    pub axis: usize,
+    /// The span coordinate of the first and of the last section.
+    pub ends: [f64; 2],
+}
+
+/// Exactly the numbers an adapted patch grid stores, and the layout integers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SurfaceEncoding {
+    /// Degrees `[du, dv]`.
+    pub degree: [usize; 2],
+    /// Continuity order of every interior join around the sections.
+    pub joins_u: Vec<usize>,
+    /// Continuity order of every interior join along the span.
+    pub joins_v: Vec<usize>,
+    /// Breaks around the sections.
+    pub breaks_u: Breaks,
+    /// Breaks along the span.
+    pub breaks_v: Breaks,
+    /// The span rule, when used.
+    pub span_rule: Option<SpanRule>,
+    /// The stored coordinates of the design net, row-major (rows along u): for every design
+    /// point its coordinates in axis order, the span rule's axis left out when it is used.
+    pub coords: Vec<f64>,
+}
+
+/// The stored scalars of a [`SurfaceEncoding`], by kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SurfaceCount {
+    /// Stored design coordinates.
+    pub coords: usize,
+    /// Numbers of the span rule (2 or 0).
+    pub rule: usize,
+    /// Stored breaks, both directions.
+    pub breaks: usize,
+    /// The sum.
+    pub total: usize,
+}
+
+fn break_list(b: &Breaks) -> Result<Vec<f64>> {
+    let list = match b {
+        Breaks::Uniform { segments } => {
+            let s = (*segments).max(1);
+            (0..=s).map(|k| k as f64 / s as f64).collect()
+        }
+        Breaks::Stored(inner) => {
+            let mut v = vec![0.0];
+            v.extend(inner.iter().copied());
+            v.push(1.0);
+            v
+        }
+        Breaks::UniformPerSide { .. } => {
+            return Err(Error::invalid("surface encoding: per-side breaks are for curves"))
+        }
+    };
+    if list.windows(2).any(|w| !(w[1] > w[0])) {
+        return Err(Error::invalid(
+            "surface encoding: breaks are not strictly increasing",
+        ));
+    }
+    Ok(list)
+}
+
+fn stored_breaks(b: &Breaks) -> usize {
+    match b {
+        Breaks::Stored(inner) => inner.len(),
+        _ => 0,
+    }
+}
+
+/// Greville abscissae of a layout's coefficients: the coefficients of the function `t`.
+fn greville(l: &SplineLayout) -> Vec<f64> {
+    let d = l.degree();
+    let k = l.knots();
+    (0..l.coeff_count())
+        .map(|j| k[j + 1..=j + d].iter().sum::<f64>() / d as f64)
+        .collect()
+}
+
+/// `layout`'s Bezier form of every row, then of every column: the expanded control net.
+fn expand_net(lu: &SplineLayout, lv: &SplineLayout, design: &[DVec3]) -> (Vec<DVec3>, usize, usize) {
+    let (nu, nv) = (lu.coeff_count(), lv.coeff_count());
+    let rows: Vec<Vec<DVec3>> = (0..nu)
+        .map(|i| lv.bezier(&design[i * nv..(i + 1) * nv]))
+        .collect();
+    let mv = rows[0].len();
+    let mut cols: Vec<Vec<DVec3>> = Vec::with_capacity(mv);
+    for j in 0..mv {
+        let col: Vec<DVec3> = rows.iter().map(|r| r[j]).collect();
+        cols.push(lu.bezier(&col));
+    }
+    let mu = cols[0].len();
+    let mut net = vec![DVec3::ZERO; mu * mv];
+    for j in 0..mv {
+        for i in 0..mu {
+            net[i * mv + j] = cols[j][i];
+        }
+    }
+    (net, mu, mv)
+}
+
+impl SurfaceEncoding {
+    /// The two spline layouts.
+    pub fn layouts(&self) -> Result<(SplineLayout, SplineLayout)> {
+        Ok((
+            SplineLayout::new(self.degree[0], break_list(&self.breaks_u)?, self.joins_u.clone())?,
+            SplineLayout::new(self.degree[1], break_list(&self.breaks_v)?, self.joins_v.clone())?,
+        ))
+    }
+
+    /// The stored scalars.
+    #[must_use]
+    pub fn count(&self) -> SurfaceCount {
+        let rule = if self.span_rule.is_some() { 2 } else { 0 };
+        let breaks = stored_breaks(&self.breaks_u) + stored_breaks(&self.breaks_v);
+        SurfaceCount {
+            coords: self.coords.len(),
+            rule,
+            breaks,
+            total: self.coords.len() + rule + breaks,
+        }
+    }
+
+    /// The design net (B-spline coefficients, row-major, rows along u) from the stored numbers.
+    pub fn design(&self) -> Result<Vec<DVec3>> {
+        let (lu, lv) = self.layouts()?;
+        let (nu, nv) = (lu.coeff_count(), lv.coeff_count());
+        let per = if self.span_rule.is_some() { 2 } else { 3 };
+        if self.coords.len() != nu * nv * per {
+            return Err(Error::invalid(format!(
+                "surface encoding: {} stored coordinates for a {nu} x {nv} net",
+                self.coords.len()
+            )));
+        }
+        let g = greville(&lv);
+        let mut out = Vec::with_capacity(nu * nv);
+        for i in 0..nu {
+            for j in 0..nv {
+                let c = &self.coords[(i * nv + j) * per..(i * nv + j + 1) * per];
+                let p = match self.span_rule {
+                    Some(r) => {
+                        if r.axis > 2 {
+                            return Err(Error::invalid("surface encoding: span axis beyond z"));
+                        }
+                        let mut a = [0.0; 3];
+                        let mut it = c.iter();
+                        for (ax, slot) in a.iter_mut().enumerate() {
+                            *slot = if ax == r.axis {
+                                r.ends[0] + g[j] * (r.ends[1] - r.ends[0])
+                            } else {
+                                *it.next().unwrap_or(&0.0)
+                            };
+                        }
+                        DVec3::from_array(a)
+                    }
+                    None => DVec3::new(c[0], c[1], c[2]),
+                };
+                out.push(p);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The patch grid, from the stored numbers alone, as a C1 grid (joins smoother than C1
+    /// are generated points too; the expanded control net is the same).
+    pub fn grid(&self) -> Result<PatchGrid<DVec3>> {
+        let (lu, lv) = self.layouts()?;
+        let design = self.design()?;
+        let (net, mu, mv) = expand_net(&lu, &lv, &design);
+        let (du, dv) = (lu.degree(), lv.degree());
+        let keep_u: Vec<usize> = (0..mu)
+            .filter(|&r| r == 0 || r == mu - 1 || r % du != 0)
+            .collect();
+        let keep_v: Vec<usize> = (0..mv)
+            .filter(|&c| c == 0 || c == mv - 1 || c % dv != 0)
+            .collect();
+        let c1_design: Vec<DVec3> = keep_u
+            .iter()
+            .flat_map(|&r| keep_v.iter().map(move |&c| (r, c)))
+            .map(|(r, c)| net[r * mv + c])
+            .collect();
+        let layout = GridLayout::new(
+            ChainLayout::with_breaks(du, lu.breaks().to_vec(), Continuity::C1)?,
+            ChainLayout::with_breaks(dv, lv.breaks().to_vec(), Continuity::C1)?,
+        );
+        let grid = PatchGrid::new(layout, c1_design)?;
+        debug_assert!(
+            grid.net()
+                .iter()
+                .zip(&net)
+                .all(|(a, b)| (*a - *b).length() <= 1e-9 * (1.0 + b.length())),
+            "the C1 view of the grid regenerates its control net"
+        );
+        Ok(grid)
+    }
+}
+
+/// One family of the outer search and how far it got.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SurfaceFamilyTrace {
+    /// The family: degrees, continuity, breaks.
+    pub family: String,
+    /// Layouts fitted.
+    pub fits: usize,
+    /// Stored scalars of its best layout meeting the tolerance, if any.
+    pub best_scalars: Option<usize>,
+    /// Its lowest measure (max or rms of the fit's offsets).
+    pub best_measure: f64,
+    /// How it ended.
+    pub outcome: String,
+}
+
+/// The offsets found by the shared checker's search ([`sampled_offsets`]), model units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckedOffsets {
+    /// The largest.
+    pub max: f64,
+    /// Their root mean square.
+    pub rms: f64,
+}
+
+/// The result of [`adapt_surface`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptedSurface {
+    /// The stored numbers.
+    pub encoding: SurfaceEncoding,
+    /// Their count.
+    pub count: SurfaceCount,
+    /// The grid regenerated from them.
+    pub grid: PatchGrid<DVec3>,
+    /// True closest-point offsets of every point, re-measured in f64.
+    pub offset: OffsetStats<DVec3>,
+    /// The offsets the shared checker's sampled search finds ([`sampled_offsets`]).
+    pub checked: CheckedOffsets,
+    /// The held-out check.
+    pub held_out: Option<HeldOut>,
+    /// True when the tolerance holds, by the true closest-point offsets and by the checker's.
+    pub met: bool,
+    /// Why not, when it does not.
+    pub message: Option<String>,
+    /// The winning family.
+    pub family: String,
+    /// Every family of the search.
+    pub trace: Vec<SurfaceFamilyTrace>,
+    /// Fits run.
+    pub fits: usize,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// The cloud's sections, their span parameters and initial point parameters.
+struct Data<'a> {
+    points: &'a [DVec3],
+    /// Points of section `k`: `k * per ..(k + 1) * per`.
+    per: usize,
+    sections: usize,
+    /// `v_k`.
+    v: Vec<f64>,
+    span: Option<SpanRule>,
+    /// The coordinates fitted (all three, or the two besides the span axis).
+    axes: Vec<usize>,
+    /// Initial `u` of every point.
+    u0: Vec<f64>,
+}
+
+fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
+    let mut acc = vec![0.0];
+    for w in pts.windows(2) {
+        acc.push(acc.last().copied().unwrap_or(0.0) + (w[1] - w[0]).length());
+    }
+    let total = *acc.last()?;
+    (total > 0.0).then(|| acc.iter().map(|a| a / total).collect())
+}
+
+impl<'a> Data<'a> {
+    fn new(points: &'a [DVec3], grid: Grid, span_rule: bool) -> Result<Self> {
+        let (sections, per) = (grid.sections, grid.per_section);
+        if sections < 2 || per < 4 || sections * per != points.len() {
+            return Err(Error::invalid(format!(
+                "adapt-surface: needs a grid of at least 2 sections of 4 points ({} x {} for {} points)",
+                sections,
+                per,
+                points.len()
+            )));
+        }
+        let extent = points.iter().fold(0.0_f64, |m, p| m.max(p.abs().max_element()));
+        let sec = |k: usize| &points[k * per..(k + 1) * per];
+        // A span axis: a coordinate constant within every section, strictly monotone across.
+        let span = span_rule
+            .then(|| {
+                (0..3).find_map(|a| {
+                    let s: Vec<f64> = (0..sections).map(|k| sec(k)[0][a]).collect();
+                    let planar = (0..sections).all(|k| {
+                        sec(k)
+                            .iter()
+                            .all(|p| (p[a] - s[k]).abs() <= 1e-12 * extent.max(1e-300))
+                    });
+                    let up = s.windows(2).all(|w| w[1] > w[0]);
+                    let down = s.windows(2).all(|w| w[1] < w[0]);
+                    (planar && (up || down)).then(|| SpanRule {
+                        axis: a,
+                        ends: [s[0], s[sections - 1]],
+                    })
+                })
+            })
+            .flatten();
+        let v: Vec<f64> = match span {
+            Some(r) => (0..sections)
+                .map(|k| (sec(k)[0][r.axis] - r.ends[0]) / (r.ends[1] - r.ends[0]))
+                .collect(),
+            None => {
+                let c: Vec<DVec3> = (0..sections)
+                    .map(|k| sec(k).iter().copied().sum::<DVec3>() / per as f64)
+                    .collect();
+                chord_params(&c)
+                    .ok_or_else(|| Error::invalid("adapt-surface: every section has the same centroid"))?
+            }
+        };
+        let axes: Vec<usize> = (0..3).filter(|&a| span.is_none_or(|r| r.axis != a)).collect();
+        // Initial u per section: the aerofoil rule's parameters in the section's plane when
+        // the section looks like an aerofoil, chord length otherwise; a section collapsed to a
+        // point borrows the nearest other section's.
+        let mut per_sec: Vec<Option<Vec<f64>>> = (0..sections)
+            .map(|k| {
+                let s = sec(k);
+                let flat: Vec<glam::DVec2> = s
+                    .iter()
+                    .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                    .collect();
+                let aero = if span.is_some() {
+                    super::aerofoil_params(&flat)
+                } else {
+                    None
+                };
+                aero.or_else(|| chord_params(s))
+            })
+            .collect();
+        if per_sec.iter().all(Option::is_none) {
+            return Err(Error::invalid("adapt-surface: every section is a single point"));
+        }
+        for k in 0..sections {
+            if per_sec[k].is_none() {
+                let near = (0..sections)
+                    .filter(|&o| per_sec[o].is_some())
+                    .min_by_key(|&o| o.abs_diff(k))
+                    .unwrap_or(0);
+                per_sec[k] = per_sec[near].clone();
+            }
+        }
+        let u0 = per_sec.into_iter().flatten().flatten().collect();
+        Ok(Data {
+            points,
+            per,
+            sections,
+            v,
+            span,
+            axes,
+            u0,
+        })
+    }
+
+    fn coord(&self, p: DVec3, c: usize) -> f64 {
+        p[self.axes[c]]
+    }
+}
+
+/// A fitted candidate: design net, point parameters and the fit's own offsets.
+#[derive(Clone)]
+struct Fitted {
+    design: Vec<DVec3>,
+    u: Vec<f64>,
+    err: Vec<f64>,
+    measure: f64,
+}
+
+/// The fitting engine of one layout pair.
+struct Fitter<'d, 'a> {
+    data: &'d Data<'a>,
+    lu: SplineLayout,
+    lv: SplineLayout,
+    /// The v basis of every section.
+    vb: Vec<(usize, [f64; MAX_SUPPORT])>,
+    /// Span coordinate of every design column under the span rule.
+    span_col: Option<Vec<f64>>,
+    /// Points fitted (all, or a subset for the held-out check).
+    active: Vec<bool>,
+}
+
+impl<'d, 'a> Fitter<'d, 'a> {
+    fn new(data: &'d Data<'a>, lu: SplineLayout, lv: SplineLayout) -> Self {
+        let vb = data.v.iter().map(|&v| lv.basis_values(v)).collect();
+        let span_col = data.span.map(|r| {
+            greville(&lv)
+                .iter()
+                .map(|g| r.ends[0] + g * (r.ends[1] - r.ends[0]))
+                .collect()
+        });
+        Fitter {
+            data,
+            lu,
+            lv,
+            vb,
+            span_col,
+            active: vec![true; data.points.len()],
+        }
+    }
+
+    /// Weighted least squares for the design net at fixed parameters.
+    fn solve(&self, u: &[f64], w: &[f64]) -> Option<Vec<DVec3>> {
+        let (nu, nv) = (self.lu.coeff_count(), self.lv.coeff_count());
+        let n = nu * nv;
+        let na = self.data.axes.len();
+        let (du, dv) = (self.lu.degree(), self.lv.degree());
+        let mut m = DMatrix::<f64>::zeros(n, n);
+        let mut r = DMatrix::<f64>::zeros(n, na);
+        let mut idx = [0usize; MAX_SUPPORT * MAX_SUPPORT];
+        let mut val = [0.0f64; MAX_SUPPORT * MAX_SUPPORT];
+        for k in 0..self.data.sections {
+            let (fv, bv) = self.vb[k];
+            for p in k * self.data.per..(k + 1) * self.data.per {
+                if !self.active[p] {
+                    continue;
+                }
+                let (fu, bu) = self.lu.basis_values(u[p]);
+                let mut len = 0;
+                for a in 0..=du {
+                    for b in 0..=dv {
+                        idx[len] = (fu + a) * nv + fv + b;
+                        val[len] = bu[a] * bv[b];
+                        len += 1;
+                    }
+                }
+                let q = self.data.points[p];
+                for x in 0..len {
+                    let wx = w[p] * val[x];
+                    for y in 0..len {
+                        m[(idx[x], idx[y])] += wx * val[y];
+                    }
+                    for c in 0..na {
+                        r[(idx[x], c)] += wx * self.data.coord(q, c);
+                    }
+                }
+            }
+        }
+        // A faint ridge keeps coefficients that no point sees at zero instead of singular.
+        let diag = (0..n).fold(0.0_f64, |a, i| a.max(m[(i, i)]));
+        for i in 0..n {
+            m[(i, i)] += 1e-12 * diag.max(1e-300);
+        }
+        let chol = m.cholesky()?;
+        let sol = chol.solve(&r);
+        let mut design = vec![DVec3::ZERO; n];
+        for i in 0..nu {
+            for j in 0..nv {
+                let mut a = [0.0; 3];
+                for c in 0..na {
+                    a[self.data.axes[c]] = sol[(i * nv + j, c)];
+                }
+                if let (Some(r), Some(sc)) = (self.data.span, &self.span_col) {
+                    a[r.axis] = sc[j];
+                }
+                design[i * nv + j] = DVec3::from_array(a);
+            }
+        }
+        design.iter().all(|p| p.is_finite()).then_some(design)
+    }
+
+    /// The coefficients of section `k`'s curve `S(·, v_k)`.
+    fn section_curve(&self, design: &[DVec3], k: usize) -> Vec<DVec3> {
+        let (nu, nv) = (self.lu.coeff_count(), self.lv.coeff_count());
+        let (fv, bv) = self.vb[k];
+        (0..nu)
+            .map(|i| {
+                (0..=self.lv.degree())
+                    .map(|b| bv[b] * design[i * nv + fv + b])
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Newton's method on every point's `u` (its section's curve), returning the distances.
+    fn correct(&self, design: &[DVec3], u: &mut [f64], steps: usize) -> Vec<f64> {
+        let d = self.lu.degree();
+        let mut err = vec![0.0; u.len()];
+        for k in 0..self.data.sections {
+            let c = self.section_curve(design, k);
+            let eval = |t: f64| {
+                let b = self.lu.basis(t);
+                let mut p = [DVec3::ZERO; 3];
+                for a in 0..=d {
+                    let q = c[b.first + a];
+                    p[0] += b.value[a] * q;
+                    p[1] += b.d1[a] * q;
+                    p[2] += b.d2[a] * q;
+                }
+                p
+            };
+            for p in k * self.data.per..(k + 1) * self.data.per {
+                let q = self.data.points[p];
+                let mut t = u[p];
+                let mut jet = eval(t);
+                let mut dist = (jet[0] - q).length_squared();
+                for _ in 0..steps {
+                    let diff = jet[0] - q;
+                    let g = diff.dot(jet[1]);
+                    let h = jet[1].length_squared() + diff.dot(jet[2]);
+                    let h = if h > 0.0 { h } else { jet[1].length_squared() };
+                    if !(h > 0.0) {
+                        break;
+                    }
+                    let tn = (t - g / h).clamp(0.0, 1.0);
+                    let jn = eval(tn);
+                    let dn = (jn[0] - q).length_squared();
+                    if !(dn < dist) {
+                        break;
+                    }
+                    let moved = (tn - t).abs();
+                    t = tn;
+                    jet = jn;
+                    dist = dn;
+                    if moved < 1e-12 {
+                        break;
+                    }
+                }
+                u[p] = t;
+                err[p] = dist.sqrt();
+            }
+        }
+        err
+    }
+
+    fn measure(&self, err: &[f64], norm: Norm) -> f64 {
+        let it = err.iter().zip(&self.active).filter(|(_, &a)| a).map(|(e, _)| *e);
+        match norm {
+            Norm::Max => it.fold(0.0, f64::max),
+            Norm::Rms => {
+                let (s, n) = it.fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+                (s / n.max(1) as f64).sqrt()
+            }
+        }
+    }
+
+    /// Alternating least squares and parameter correction from `u0`, then Lawson's
+    /// reweighting when the fit is within twice the tolerance.
+    fn fit(&self, u0: &[f64], opts: &SurfaceAdaptOptions) -> Option<Fitted> {
+        let n = u0.len();
+        let mut u = u0.to_vec();
+        let ones = vec![1.0; n];
+        let mut best: Option<Fitted> = None;
+        let mut last = f64::INFINITY;
+        for _ in 0..12 {
+            let design = self.solve(&u, &ones)?;
+            let err = self.correct(&design, &mut u, 8);
+            let m = self.measure(&err, opts.norm);
+            if best.as_ref().is_none_or(|b| m < b.measure) {
+                best = Some(Fitted {
+                    design,
+                    u: u.clone(),
+                    err,
+                    measure: m,
+                });
+            }
+            if m > last * 0.995 {
+                break;
+            }
+            last = m;
+        }
+        let mut best = best?;
+        if opts.minimax && opts.norm == Norm::Max && best.measure <= 2.0 * opts.tol && best.measure > opts.tol
+        {
+            let mut w = ones;
+            let mut u = best.u.clone();
+            let mut err = best.err.clone();
+            for _ in 0..16 {
+                let mean = err.iter().zip(&w).map(|(e, w)| e * w).sum::<f64>() / n as f64;
+                if !(mean > 0.0) {
+                    break;
+                }
+                for (wi, e) in w.iter_mut().zip(&err) {
+                    *wi = (*wi * (e / mean)).clamp(1e-6, 1e6);
+                }
+                let Some(design) = self.solve(&u, &w) else { break };
+                err = self.correct(&design, &mut u, 4);
+                let m = self.measure(&err, opts.norm);
+                if m < best.measure {
+                    best = Fitted {
+                        design,
+                        u: u.clone(),
+                        err: err.clone(),
+                        measure: m,
+                    };
+                    if m <= opts.tol * 0.98 {
+                        break;
+                    }
+                }
+            }
+        }
+        Some(best)
+    }
+}
+
+/// De Casteljau's algorithm with `verify.py`'s arithmetic (`a + (b - a) t`, in order).
+fn casteljau(ctrl: &mut [DVec3], t: f64) -> DVec3 {
+    let n = ctrl.len();
+    for r in 1..n {
+        for i in 0..n - r {
+            ctrl[i] = ctrl[i] + (ctrl[i + 1] - ctrl[i]) * t;
+        }
+    }
+    ctrl[0]
+}
+
+/// One patch's control points (rows along u) and its evaluation with `verify.py`'s arithmetic.
+struct CheckPatch {
+    du: usize,
+    dv: usize,
+    ctrl: Vec<DVec3>,
+}
+
+impl CheckPatch {
+    fn eval(&self, u: f64, v: f64) -> DVec3 {
+        let mut rows: Vec<DVec3> = self
+            .ctrl
+            .chunks(self.dv + 1)
+            .map(|r| casteljau(&mut r.to_vec(), v))
+            .collect();
+        casteljau(&mut rows, u)
+    }
+
+    fn partials(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
+        let (du, dv) = (self.du as f64, self.dv as f64);
+        let mut rows = Vec::with_capacity(self.du + 1);
+        let mut drows = Vec::with_capacity(self.du + 1);
+        for r in self.ctrl.chunks(self.dv + 1) {
+            rows.push(casteljau(&mut r.to_vec(), v));
+            let mut d: Vec<DVec3> = r.windows(2).map(|w| (w[1] - w[0]) * dv).collect();
+            drows.push(casteljau(&mut d, v));
+        }
+        let p = casteljau(&mut rows.clone(), u);
+        let mut dr: Vec<DVec3> = rows.windows(2).map(|w| (w[1] - w[0]) * du).collect();
+        let pu = casteljau(&mut dr, u);
+        let pv = casteljau(&mut drows, u);
+        (p, pu, pv)
+    }
+}
+
+fn dist2(a: DVec3, b: DVec3) -> f64 {
+    let d = a - b;
+    d.x * d.x + d.y * d.y + d.z * d.z
+}
+
+/// The closest-point search of the shared checker `shared/tools/verify.py`, step for step:
+/// every patch sampled at the 7 x 7 local parameters `k / 6`, the four best samples of all
+/// (ties kept in sampling order, as Python's stable sort keeps them)
+/// refined by at most 25 clamped Gauss-Newton steps in their patch. Returns every point's
+/// distance: the distance to a point of the surface, so never below the true closest-point
+/// distance. [`adapt_surface`] accepts a layout only when this check meets the tolerance too,
+/// so that the checker confirms what the report claims.
+#[must_use]
+pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
+    let l = grid.layout();
+    let (du, dv) = (l.u.degree(), l.v.degree());
+    let (pu, pv) = l.patches();
+    let patches: Vec<CheckPatch> = (0..pu)
+        .flat_map(|i| (0..pv).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let p = grid.patch(i, j);
+            let ctrl = (0..=du)
+                .flat_map(|a| (0..=dv).map(move |b| (a, b)))
+                .map(|(a, b)| p.at(a, b))
+                .collect();
+            CheckPatch { du, dv, ctrl }
+        })
+        .collect();
+    let samples: Vec<(usize, f64, f64, DVec3)> = patches
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| {
+            (0..=6).flat_map(move |a| {
+                (0..=6).map(move |b| {
+                    let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
+                    (k, u, v, p.eval(u, v))
+                })
+            })
+        })
+        .collect();
+    points
+        .par_iter()
+        .map(|&q| {
+            // (distance², sample index): Python's stable sort by distance keeps ties in
+            // sampling order.
+            let mut cands: Vec<(f64, usize)> = samples
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (dist2(s.3, q), i))
+                .collect();
+            let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+            let four = 4.min(cands.len());
+            cands.select_nth_unstable_by(four - 1, by);
+            cands[..four].sort_by(by);
+            let mut best = cands[0].0;
+            for &(_, i) in &cands[..four] {
+                let (k, u0, v0, _) = samples[i];
+                let p = &patches[k];
+                let (mut u, mut v) = (u0, v0);
+                for _ in 0..25 {
+                    let (s, su, sv) = p.partials(u, v);
+                    let r = s - q;
+                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
+                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
+                    let det = a11 * a22 - a12 * a12;
+                    if det.abs() < 1e-300 {
+                        break;
+                    }
+                    let du_ = (b1 * a22 - b2 * a12) / det;
+                    let dv_ = (a11 * b2 - a12 * b1) / det;
+                    let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
+                    if (un - u).abs() + (vn - v).abs() < 1e-14 {
+                        break;
+                    }
+                    u = un;
+                    v = vn;
+                }
+                best = best.min(dist2(p.eval(u, v), q));
+            }
+            best.sqrt()
+        })
+        .collect()
+}
+
+fn norm_of(err: &[f64], norm: Norm) -> f64 {
+    match norm {
+        Norm::Max => err.iter().fold(0.0, |m: f64, e| m.max(*e)),
+        Norm::Rms => (err.iter().map(|e| e * e).sum::<f64>() / err.len().max(1) as f64).sqrt(),
+    }
+}
+
+/// Closest-point offsets of `points` from `grid`: every point's distance to the nearest of
+/// the surface points found by the library's global search
+/// ([`crate::fit::grid_offset_stats`]'s), by the checker's (`checked`, from
+/// [`sampled_offsets`]) and, when given, the fit's own foot points (`own`). Each search ends
+/// on a point of the surface, so each is an upper bound of the true distance and so is their
+/// minimum; near a collapsed edge (a blade tip) any one of them can stop in a local minimum.
+fn closest_offsets(
+    grid: &PatchGrid<DVec3>,
+    points: &[DVec3],
+    checked: &[f64],
+    own: Option<&[f64]>,
+) -> Result<OffsetStats<DVec3>> {
+    let shape = GridShape::<DVec3>::new(grid.layout().clone());
+    let opts = FootOptions {
+        samples: 12,
+        ..FootOptions::default()
+    };
+    let (_, feet) = shape_offsets(&shape, grid.design(), points, &opts)?;
+    let d2: Vec<f64> = feet
+        .iter()
+        .enumerate()
+        .map(|(p, f)| {
+            let mut d = f.dist_sq.min(checked[p] * checked[p]);
+            if let Some(o) = own {
+                d = d.min(o[p] * o[p]);
+            }
+            d
+        })
+        .collect();
+    Ok(OffsetStats::from_dist_sq(Metric::Closest, &d2, points))
+}
+
+/// One family of the search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Family {
+    du: usize,
+    dv: usize,
+    ou: usize,
+    ov: usize,
+    /// Breaks split at data-driven positions (stored) instead of equal.
+    split: bool,
+}
+
+impl Family {
+    fn name(&self) -> String {
+        format!(
+            "d{}x{} C{}xC{} {}",
+            self.du,
+            self.dv,
+            self.ou,
+            self.ov,
+            if self.split { "split" } else { "uniform" }
+        )
+    }
+
+    fn layout(&self, degree: usize, order: usize, breaks: &[f64]) -> Option<SplineLayout> {
+        SplineLayout::with_order(degree, breaks.to_vec(), order).ok()
+    }
+}
+
+/// A candidate layout pair and its fit.
+#[derive(Clone)]
+struct Cand {
+    bu: Vec<f64>,
+    bv: Vec<f64>,
+    fit: Fitted,
+    scalars: usize,
+}
+
+struct Search<'d, 'a> {
+    data: &'d Data<'a>,
+    opts: &'d SurfaceAdaptOptions,
+    fits: AtomicUsize,
+    limit_u: usize,
+    limit_scalars: usize,
+}
+
+fn is_uniform(b: &[f64]) -> bool {
+    let s = (b.len() - 1) as f64;
+    b.iter()
+        .enumerate()
+        .all(|(k, &x)| (x - k as f64 / s).abs() <= 1e-12)
+}
+
+impl<'d, 'a> Search<'d, 'a> {
+    fn scalars(&self, fam: &Family, bu: &[f64], bv: &[f64]) -> Option<usize> {
+        let lu = fam.layout(fam.du, fam.ou, bu)?;
+        let lv = fam.layout(fam.dv, fam.ov, bv)?;
+        let per = self.data.axes.len();
+        let rule = if self.data.span.is_some() { 2 } else { 0 };
+        let breaks = |b: &[f64]| if is_uniform(b) { 0 } else { b.len() - 2 };
+        Some(lu.coeff_count() * lv.coeff_count() * per + rule + breaks(bu) + breaks(bv))
+    }
+
+    fn fit(&self, count: &mut usize, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
+        let lu = fam.layout(fam.du, fam.ou, bu)?;
+        let lv = fam.layout(fam.dv, fam.ov, bv)?;
+        if lu.coeff_count() > self.limit_u || lv.coeff_count() > self.data.sections {
+            return None;
+        }
+        let scalars = self.scalars(fam, bu, bv)?;
+        if scalars > self.limit_scalars {
+            return None;
+        }
+        self.fits.fetch_add(1, Ordering::Relaxed);
+        *count += 1;
+        let f = Fitter::new(self.data, lu, lv);
+        let fit = f.fit(u0, self.opts)?;
+        Some(Cand {
+            bu: bu.to_vec(),
+            bv: bv.to_vec(),
+            fit,
+            scalars,
+        })
+    }
+
+    /// The fit's own offsets meet the tolerance, and so do the checker's
+    /// ([`sampled_offsets`]) on the grid the stored numbers regenerate.
+    fn met(&self, fam: &Family, c: &Cand) -> bool {
+        self.check(fam, c)
+            .is_some_and(|e| norm_of(&e, self.opts.norm) <= self.opts.tol)
+    }
+
+    /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
+    /// tolerance; `None` when they do not.
+    fn check(&self, fam: &Family, c: &Cand) -> Option<Vec<f64>> {
+        if c.fit.measure > self.opts.tol {
+            return None;
+        }
+        let grid = encode(self.data, fam, c).grid().ok()?;
+        Some(sampled_offsets(&grid, self.data.points))
+    }
+
+    /// The u split: in the segment holding the worst point, at the squared-error-weighted
+    /// mean of its points' u (kept inside the middle 80 % of the segment).
+    fn split_u(&self, fam: &Family, c: &Cand) -> Vec<f64> {
+        if !fam.split {
+            let s = c.bu.len();
+            return (0..=s).map(|k| k as f64 / s as f64).collect();
+        }
+        let worst = (0..c.fit.err.len())
+            .max_by(|&a, &b| c.fit.err[a].total_cmp(&c.fit.err[b]))
+            .unwrap_or(0);
+        let seg = c.bu[1..c.bu.len() - 1].partition_point(|&b| b <= c.fit.u[worst]);
+        let (a, b) = (c.bu[seg], c.bu[seg + 1]);
+        let (mut sw, mut swt) = (0.0, 0.0);
+        for (t, e) in c.fit.u.iter().zip(&c.fit.err) {
+            if *t >= a && *t <= b {
+                sw += e * e;
+                swt += e * e * t;
+            }
+        }
+        let t = if sw > 0.0 { swt / sw } else { 0.5 * (a + b) };
+        let t = t.clamp(a + 0.1 * (b - a), b - 0.1 * (b - a));
+        let mut out = c.bu.clone();
+        out.insert(seg + 1, t);
+        out
+    }
+
+    /// The v split: in the span holding the worst section, at the weighted mean of its
+    /// sections' v, moved to lie strictly between two sections.
+    fn split_v(&self, fam: &Family, c: &Cand) -> Option<Vec<f64>> {
+        if !fam.split {
+            let s = c.bv.len();
+            return Some((0..=s).map(|k| k as f64 / s as f64).collect());
+        }
+        let per = self.data.per;
+        let sec_err: Vec<f64> = (0..self.data.sections)
+            .map(|k| {
+                c.fit.err[k * per..(k + 1) * per]
+                    .iter()
+                    .fold(0.0, |m: f64, e| m.max(*e))
+            })
+            .collect();
+        let v = &self.data.v;
+        let worst = (0..sec_err.len()).max_by(|&a, &b| sec_err[a].total_cmp(&sec_err[b]))?;
+        let mut order: Vec<usize> = (0..v.len()).collect();
+        order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let sorted: Vec<f64> = order.iter().map(|&k| v[k]).collect();
+        let seg = c.bv[1..c.bv.len() - 1]
+            .partition_point(|&b| b <= v[worst])
+            .min(c.bv.len() - 2);
+        let (a, b) = (c.bv[seg], c.bv[seg + 1]);
+        let (mut sw, mut swt) = (0.0, 0.0);
+        for k in 0..v.len() {
+            if v[k] >= a && v[k] <= b {
+                sw += sec_err[k] * sec_err[k];
+                swt += sec_err[k] * sec_err[k] * v[k];
+            }
+        }
+        let t = if sw > 0.0 { swt / sw } else { 0.5 * (a + b) };
+        // Between the two consecutive sections around t, both inside (a, b).
+        let i = sorted.partition_point(|&s| s <= t).clamp(1, sorted.len() - 1);
+        let mut cands = [i - 1, i, i.saturating_sub(2), (i + 1).min(sorted.len() - 1)]
+            .into_iter()
+            .filter(|&j| j + 1 < sorted.len())
+            .map(|j| 0.5 * (sorted[j] + sorted[j + 1]))
+            .filter(|&m| m > a && m < b)
+            .collect::<Vec<f64>>();
+        cands.sort_by(|x, y| (x - t).abs().total_cmp(&(y - t).abs()));
+        let m = *cands.first()?;
+        let mut out = c.bv.clone();
+        out.insert(seg + 1, m);
+        Some(out)
+    }
+
+    /// Grow from one patch until the tolerance holds, then remove breaks while it holds.
+    fn run(&self, fam: Family) -> (Option<Cand>, Option<Cand>, SurfaceFamilyTrace) {
+        let mut trace = SurfaceFamilyTrace {
+            family: fam.name(),
+            fits: 0,
+            best_scalars: None,
+            best_measure: f64::INFINITY,
+            outcome: String::new(),
+        };
+        let mut nfits = 0;
+        let mut closest: Option<Cand> = None;
+        let mut cur = match self.fit(&mut nfits, &fam, &[0.0, 1.0], &[0.0, 1.0], &self.data.u0) {
+            Some(c) => c,
+            None => {
+                trace.outcome = "the first layout could not be fitted".into();
+                return (None, None, trace);
+            }
+        };
+        let mut stall = 0;
+        let winner = loop {
+            if closest.as_ref().is_none_or(|b| cur.fit.measure < b.fit.measure) {
+                closest = Some(cur.clone());
+            }
+            let checked = self.check(&fam, &cur);
+            if checked
+                .as_ref()
+                .is_some_and(|e| norm_of(e, self.opts.norm) <= self.opts.tol)
+            {
+                break Some(cur);
+            }
+            if nfits >= self.opts.max_family_fits {
+                trace.outcome = "gave up (fits per family)".into();
+                break None;
+            }
+            if let Some(err) = checked {
+                // The fit meets the tolerance but the checker's coarse search does not find
+                // the closest points: more patches around, where it misses most.
+                let by_checker = Cand {
+                    fit: Fitted {
+                        err,
+                        ..cur.fit.clone()
+                    },
+                    ..cur.clone()
+                };
+                match self.fit(
+                    &mut nfits,
+                    &fam,
+                    &self.split_u(&fam, &by_checker),
+                    &cur.bv,
+                    &cur.fit.u,
+                ) {
+                    Some(next) => {
+                        cur = next;
+                        continue;
+                    }
+                    None => {
+                        trace.outcome = "reached the data's limit (the checker's search)".into();
+                        break None;
+                    }
+                }
+            }
+            let grow_u = self.fit(&mut nfits, &fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
+            let grow_v = self
+                .split_v(&fam, &cur)
+                .and_then(|bv| self.fit(&mut nfits, &fam, &cur.bu, &bv, &cur.fit.u));
+            // Accuracy bought per stored scalar added.
+            let gain = |c: &Cand| {
+                (cur.fit.measure / c.fit.measure).ln() / (c.scalars.saturating_sub(cur.scalars).max(1)) as f64
+            };
+            let next = match (grow_u, grow_v) {
+                (Some(a), Some(b)) => Some(if gain(&a) >= gain(&b) { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            let Some(next) = next else {
+                trace.outcome = "reached the data's limit".into();
+                break None;
+            };
+            stall = if next.fit.measure > 0.98 * cur.fit.measure {
+                stall + 1
+            } else {
+                0
+            };
+            if stall >= 4 {
+                trace.outcome = "offsets stalled".into();
+                break None;
+            }
+            cur = next;
+        };
+        let winner = winner.map(|mut w| {
+            // Reduction: drop every break that can go while the tolerance holds.
+            loop {
+                let mut improved = false;
+                let tries: Vec<(Vec<f64>, Vec<f64>)> = (1..w.bu.len() - 1)
+                    .map(|k| {
+                        let mut b = w.bu.clone();
+                        b.remove(k);
+                        (b, w.bv.clone())
+                    })
+                    .chain((1..w.bv.len() - 1).map(|k| {
+                        let mut b = w.bv.clone();
+                        b.remove(k);
+                        (w.bu.clone(), b)
+                    }))
+                    .filter(|_| fam.split)
+                    .collect();
+                for (bu, bv) in tries {
+                    if let Some(c) = self.fit(&mut nfits, &fam, &bu, &bv, &w.fit.u) {
+                        if c.scalars < w.scalars && self.met(&fam, &c) {
+                            w = c;
+                            improved = true;
+                            break;
+                        }
+                    }
+                }
+                if !improved {
+                    break;
+                }
+            }
+            trace.outcome = "met".into();
+            trace.best_scalars = Some(w.scalars);
+            w
+        });
+        trace.best_measure = closest.as_ref().map_or(f64::INFINITY, |c| c.fit.measure);
+        trace.fits = nfits;
+        (winner, closest, trace)
+    }
+}
+
+fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
+    let stored = |b: &[f64]| {
+        if is_uniform(b) {
+            Breaks::Uniform {
+                segments: b.len() - 1,
+            }
+        } else {
+            Breaks::Stored(b[1..b.len() - 1].to_vec())
+        }
+    };
+    let coords = c
+        .fit
+        .design
+        .iter()
+        .flat_map(|p| data.axes.iter().map(move |&a| p[a]))
+        .collect();
+    SurfaceEncoding {
+        degree: [fam.du, fam.dv],
+        joins_u: vec![fam.ou; c.bu.len() - 2],
+        joins_v: vec![fam.ov; c.bv.len() - 2],
+        breaks_u: stored(&c.bu),
+        breaks_v: stored(&c.bv),
+        span_rule: data.span,
+        coords,
+    }
+}
+
+/// Find the patch grid with the fewest stored scalars whose closest-point offsets from the
+/// sectioned cloud `points` (section-major, `grid` its shape) meet `opts.tol` under
+/// `opts.norm`. When none does, the result holds the closest layout found, `met` false and a
+/// message.
+pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -> Result<AdaptedSurface> {
+    let start = Instant::now();
+    if !(opts.tol > 0.0) || !opts.tol.is_finite() {
+        return Err(Error::invalid(format!(
+            "adapt-surface: tolerance {} must be positive",
+            opts.tol
+        )));
+    }
+    let [u_lo, u_hi] = opts.degrees_u;
+    let [v_lo, v_hi] = opts.degrees_v;
+    if !(2..=u_hi).contains(&u_lo)
+        || u_hi > super::MAX_DEGREE
+        || !(2..=v_hi).contains(&v_lo)
+        || v_hi > super::MAX_DEGREE
+    {
+        return Err(Error::invalid(format!(
+            "adapt-surface: degrees {u_lo}-{u_hi} x {v_lo}-{v_hi} must lie in 2 ..= {}",
+            super::MAX_DEGREE
+        )));
+    }
+    let data = Data::new(points, grid, opts.span_rule)?;
+    let limit_scalars = opts.max_scalars.unwrap_or(usize::MAX).min(3 * points.len() - 1);
+    let search = Search {
+        data: &data,
+        opts,
+        fits: AtomicUsize::new(0),
+        limit_u: data.per / 2,
+        limit_scalars,
+    };
+    let mut families = Vec::new();
+    for du in u_lo..=u_hi {
+        for dv in v_lo..=v_hi.min(data.sections - 1).max(v_lo) {
+            let mut ous = vec![du - 1, 1];
+            ous.dedup();
+            for ou in ous {
+                for split in [true, false] {
+                    families.push(Family {
+                        du,
+                        dv,
+                        ou,
+                        ov: dv - 1,
+                        split,
+                    });
+                }
+            }
+        }
+    }
+    let results: Vec<(Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace)> = families
+        .par_iter()
+        .map(|&f| {
+            let (w, c, t) = search.run(f);
+            (f, w, c, t)
+        })
+        .collect();
+    let trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
+    let best = results
+        .iter()
+        .filter_map(|(f, w, _, _)| w.as_ref().map(|w| (f, w)))
+        .min_by(|a, b| {
+            a.1.scalars
+                .cmp(&b.1.scalars)
+                .then(a.1.fit.measure.total_cmp(&b.1.fit.measure))
+        });
+    let (fam, cand, met) = match best {
+        Some((f, w)) => (*f, w.clone(), true),
+        None => {
+            let (f, c) = results
+                .iter()
+                .filter_map(|(f, _, c, _)| c.as_ref().map(|c| (f, c)))
+                .min_by(|a, b| a.1.fit.measure.total_cmp(&b.1.fit.measure))
+                .ok_or_else(|| Error::invalid("adapt-surface: no layout could be fitted"))?;
+            (*f, c.clone(), false)
+        }
+    };
+    let encoding = encode(&data, &fam, &cand);
+    let count = encoding.count();
+    debug_assert_eq!(
+        count.total, cand.scalars,
+        "the encoding counts what the search counted"
+    );
+    let grid_fit = encoding.grid()?;
+    let checked = sampled_offsets(&grid_fit, points);
+    // The fit's own foot points `(u_p, v_k)`, on the regenerated grid.
+    let own: Vec<f64> = (0..points.len())
+        .map(|p| (grid_fit.eval(cand.fit.u[p], data.v[p / data.per]) - points[p]).length())
+        .collect();
+    let offset = closest_offsets(&grid_fit, points, &checked, Some(&own))?;
+    let measure = match opts.norm {
+        Norm::Max => offset.max,
+        Norm::Rms => offset.rms,
+    };
+    let checked = CheckedOffsets {
+        max: norm_of(&checked, Norm::Max),
+        rms: norm_of(&checked, Norm::Rms),
+    };
+    let checked_measure = match opts.norm {
+        Norm::Max => checked.max,
+        Norm::Rms => checked.rms,
+    };
+    let met = met && measure <= opts.tol && checked_measure <= opts.tol;
+    let message = (!met).then(|| {
+        format!(
+            "tolerance {:e} ({}) not met: no family met it within the data's limits (at most half a \
+             section's points around, one design column per section along the span, fewer stored \
+             scalars than the data's numbers{}); the closest layout found ({}) has {} {:.3e} ({:.3e} by the \
+             checker's search) with {} stored scalars",
+            opts.tol,
+            opts.norm,
+            opts.max_scalars
+                .map_or(String::new(), |m| format!(", at most {m}")),
+            fam.name(),
+            opts.norm,
+            measure,
+            checked_measure,
+            count.total
+        )
+    });
+    let held_out = if opts.held_out {
+        held_out_check(&data, &fam, &cand, opts)
+    } else {
+        None
+    };
+    Ok(AdaptedSurface {
+        encoding,
+        count,
+        grid: grid_fit,
+        offset,
+        checked,
+        held_out,
+        met,
+        message,
+        family: fam.name(),
+        trace,
+        fits: search.fits.load(Ordering::Relaxed),
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Refit the winner's layout on every other point of each section (both ends kept) and
+/// measure the others' true closest-point offsets.
+fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOptions) -> Option<HeldOut> {
+    let lu = fam.layout(fam.du, fam.ou, &c.bu)?;
+    let lv = fam.layout(fam.dv, fam.ov, &c.bv)?;
+    let mut f = Fitter::new(data, lu, lv);
+    let per = data.per;
+    f.active = (0..data.points.len())
+        .map(|p| {
+            let i = p % per;
+            i.is_multiple_of(2) || i == per - 1
+        })
+        .collect();
+    let fit = f.fit(&data.u0, opts)?;
+    let enc = SurfaceEncoding {
+        coords: fit
+            .design
+            .iter()
+            .flat_map(|p| data.axes.iter().map(move |&a| p[a]))
+            .collect(),
+        ..encode(data, fam, c)
+    };
+    let grid = enc.grid().ok()?;
+    let rest: Vec<DVec3> = (0..data.points.len())
+        .filter(|&p| !f.active[p])
+        .map(|p| data.points[p])
+        .collect();
+    let checked = sampled_offsets(&grid, &rest);
+    let stats = closest_offsets(&grid, &rest, &checked, None).ok()?;
+    Some(HeldOut {
+        fitted: data.points.len() - rest.len(),
+        measured: rest.len(),
+        max: stats.max,
+        rms: stats.rms,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_span_rule_makes_the_span_coordinate_linear_in_v() {
+        let enc = SurfaceEncoding {
+            degree: [3, 2],
+            joins_u: vec![2],
+            joins_v: vec![1, 1],
+            breaks_u: Breaks::Uniform { segments: 2 },
+            breaks_v: Breaks::Stored(vec![0.3, 0.8]),
+            span_rule: Some(SpanRule {
+                axis: 2,
+                ends: [0.5, 2.0],
+            }),
+            coords: (0..5 * 5 * 2).map(|k| (k as f64 * 0.37).sin()).collect(),
+        };
+        assert_eq!(enc.count().total, 50 + 2 + 2);
+        let grid = enc.grid().unwrap();
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let (u, v) = (i as f64 / 20.0, j as f64 / 20.0);
+                let z = grid.eval(u, v).z;
+                assert!((z - (0.5 + 1.5 * v)).abs() < 1e-12, "z({u}, {v}) = {z}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_c1_view_regenerates_the_spline_surface() {
+        let enc = SurfaceEncoding {
+            degree: [4, 3],
+            joins_u: vec![3, 1],
+            joins_v: vec![2],
+            breaks_u: Breaks::Stored(vec![0.25, 0.6]),
+            breaks_v: Breaks::Uniform { segments: 2 },
+            span_rule: None,
+            coords: (0..9 * 5 * 3).map(|k| (k as f64 * 0.71).cos()).collect(),
+        };
+        let (lu, lv) = enc.layouts().unwrap();
+        let design = enc.design().unwrap();
+        let grid = enc.grid().unwrap();
+        let nv = lv.coeff_count();
+        for i in 0..=15 {
+            for j in 0..=15 {
+                let (u, v) = (i as f64 / 15.0, j as f64 / 15.0);
+                let (fu, bu) = lu.basis_values(u);
+                let (fv, bv) = lv.basis_values(v);
+                let mut p = DVec3::ZERO;
+                for a in 0..=4 {
+                    for b in 0..=3 {
+                        p += bu[a] * bv[b] * design[(fu + a) * nv + fv + b];
+                    }
+                }
+                assert!((grid.eval(u, v) - p).length() < 1e-12);
+            }
+        }
+    }
+}

@@ -1,0 +1,305 @@
+//! `bezchain adapt`: the chain with the fewest stored scalars whose offsets meet a tolerance
+//! (the paper's Figs. 7 and 8), for one tolerance or a sweep.
+
+use super::{usage, warn_all, write_json, Target};
+use anyhow::{anyhow, Result};
+use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, Mode, Norm, XStore};
+use bezchain::export::{CurvePlot, InputInfo};
+use bezchain::geometry::read_curve;
+use clap::ValueEnum;
+use glam::DVec2;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// The norm the tolerance bounds.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum NormArg {
+    /// The largest closest-point offset of any data point.
+    Max,
+    /// The root mean square of the offsets.
+    Rms,
+}
+
+/// How x may be stored.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ModeArg {
+    /// Both ways; the aerofoil rule where the data look like an aerofoil contour.
+    Auto,
+    /// Only y stored, x following the aerofoil rule.
+    Aerofoil,
+    /// Both coordinates of every design point stored (the paper's chains).
+    Free,
+}
+
+/// Arguments of `bezchain adapt`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Contour: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y`, ordered along the curve.
+    pub input: PathBuf,
+    /// Tolerance in the data's units (a fraction of the data's extent with `--relative`).
+    #[arg(long, required_unless_present = "sweep")]
+    pub tol: Option<f64>,
+    /// Several tolerances, comma-separated: one search each, a table of stored scalars
+    /// against tolerance (the plot and the reports are those of the last).
+    #[arg(long, value_delimiter = ',', conflicts_with = "tol")]
+    pub sweep: Vec<f64>,
+    /// The norm the tolerance bounds.
+    #[arg(long, value_enum, default_value_t = NormArg::Max)]
+    pub norm: NormArg,
+    /// Degrees searched, `LO-HI` or one degree (2 to 9).
+    #[arg(long, default_value = "2-7")]
+    pub degrees: String,
+    /// How x may be stored.
+    #[arg(long, value_enum, default_value_t = ModeArg::Auto)]
+    pub mode: ModeArg,
+    /// Read the tolerance as a fraction of the data's extent (the largest side of its bounding
+    /// box: the chord of an unrotated aerofoil).
+    #[arg(long)]
+    pub relative: bool,
+    /// Never report more stored scalars than this.
+    #[arg(long)]
+    pub max_scalars: Option<usize>,
+    /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
+    #[arg(long, default_value_t = 80)]
+    pub search_points: usize,
+    /// Write the JSON report (DESIGN.md §4 with an `adapt` block; an array for a sweep);
+    /// `-` for standard output (the table then goes to standard error).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write an SVG plot of the chain and its offsets.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+}
+
+fn parse_degrees(text: &str) -> Result<(usize, usize)> {
+    let bad = || {
+        usage(format!(
+            "--degrees '{text}': expected LO-HI or one degree, e.g. 2-7"
+        ))
+    };
+    let (lo, hi) = match text.split_once('-') {
+        Some((a, b)) => (
+            a.trim().parse().map_err(|_| bad())?,
+            b.trim().parse().map_err(|_| bad())?,
+        ),
+        None => {
+            let d = text.trim().parse().map_err(|_| bad())?;
+            (d, d)
+        }
+    };
+    Ok((lo, hi))
+}
+
+/// The largest side of the points' bounding box.
+fn extent(points: &[DVec2]) -> f64 {
+    let (lo, hi) = points.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    (hi - lo).max_element()
+}
+
+/// One line describing the breaks of a result.
+fn describe_breaks(r: &AdaptedCurve) -> String {
+    let segments = r.chain.layout().segments();
+    match &r.encoding.breaks {
+        Breaks::Uniform { .. } => format!("{segments} equal segments"),
+        Breaks::UniformPerSide { first, second } => {
+            format!("{first} + {second} equal segments per surface")
+        }
+        Breaks::Stored(b) => format!(
+            "{segments} segments, stored breaks [{}]",
+            b.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(", ")
+        ),
+    }
+}
+
+/// The readable summary of one result.
+fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedCurve) -> String {
+    let c = &r.count;
+    let mut s = String::new();
+    let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");
+    let _ = writeln!(s, "  met            {}", if r.met { "yes" } else { "NO" });
+    let mut kinds = vec![format!("y {}", c.y)];
+    if c.x > 0 {
+        kinds.insert(0, format!("x {}", c.x));
+    }
+    if c.rule > 0 {
+        kinds.push(format!("aerofoil rule {}", c.rule));
+    }
+    kinds.push(format!("breaks {}", c.breaks));
+    let _ = writeln!(s, "  stored scalars {} ({})", c.total, kinds.join(", "));
+    let joins: Vec<String> = r.encoding.joins.iter().map(|k| format!("C{k}")).collect();
+    let _ = writeln!(
+        s,
+        "  layout         {}: degree {}, {}, joins [{}]",
+        r.family,
+        r.encoding.degree,
+        describe_breaks(r),
+        joins.join(" ")
+    );
+    if let XStore::AerofoilRule(theta) = &r.encoding.x {
+        let _ = match theta.as_slice() {
+            [le, te] => writeln!(s, "  aerofoil rule  x_le {le:.6}, x_te {te:.6} (both surfaces)"),
+            [le, a, b] => writeln!(
+                s,
+                "  aerofoil rule  x_le {le:.6}, x_te {a:.6} (first surface), {b:.6} (second)"
+            ),
+            _ => Ok(()),
+        };
+    }
+    let _ = writeln!(
+        s,
+        "  offsets        max {:.3e} at ({:.5}, {:.5}), rms {:.3e}",
+        r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.rms
+    );
+    match &r.held_out {
+        Some(h) => {
+            let _ = writeln!(
+                s,
+                "  held out       max {:.3e}, rms {:.3e} (refitted on {} points, measured on the other {})",
+                h.max, h.rms, h.fitted, h.measured
+            );
+        }
+        None => {
+            let _ = writeln!(s, "  held out       not possible (too few points for the layout)");
+        }
+    }
+    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
+    let _ = writeln!(
+        s,
+        "  search         {} families ({met} met the tolerance), {} fits, {:.3} s",
+        r.trace.len(),
+        r.fits,
+        r.seconds
+    );
+    s
+}
+
+/// Run the search(es), print the table, write the outputs.
+pub fn run(args: Args) -> Result<()> {
+    let loaded = read_curve(&args.input)?;
+    warn_all(&args.input, &loaded.warnings);
+    let points = &loaded.points;
+    let (min_degree, max_degree) = parse_degrees(&args.degrees)?;
+    let tols: Vec<f64> = match args.tol {
+        Some(t) => vec![t],
+        None => args.sweep.clone(),
+    };
+    if tols.is_empty() {
+        return Err(usage("give --tol T or --sweep T1,T2,..."));
+    }
+    let scale = if args.relative { extent(points) } else { 1.0 };
+    let base = AdaptOptions {
+        norm: match args.norm {
+            NormArg::Max => Norm::Max,
+            NormArg::Rms => Norm::Rms,
+        },
+        min_degree,
+        max_degree,
+        mode: match args.mode {
+            ModeArg::Auto => Mode::Auto,
+            ModeArg::Aerofoil => Mode::Aerofoil,
+            ModeArg::Free => Mode::Free,
+        },
+        max_scalars: args.max_scalars,
+        search_points: args.search_points,
+        ..AdaptOptions::default()
+    };
+    let json_target = args.json.as_deref().map(Target::parse);
+    let table_to_stderr = matches!(json_target, Some(Target::Stdout));
+    let out = |text: &str| {
+        if table_to_stderr {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+        }
+    };
+    let name = args.input.display().to_string();
+    let input = InputInfo {
+        path: name.clone(),
+        points: points.len(),
+    };
+    let mut reports = Vec::new();
+    let mut results = Vec::new();
+    let mut failures = Vec::new();
+    for &t in &tols {
+        let opts = AdaptOptions {
+            tol: t * scale,
+            ..base
+        };
+        let r = adapt_curve(points, &opts)?;
+        if let Some(m) = &r.message {
+            failures.push(m.clone());
+        }
+        reports.push(AdaptReport::new(&r, &opts, input.clone()));
+        results.push((opts, r));
+    }
+    if results.len() == 1 {
+        let (opts, r) = &results[0];
+        out(&summary(&name, points.len(), opts.tol, opts.norm, r));
+    } else {
+        let mut s = format!(
+            "{name}: {} points, stored scalars against tolerance ({})\n",
+            points.len(),
+            base.norm
+        );
+        let _ = writeln!(
+            s,
+            "{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout",
+            "tol", "met", "scalars", "max", "rms", "held-out max", "seconds"
+        );
+        for (opts, r) in &results {
+            let held = r.held_out.map_or("n/a".to_string(), |h| format!("{:.3e}", h.max));
+            let _ = writeln!(
+                s,
+                "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
+                opts.tol,
+                if r.met { "yes" } else { "NO" },
+                r.count.total,
+                r.offset.max,
+                r.offset.rms,
+                held,
+                r.seconds,
+                r.family
+            );
+        }
+        out(&s);
+    }
+    if let Some(target) = &json_target {
+        if reports.len() == 1 {
+            write_json(target, &reports[0])?;
+        } else {
+            write_json(target, &reports)?;
+        }
+    }
+    if let (Some(path), Some((opts, r))) = (&args.svg, results.last()) {
+        let offsets = bezchain::fit::shape_offsets(
+            &bezchain::fit::CurveShape::new(r.chain.layout().clone()),
+            r.chain.design(),
+            points,
+            &bezchain::fit::FootOptions {
+                samples: 48,
+                ..Default::default()
+            },
+        )?
+        .1
+        .iter()
+        .map(|f| f.dist_sq.sqrt())
+        .collect::<Vec<f64>>();
+        let plot = CurvePlot {
+            title: format!(
+                "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
+                loaded.name, opts.tol, opts.norm, r.count.total, r.family
+            ),
+            data: points,
+            chain: &r.chain,
+            offsets: &offsets,
+        };
+        Target::parse(path).write(plot.to_svg()?.as_bytes())?;
+    }
+    if !failures.is_empty() {
+        return Err(anyhow!("{}", failures.join("; ")));
+    }
+    Ok(())
+}

@@ -1,0 +1,268 @@
+//! `bezchain adapt-surface`: the patch grid with the fewest stored scalars whose offsets from a
+//! sectioned 3D cloud meet a tolerance, for one tolerance or a sweep.
+
+use super::adapt::NormArg;
+use super::{usage, warn_all, write_json, Target};
+use anyhow::{anyhow, Result};
+use bezchain::adaptive::{
+    adapt_surface, AdaptedSurface, Breaks, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
+};
+use bezchain::export::InputInfo;
+use bezchain::geometry::read_cloud;
+use glam::DVec3;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `bezchain adapt-surface`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Cloud: a CSV with complete `section,index` columns (e.g. from `bezchain blade`).
+    pub cloud: PathBuf,
+    /// Tolerance in the data's units (a fraction of the largest section's chord with
+    /// `--relative`).
+    #[arg(long, required_unless_present = "sweep")]
+    pub tol: Option<f64>,
+    /// Several tolerances, comma-separated: one search each, a table of stored scalars against
+    /// tolerance (the report is an array).
+    #[arg(long, value_delimiter = ',', conflicts_with = "tol")]
+    pub sweep: Vec<f64>,
+    /// The norm the tolerance bounds.
+    #[arg(long, value_enum, default_value_t = NormArg::Max)]
+    pub norm: NormArg,
+    /// Degrees searched around the sections, `LO-HI` or one degree (2 to 9).
+    #[arg(long, default_value = "3-6")]
+    pub degrees_u: String,
+    /// Degrees searched along the span, `LO-HI` or one degree (2 to 9).
+    #[arg(long, default_value = "2-3")]
+    pub degrees_v: String,
+    /// Store all three coordinates of every design point even where the sections are planar.
+    #[arg(long)]
+    pub no_span_rule: bool,
+    /// Read the tolerance as a fraction of the largest section's chord (the largest distance
+    /// between two points of one section).
+    #[arg(long)]
+    pub relative: bool,
+    /// Never report more stored scalars than this.
+    #[arg(long)]
+    pub max_scalars: Option<usize>,
+    /// Write the JSON report (DESIGN.md §4's surface report with an `adapt` block; an array
+    /// for a sweep); `-` for standard output (the summary then goes to standard error).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn parse_degrees(flag: &str, text: &str) -> Result<[usize; 2]> {
+    let bad = || usage(format!("{flag} '{text}': expected LO-HI or one degree, e.g. 3-6"));
+    match text.split_once('-') {
+        Some((a, b)) => Ok([
+            a.trim().parse().map_err(|_| bad())?,
+            b.trim().parse().map_err(|_| bad())?,
+        ]),
+        None => {
+            let d = text.trim().parse().map_err(|_| bad())?;
+            Ok([d, d])
+        }
+    }
+}
+
+/// The largest distance between two points of one section.
+fn largest_chord(points: &[DVec3], per: usize) -> f64 {
+    points
+        .chunks(per)
+        .map(|s| {
+            s.iter()
+                .flat_map(|a| s.iter().map(move |b| (*a - *b).length()))
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn describe(b: &Breaks) -> String {
+    match b {
+        Breaks::Uniform { segments } => format!("{segments} equal"),
+        Breaks::Stored(v) => format!(
+            "{} at [{}]",
+            v.len() + 1,
+            v.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(", ")
+        ),
+        Breaks::UniformPerSide { first, second } => format!("{first} + {second} equal"),
+    }
+}
+
+/// The readable summary of one result.
+fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) -> String {
+    let c = &r.count;
+    let e = &r.encoding;
+    let (nu, nv) = r
+        .encoding
+        .layouts()
+        .map(|(u, v)| (u.coeff_count(), v.coeff_count()))
+        .unwrap_or((0, 0));
+    let mut s = String::new();
+    let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");
+    let _ = writeln!(s, "  met            {}", if r.met { "yes" } else { "NO" });
+    let _ = writeln!(
+        s,
+        "  stored scalars {} (net {}, span rule {}, breaks {})",
+        c.total, c.coords, c.rule, c.breaks
+    );
+    let _ = writeln!(
+        s,
+        "  layout         {}: design net {nu} x {nv}, degrees {} x {}, patches u {}, v {}",
+        r.family,
+        e.degree[0],
+        e.degree[1],
+        describe(&e.breaks_u),
+        describe(&e.breaks_v)
+    );
+    if let Some(rule) = e.span_rule {
+        let _ = writeln!(
+            s,
+            "  span rule      {} of design column j = {:.6} + g_j ({:.6} - {:.6})",
+            ["x", "y", "z"][rule.axis.min(2)],
+            rule.ends[0],
+            rule.ends[1],
+            rule.ends[0]
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  offsets        max {:.3e} at ({:.5}, {:.5}, {:.5}), rms {:.3e}",
+        r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.max_at.z, r.offset.rms
+    );
+    let _ = writeln!(
+        s,
+        "  checker        max {:.3e}, rms {:.3e} (verify.py's sampled search, step for step)",
+        r.checked.max, r.checked.rms
+    );
+    match r.held_out {
+        Some(h) => {
+            let _ = writeln!(
+                s,
+                "  held out       max {:.3e}, rms {:.3e} (refitted on {} points, measured on the other {})",
+                h.max, h.rms, h.fitted, h.measured
+            );
+        }
+        None => {
+            let _ = writeln!(s, "  held out       not possible");
+        }
+    }
+    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
+    let _ = writeln!(
+        s,
+        "  search         {} families ({met} met the tolerance), {} fits, {:.3} s",
+        r.trace.len(),
+        r.fits,
+        r.seconds
+    );
+    s
+}
+
+/// Run the search(es), print the summary, write the report.
+pub fn run(args: Args) -> Result<()> {
+    let loaded = read_cloud(&args.cloud)?;
+    warn_all(&args.cloud, &loaded.warnings);
+    let Some(grid) = loaded.grid else {
+        return Err(usage(format!(
+            "{}: adapt-surface needs a sectioned cloud (CSV with complete section,index columns)",
+            args.cloud.display()
+        )));
+    };
+    let points = &loaded.points;
+    let tols: Vec<f64> = match args.tol {
+        Some(t) => vec![t],
+        None => args.sweep.clone(),
+    };
+    if tols.is_empty() {
+        return Err(usage("give --tol T or --sweep T1,T2,..."));
+    }
+    let scale = if args.relative {
+        largest_chord(points, grid.per_section)
+    } else {
+        1.0
+    };
+    let base = SurfaceAdaptOptions {
+        norm: match args.norm {
+            NormArg::Max => Norm::Max,
+            NormArg::Rms => Norm::Rms,
+        },
+        degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?,
+        degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?,
+        span_rule: !args.no_span_rule,
+        max_scalars: args.max_scalars,
+        ..SurfaceAdaptOptions::default()
+    };
+    let json_target = args.json.as_deref().map(Target::parse);
+    let to_stderr = matches!(json_target, Some(Target::Stdout));
+    let out = |text: &str| {
+        if to_stderr {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+        }
+    };
+    let name = args.cloud.display().to_string();
+    let input = InputInfo {
+        path: name.clone(),
+        points: points.len(),
+    };
+    let mut reports = Vec::new();
+    let mut failures = Vec::new();
+    let mut table = String::new();
+    for &t in &tols {
+        let opts = SurfaceAdaptOptions {
+            tol: t * scale,
+            ..base
+        };
+        if opts.tol <= 0.0 || !opts.tol.is_finite() {
+            return Err(usage(format!("--tol {t}: the tolerance must be positive")));
+        }
+        let r = adapt_surface(points, grid, &opts)?;
+        if let Some(m) = &r.message {
+            failures.push(m.clone());
+        }
+        if tols.len() == 1 {
+            out(&summary(&name, points.len(), opts.tol, opts.norm, &r));
+        } else {
+            let held = r.held_out.map_or("n/a".to_string(), |h| format!("{:.3e}", h.max));
+            let _ = writeln!(
+                table,
+                "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
+                opts.tol,
+                if r.met { "yes" } else { "NO" },
+                r.count.total,
+                r.offset.max,
+                r.offset.rms,
+                held,
+                r.seconds,
+                r.family
+            );
+        }
+        reports.push(SurfaceAdaptReport::new(&r, &opts, input.clone()));
+    }
+    if tols.len() > 1 {
+        out(&format!(
+            "{name}: {} points, stored scalars against tolerance ({})\n{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout\n{table}",
+            points.len(),
+            base.norm,
+            "tol",
+            "met",
+            "scalars",
+            "max",
+            "rms",
+            "held-out max",
+            "seconds"
+        ));
+    }
+    if let Some(target) = &json_target {
+        if reports.len() == 1 {
+            write_json(target, &reports[0])?;
+        } else {
+            write_json(target, &reports)?;
+        }
+    }
+    if !failures.is_empty() {
+        return Err(anyhow!("{}", failures.join("; ")));
+    }
+    Ok(())
+}

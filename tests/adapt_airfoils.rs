@@ -1,0 +1,85 @@
+//! The bars on the real aerofoil files: at 1e-3 and 1e-4 of the chord, no more
+//! stored scalars than scipy's `splprep` needs (its free knots not even counted), with the
+//! tolerance holding at every file point by an independent closest-point measure.
+
+mod common;
+
+use bezchain::adaptive::{adapt_curve, AdaptOptions};
+use bezchain::geometry::read_curve;
+use common::{airfoils_dir, independent_offsets, read_airfoil};
+
+/// `(file, tolerance, splprep's coefficients, CST's coefficients)` from the peer table in
+/// `shared/data/airfoils/README.md`.
+/// `clarky_lednicer` holds the same points as `clarky` in Lednicer's layout: same bars.
+const PEERS: [(&str, f64, usize, usize); 12] = [
+    ("e387", 1e-3, 28, 27),
+    ("s1223", 1e-3, 38, 31),
+    ("naca4412", 1e-3, 28, 9),
+    ("naca4415", 1e-3, 26, 9),
+    ("clarky", 1e-3, 26, 19),
+    ("clarky_lednicer", 1e-3, 26, 19),
+    ("e387", 1e-4, 44, 57),
+    ("s1223", 1e-4, 70, 69),
+    ("naca4412", 1e-4, 46, 23),
+    ("naca4415", 1e-4, 50, 41),
+    ("clarky", 1e-4, 46, 67),
+    ("clarky_lednicer", 1e-4, 46, 67),
+];
+
+#[test]
+fn fewer_stored_scalars_than_splprep_on_every_file_at_both_tolerances() {
+    let mut table = String::from("file tol scalars splprep CST ratio max\n");
+    for (name, tol, splprep, cst) in PEERS {
+        let path = airfoils_dir().join(format!("{name}.dat"));
+        let loaded = read_curve(&path).unwrap();
+        let r = adapt_curve(
+            &loaded.points,
+            &AdaptOptions {
+                tol,
+                ..AdaptOptions::default()
+            },
+        )
+        .unwrap();
+        assert!(r.met, "{name} at {tol:e}: {:?}", r.message);
+        // Every point of the file, measured independently of the library's foot-point code.
+        let file_points = read_airfoil(&format!("{name}.dat"));
+        let (_, max) = independent_offsets(r.chain.ctrl(), r.encoding.degree, &file_points);
+        assert!(max <= tol, "{name} at {tol:e}: independent max {max:e}");
+        assert!(
+            r.count.total <= splprep,
+            "{name} at {tol:e}: {} stored scalars, splprep {splprep} ({})",
+            r.count.total,
+            r.family
+        );
+        table += &format!(
+            "{name} {tol:e} {} {splprep} {cst} {:.2} {max:.3e}\n",
+            r.count.total,
+            r.count.total as f64 / cst as f64
+        );
+    }
+    eprintln!("{table}");
+}
+
+#[test]
+fn both_layouts_of_clark_y_need_the_same_scalars() {
+    // The same points in Selig and in Lednicer order (the Lednicer file lists the leading
+    // edge twice; the reader keeps it once).
+    let opts = AdaptOptions {
+        tol: 1e-3,
+        ..AdaptOptions::default()
+    };
+    let a = adapt_curve(
+        &read_curve(&airfoils_dir().join("clarky.dat")).unwrap().points,
+        &opts,
+    )
+    .unwrap();
+    let b = adapt_curve(
+        &read_curve(&airfoils_dir().join("clarky_lednicer.dat"))
+            .unwrap()
+            .points,
+        &opts,
+    )
+    .unwrap();
+    assert!(a.met && b.met);
+    assert_eq!(a.count.total, b.count.total);
+}
