@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 /// How the stored scalars are counted, as the report states it.
 pub const COUNTING: &str = "stored scalars = every stored design coordinate (x and y of each design \
-point, or only y where x follows the aerofoil rule) + the 3 numbers of the aerofoil rule when used + \
+point, or only y where x follows the aerofoil rule) + the numbers of the aerofoil rule when used (2, or 3 when the surfaces end at different x) + \
 every stored break (breaks fixed by the layout integers, and the leading-edge break t = 1/2 of the \
 aerofoil rule, are not stored); the layout integers (degree, segment counts, the continuity order \
 of each join) are not counted";
