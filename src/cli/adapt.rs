@@ -3,7 +3,9 @@
 
 use super::{usage, warn_all, write_json, Target};
 use anyhow::{anyhow, Result};
-use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, Mode, Norm, XStore};
+use bezchain::adaptive::{
+    adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore,
+};
 use bezchain::export::{CurvePlot, InputInfo};
 use bezchain::geometry::read_curve;
 use clap::ValueEnum;
@@ -153,7 +155,21 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedCurve) ->
         "  offsets        max {:.3e} at ({:.5}, {:.5}), rms {:.3e}",
         r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.rms
     );
-    match &r.held_out {
+    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
+    held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
+    s
+}
+
+/// The summary's `held out` and `search` lines, shared with `adapt-surface`.
+pub(crate) fn held_out_and_search(
+    s: &mut String,
+    held_out: Option<&HeldOut>,
+    families: usize,
+    met: usize,
+    fits: usize,
+    seconds: f64,
+) {
+    match held_out {
         Some(h) => {
             let _ = writeln!(
                 s,
@@ -165,15 +181,10 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedCurve) ->
             let _ = writeln!(s, "  held out       not possible (too few points for the layout)");
         }
     }
-    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     let _ = writeln!(
         s,
-        "  search         {} families ({met} met the tolerance), {} fits, {:.3} s",
-        r.trace.len(),
-        r.fits,
-        r.seconds
+        "  search         {families} families ({met} met the tolerance), {fits} fits, {seconds:.3} s"
     );
-    s
 }
 
 /// Run the search(es), print the table, write the outputs.

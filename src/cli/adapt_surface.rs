@@ -135,26 +135,8 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
         "  checker        max {:.3e}, rms {:.3e} (verify.py's sampled search, step for step)",
         r.checked.max, r.checked.rms
     );
-    match r.held_out {
-        Some(h) => {
-            let _ = writeln!(
-                s,
-                "  held out       max {:.3e}, rms {:.3e} (refitted on {} points, measured on the other {})",
-                h.max, h.rms, h.fitted, h.measured
-            );
-        }
-        None => {
-            let _ = writeln!(s, "  held out       not possible");
-        }
-    }
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
-    let _ = writeln!(
-        s,
-        "  search         {} families ({met} met the tolerance), {} fits, {:.3} s",
-        r.trace.len(),
-        r.fits,
-        r.seconds
-    );
+    super::adapt::held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
     s
 }
 

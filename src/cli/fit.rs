@@ -102,6 +102,33 @@ pub struct EvoArgs {
 }
 
 impl EvoArgs {
+    /// The evolutionary options and the checkpoint to resume from, for `method`; the
+    /// evolutionary flags are refused (a usage error) for a method that is not evolutionary.
+    pub fn settings(
+        &self,
+        evolutionary: bool,
+        method: &dyn std::fmt::Display,
+    ) -> Result<(EvoOptions, Option<Checkpoint>)> {
+        let given = self.given();
+        if !evolutionary && !given.is_empty() {
+            return Err(usage(format!(
+                "{} {} only to the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq), not {method}",
+                given.join(", "),
+                if given.len() == 1 { "applies" } else { "apply" },
+            )));
+        }
+        let evo = if evolutionary {
+            self.options()?
+        } else {
+            EvoOptions::default()
+        };
+        let resume = match &self.resume {
+            Some(path) => Some(Checkpoint::read(path)?),
+            None => None,
+        };
+        Ok((evo, resume))
+    }
+
     /// The flags given, by name (to refuse them for methods that do not use them).
     pub fn given(&self) -> Vec<&'static str> {
         let mut v = Vec::new();
@@ -387,24 +414,7 @@ pub fn run(args: Args) -> Result<()> {
     let loaded = load(&args.input)?;
     let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity)?;
     let evolutionary = args.method.evolutionary().is_some();
-    let given = args.evo.given();
-    if !evolutionary && !given.is_empty() {
-        return Err(usage(format!(
-            "{} {} only to the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq), not {}",
-            given.join(", "),
-            if given.len() == 1 { "applies" } else { "apply" },
-            args.method
-        )));
-    }
-    let evo = if evolutionary {
-        args.evo.options()?
-    } else {
-        EvoOptions::default()
-    };
-    let resume = match &args.evo.resume {
-        Some(path) => Some(Checkpoint::read(path)?),
-        None => None,
-    };
+    let (evo, resume) = args.evo.settings(evolutionary, &args.method)?;
     let opts = FitOptions {
         method: args.method,
         metric: args.metric,

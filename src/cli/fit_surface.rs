@@ -8,7 +8,7 @@ use bezchain::chain::Continuity;
 use bezchain::export::{
     render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
 };
-use bezchain::fit::evo::{Checkpoint, EvoHooks, EvoOptions, Evolution};
+use bezchain::fit::evo::{EvoHooks, Evolution};
 use bezchain::fit::surface_breaks::{projection_check, search_breaks_v};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
@@ -248,24 +248,7 @@ pub fn run(args: Args) -> Result<()> {
         layout.grid_layout(&unit).map_err(|e| usage(e.to_string()))?;
     }
     let evolutionary = args.method.evolutionary().is_some();
-    let given = args.evo.given();
-    if !evolutionary && !given.is_empty() {
-        return Err(usage(format!(
-            "{} {} only to the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq), not {}",
-            given.join(", "),
-            if given.len() == 1 { "applies" } else { "apply" },
-            args.method
-        )));
-    }
-    let evo = if evolutionary {
-        args.evo.options()?
-    } else {
-        EvoOptions::default()
-    };
-    let resume = match &args.evo.resume {
-        Some(path) => Some(Checkpoint::read(path)?),
-        None => None,
-    };
+    let (evo, resume) = args.evo.settings(evolutionary, &args.method)?;
     if args.mesh_density == 0 || args.mesh_density > 1024 {
         return Err(usage("--mesh-density must be between 1 and 1024"));
     }
