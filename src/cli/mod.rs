@@ -46,7 +46,19 @@ pub fn exit_status(e: &anyhow::Error) -> u8 {
 
 /// The error and its causes on one line.
 pub fn one_line(e: &anyhow::Error) -> String {
-    let text = format!("{e:#}");
+    // The chain of causes, outermost first; a cause whose text its parent already shows (an
+    // I/O error that prints its source, say) is said once.
+    let mut text = String::new();
+    for cause in e.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
