@@ -31,7 +31,7 @@ enum Command {
     /// meet a tolerance (exit status 1, reports still written, when no layout meets it).
     AdaptSurface(cli::adapt_surface::Args),
     /// Fit a grid of chained Bezier patches to a 3D point cloud.
-    FitSurface(cli::fit_surface::Args),
+    FitSurface(Box<cli::fit_surface::Args>),
     /// Evaluate a population of designs against data (one `sum_sq,max` line each).
     Eval(cli::eval::Args),
     /// Time the population evaluator (GA fitness kernel) on one backend.
@@ -48,7 +48,7 @@ fn main() -> ExitCode {
         Command::Blade(args) => cli::blade::run(args),
         Command::Adapt(args) => cli::adapt::run(args),
         Command::AdaptSurface(args) => cli::adapt_surface::run(args),
-        Command::FitSurface(args) => cli::fit_surface::run(args),
+        Command::FitSurface(args) => cli::fit_surface::run(*args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),
     };

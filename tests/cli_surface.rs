@@ -93,8 +93,8 @@ fn c1_jump(net: &[Vec<DVec3>], d: [usize; 2], bu: &[f64], bv: &[f64]) -> f64 {
     for k in 1..bu.len() - 1 {
         let r = k * d[0];
         let (hl, hr) = (bu[k] - bu[k - 1], bu[k + 1] - bu[k]);
-        for c in 0..net[0].len() {
-            jump((net[r][c] - net[r - 1][c]) / hl, (net[r + 1][c] - net[r][c]) / hr);
+        for ((&a, &b), &c) in net[r - 1].iter().zip(&net[r]).zip(&net[r + 1]) {
+            jump((b - a) / hl, (c - b) / hr);
         }
     }
     for k in 1..bv.len() - 1 {

@@ -1,6 +1,9 @@
 //! Single Bezier curves and tensor-product patches: Bernstein basis, evaluation, derivatives,
 //! subdivision and degree elevation (paper eqs. 1-4).
 
+// Index loops over the Bernstein weights mirror the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
 mod basis;
 mod curve;
 mod patch;

@@ -90,18 +90,17 @@ impl<P: Vector> BezierPatch<P> {
     /// Split at `u = s` into the patches over `[0, s]` and `[s, 1]` in u.
     #[must_use]
     pub fn split_u(&self, s: f64) -> (BezierPatch<P>, BezierPatch<P>) {
-        let cols: Vec<_> = (0..=self.dv).map(|j| self.column(j).split(s)).collect();
-        let build = |pick: &dyn Fn(&(BezierCurve<P>, BezierCurve<P>)) -> BezierCurve<P>| {
-            let pieces: Vec<BezierCurve<P>> = cols.iter().map(pick).collect();
+        let (left, right): (Vec<_>, Vec<_>) = (0..=self.dv).map(|j| self.column(j).split(s)).unzip();
+        let build = |pieces: &[BezierCurve<P>]| {
             let mut ctrl = Vec::with_capacity(self.ctrl.len());
             for i in 0..=self.du {
-                for c in &pieces {
+                for c in pieces {
                     ctrl.push(c.ctrl[i]);
                 }
             }
             BezierPatch::new(self.du, self.dv, ctrl)
         };
-        (build(&|p| p.0.clone()), build(&|p| p.1.clone()))
+        (build(&left), build(&right))
     }
 
     /// Split at `v = s` into the patches over `[0, s]` and `[s, 1]` in v.

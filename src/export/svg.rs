@@ -5,6 +5,9 @@ use crate::error::{Error, Result};
 use glam::DVec2;
 use plotters::prelude::*;
 
+/// Plot bounds `(x0, x1, y0, y1)`.
+type Bounds = (f64, f64, f64, f64);
+
 /// What to draw: the data, the fitted chain and each data point's offset.
 pub struct CurvePlot<'a> {
     /// Title line (e.g. `NACA 4413 — degree 3, 5 segments, C1, lsq`).
@@ -53,7 +56,7 @@ impl CurvePlot<'_> {
 
     /// The chain sampled at 60 points per segment, and the bounds `(x0, x1, y0, y1)` of
     /// everything drawn in the top panel.
-    fn sampled(&self) -> (Vec<(f64, f64)>, (f64, f64, f64, f64)) {
+    fn sampled(&self) -> (Vec<(f64, f64)>, Bounds) {
         let chain = self.chain;
         let l = chain.layout();
         let curve: Vec<(f64, f64)> = (0..l.segments())
@@ -83,7 +86,7 @@ impl CurvePlot<'_> {
         &self,
         area: &DrawingArea<DB, plotters::coord::Shift>,
         curve: Vec<(f64, f64)>,
-        (x0, x1, y0, y1): (f64, f64, f64, f64),
+        (x0, x1, y0, y1): Bounds,
         height: u32,
     ) -> Result<()> {
         let chain = self.chain;

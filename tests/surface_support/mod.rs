@@ -64,7 +64,7 @@ fn patch_distance(p: &Patch, q: DVec3, starts: &[(f64, f64, f64)]) -> f64 {
             let (a, b, c) = (su.dot(su), su.dot(sv), sv.dot(sv));
             let (g1, g2) = (su.dot(r), sv.dot(r));
             let det = a * c - b * b;
-            if !(det.abs() > 1e-300) {
+            if det.abs() <= 1e-300 || det.is_nan() {
                 break;
             }
             let (mut du, mut dv) = (-(c * g1 - b * g2) / det, -(a * g2 - b * g1) / det);
@@ -123,8 +123,11 @@ fn patch_distance(p: &Patch, q: DVec3, starts: &[(f64, f64, f64)]) -> f64 {
 pub struct IndependentGrid {
     patches: Vec<Patch>,
     /// Per patch: samples along u and v, their parameters, positions and longest step.
-    samples: Vec<(usize, usize, Vec<(f64, f64)>, Vec<DVec3>, f64)>,
+    samples: Vec<PatchSamples>,
 }
+
+/// Samples along u and v, their parameters, positions and longest step.
+type PatchSamples = (usize, usize, Vec<(f64, f64)>, Vec<DVec3>, f64);
 
 impl IndependentGrid {
     /// The grid of control net `net` (rows along u) of degrees `du x dv`.
