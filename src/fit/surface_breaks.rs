@@ -208,3 +208,57 @@ pub fn search_breaks_v(
         candidates,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::{ChainLayout, Continuity, GridLayout};
+
+    /// A 2 × 2 bicubic C1 grid over the unit square at `z = bump·x·y` (a plane when 0).
+    fn grid(bump: f64) -> PatchGrid<DVec3> {
+        let u = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
+        let v = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
+        let layout = GridLayout::new(u, v);
+        let (mu, mv) = layout.design_shape();
+        let design = (0..mu)
+            .flat_map(|i| {
+                (0..mv).map(move |j| {
+                    let (x, y) = (i as f64 / (mu - 1) as f64, j as f64 / (mv - 1) as f64);
+                    DVec3::new(x, y, bump * x * y)
+                })
+            })
+            .collect();
+        PatchGrid::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn a_plane_is_measured_exactly_by_the_coarse_search() {
+        // Points at height 0.01 above a plane: every distance is 0.01.
+        let g = grid(0.0);
+        let points: Vec<DVec3> = (0..50)
+            .map(|k| {
+                let (a, b) = ((k % 7) as f64 / 7.0 + 0.03, (k / 7) as f64 / 8.0 + 0.02);
+                g.eval(a, b) + DVec3::Z * 0.01
+            })
+            .collect();
+        let check = projection_check(&g, &points, 0.01, 0.01);
+        assert!(check.agrees, "{check:?}");
+        assert!(
+            (check.rms - 0.01).abs() < 1e-12 && (check.max - 0.01).abs() < 1e-12,
+            "{check:?}"
+        );
+    }
+
+    #[test]
+    fn distances_smaller_than_the_coarse_search_finds_do_not_agree() {
+        // Claimed offsets of zero for points 0.01 off the surface: the check must refuse them,
+        // since the coarse search can only find distances at least the true ones.
+        let g = grid(0.3);
+        let points: Vec<DVec3> = (0..20)
+            .map(|k| g.eval(k as f64 / 20.0, 0.5) + DVec3::Z * 0.01)
+            .collect();
+        let check = projection_check(&g, &points, 0.0, 0.0);
+        assert!(!check.agrees, "{check:?}");
+        assert!(check.max > 0.005, "{check:?}");
+    }
+}
