@@ -1,7 +1,7 @@
 //! `bezchain adapt`: the chain with the fewest stored scalars whose offsets meet a tolerance
 //! (the paper's Figs. 7 and 8), for one tolerance or a sweep.
 
-use super::{usage, warn_all, write_json, Target};
+use super::{say, usage, warn_all, write_json, Target};
 use anyhow::{anyhow, Result};
 use bezchain::adaptive::{
     adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore,
@@ -20,6 +20,62 @@ pub enum NormArg {
     Max,
     /// The root mean square of the offsets.
     Rms,
+}
+
+impl From<NormArg> for Norm {
+    fn from(n: NormArg) -> Norm {
+        match n {
+            NormArg::Max => Norm::Max,
+            NormArg::Rms => Norm::Rms,
+        }
+    }
+}
+
+/// One row of a `--sweep` table.
+pub(crate) struct SweepRow<'a> {
+    pub tol: f64,
+    pub met: bool,
+    pub scalars: usize,
+    pub max: f64,
+    pub rms: f64,
+    pub held_out_max: Option<f64>,
+    pub seconds: f64,
+    pub family: &'a str,
+}
+
+/// The `--sweep` table of `adapt` and `adapt-surface`: stored scalars against tolerance.
+pub(crate) fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRow<'_>]) -> String {
+    let mut s = format!("{name}: {points} points, stored scalars against tolerance ({norm})\n");
+    let _ = writeln!(
+        s,
+        "{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout",
+        "tol", "met", "scalars", "max", "rms", "held-out max", "seconds"
+    );
+    for r in rows {
+        let held = r.held_out_max.map_or("n/a".to_string(), |m| format!("{m:.3e}"));
+        let _ = writeln!(
+            s,
+            "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
+            r.tol,
+            if r.met { "yes" } else { "NO" },
+            r.scalars,
+            r.max,
+            r.rms,
+            held,
+            r.seconds,
+            r.family
+        );
+    }
+    s
+}
+
+/// Write one report as a JSON object, several (a sweep) as an array.
+pub(crate) fn write_reports<T: serde::Serialize>(target: Option<&Target>, reports: &[T]) -> Result<()> {
+    match (target, reports) {
+        (None, _) => Ok(()),
+        (Some(t), [one]) => write_json(t, one),
+        (Some(t), many) => write_json(t, &many),
+    }
 }
 
 /// How x may be stored.
@@ -202,10 +258,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let scale = if args.relative { extent(points) } else { 1.0 };
     let base = AdaptOptions {
-        norm: match args.norm {
-            NormArg::Max => Norm::Max,
-            NormArg::Rms => Norm::Rms,
-        },
+        norm: args.norm.into(),
         min_degree,
         max_degree,
         mode: match args.mode {
@@ -218,14 +271,7 @@ pub fn run(args: Args) -> Result<()> {
         ..AdaptOptions::default()
     };
     let json_target = args.json.as_deref().map(Target::parse);
-    let table_to_stderr = matches!(json_target, Some(Target::Stdout));
-    let out = |text: &str| {
-        if table_to_stderr {
-            eprint!("{text}");
-        } else {
-            print!("{text}");
-        }
-    };
+    let out = |text: &str| say(json_target.as_ref(), text);
     let name = args.input.display().to_string();
     let input = InputInfo {
         path: name.clone(),
@@ -250,40 +296,22 @@ pub fn run(args: Args) -> Result<()> {
         let (opts, r) = &results[0];
         out(&summary(&name, points.len(), opts.tol, opts.norm, r));
     } else {
-        let mut s = format!(
-            "{name}: {} points, stored scalars against tolerance ({})\n",
-            points.len(),
-            base.norm
-        );
-        let _ = writeln!(
-            s,
-            "{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout",
-            "tol", "met", "scalars", "max", "rms", "held-out max", "seconds"
-        );
-        for (opts, r) in &results {
-            let held = r.held_out.map_or("n/a".to_string(), |h| format!("{:.3e}", h.max));
-            let _ = writeln!(
-                s,
-                "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
-                opts.tol,
-                if r.met { "yes" } else { "NO" },
-                r.count.total,
-                r.offset.max,
-                r.offset.rms,
-                held,
-                r.seconds,
-                r.family
-            );
-        }
-        out(&s);
+        let rows: Vec<SweepRow<'_>> = results
+            .iter()
+            .map(|(opts, r)| SweepRow {
+                tol: opts.tol,
+                met: r.met,
+                scalars: r.count.total,
+                max: r.offset.max,
+                rms: r.offset.rms,
+                held_out_max: r.held_out.map(|h| h.max),
+                seconds: r.seconds,
+                family: &r.family,
+            })
+            .collect();
+        out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
-    if let Some(target) = &json_target {
-        if reports.len() == 1 {
-            write_json(target, &reports[0])?;
-        } else {
-            write_json(target, &reports)?;
-        }
-    }
+    write_reports(json_target.as_ref(), &reports)?;
     if let (Some(path), Some((opts, r))) = (&args.svg, results.last()) {
         let offsets = bezchain::fit::shape_offsets(
             &bezchain::fit::CurveShape::new(r.chain.layout().clone()),

@@ -1,8 +1,8 @@
 //! `bezchain adapt-surface`: the patch grid with the fewest stored scalars whose offsets from a
 //! sectioned 3D cloud meet a tolerance, for one tolerance or a sweep.
 
-use super::adapt::NormArg;
-use super::{usage, warn_all, write_json, Target};
+use super::adapt::{sweep_table, write_reports, NormArg, SweepRow};
+use super::{say, usage, warn_all, Target};
 use anyhow::{anyhow, Result};
 use bezchain::adaptive::{
     adapt_surface, AdaptedSurface, Breaks, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
@@ -164,10 +164,7 @@ pub fn run(args: Args) -> Result<()> {
         1.0
     };
     let base = SurfaceAdaptOptions {
-        norm: match args.norm {
-            NormArg::Max => Norm::Max,
-            NormArg::Rms => Norm::Rms,
-        },
+        norm: args.norm.into(),
         degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?,
         degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?,
         span_rule: !args.no_span_rule,
@@ -175,22 +172,15 @@ pub fn run(args: Args) -> Result<()> {
         ..SurfaceAdaptOptions::default()
     };
     let json_target = args.json.as_deref().map(Target::parse);
-    let to_stderr = matches!(json_target, Some(Target::Stdout));
-    let out = |text: &str| {
-        if to_stderr {
-            eprint!("{text}");
-        } else {
-            print!("{text}");
-        }
-    };
+    let out = |text: &str| say(json_target.as_ref(), text);
     let name = args.cloud.display().to_string();
     let input = InputInfo {
         path: name.clone(),
         points: points.len(),
     };
     let mut reports = Vec::new();
+    let mut results = Vec::new();
     let mut failures = Vec::new();
-    let mut table = String::new();
     for &t in &tols {
         let opts = SurfaceAdaptOptions {
             tol: t * scale,
@@ -205,44 +195,27 @@ pub fn run(args: Args) -> Result<()> {
         }
         if tols.len() == 1 {
             out(&summary(&name, points.len(), opts.tol, opts.norm, &r));
-        } else {
-            let held = r.held_out.map_or("n/a".to_string(), |h| format!("{:.3e}", h.max));
-            let _ = writeln!(
-                table,
-                "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
-                opts.tol,
-                if r.met { "yes" } else { "NO" },
-                r.count.total,
-                r.offset.max,
-                r.offset.rms,
-                held,
-                r.seconds,
-                r.family
-            );
         }
         reports.push(SurfaceAdaptReport::new(&r, &opts, input.clone()));
+        results.push((opts.tol, r));
     }
     if tols.len() > 1 {
-        out(&format!(
-            "{name}: {} points, stored scalars against tolerance ({})\n{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout\n{table}",
-            points.len(),
-            base.norm,
-            "tol",
-            "met",
-            "scalars",
-            "max",
-            "rms",
-            "held-out max",
-            "seconds"
-        ));
+        let rows: Vec<SweepRow<'_>> = results
+            .iter()
+            .map(|(tol, r)| SweepRow {
+                tol: *tol,
+                met: r.met,
+                scalars: r.count.total,
+                max: r.offset.max,
+                rms: r.offset.rms,
+                held_out_max: r.held_out.map(|h| h.max),
+                seconds: r.seconds,
+                family: &r.family,
+            })
+            .collect();
+        out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
-    if let Some(target) = &json_target {
-        if reports.len() == 1 {
-            write_json(target, &reports[0])?;
-        } else {
-            write_json(target, &reports)?;
-        }
-    }
+    write_reports(json_target.as_ref(), &reports)?;
     if !failures.is_empty() {
         return Err(anyhow!("{}", failures.join("; ")));
     }

@@ -1,7 +1,7 @@
 //! `bezchain compare`: the paper's optimiser comparison on its three NACA 4413 cases, one table.
 
 use super::fit::{backend_name, load};
-use super::{usage, write_json, Target};
+use super::{say, usage, write_json, Target};
 use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::Backend;
@@ -84,18 +84,11 @@ pub fn run(args: Args) -> Result<()> {
     evo.check()?;
     let clock = Instant::now();
     let loaded = load(&args.input)?;
-    let to_stdout = matches!(args.json.as_deref().map(Target::parse), Some(Target::Stdout));
+    let json_target = args.json.as_deref().map(Target::parse);
     let mut rows = Vec::new();
     let mut backends = Vec::new();
     // Rows are printed as they finish: the whole table takes tens of seconds.
-    let emit = |text: &str| {
-        if to_stdout {
-            eprint!("{text}");
-        } else {
-            print!("{text}");
-            let _ = std::io::Write::flush(&mut std::io::stdout());
-        }
-    };
+    let emit = |text: &str| say(json_target.as_ref(), text);
     let mut table = String::new();
     table += &format!(
         "{}: {} points. Counts are the paper's; sum_sq is the closest-point sum of squares, re-measured.\n\n",
@@ -170,8 +163,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     tail += &format!("\ntotal {:.1} s\n", clock.elapsed().as_secs_f64());
     emit(&tail);
-    if let Some(path) = &args.json {
-        write_json(&Target::parse(path), &rows)?;
+    if let Some(target) = &json_target {
+        write_json(target, &rows)?;
     }
     Ok(())
 }

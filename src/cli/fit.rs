@@ -1,7 +1,7 @@
 //! `bezchain fit`: fit a chain of Bezier curves to a 2D contour and report it; the evolutionary
 //! methods with a progress bar, a history file and checkpoints.
 
-use super::{usage, warn_all, write_json, Target};
+use super::{say, usage, warn_all, write_json, Target};
 use anyhow::{Context, Result};
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::{Backend, BackendInfo};
@@ -484,12 +484,7 @@ pub fn run(args: Args) -> Result<()> {
         .to_svg()?;
         Target::parse(path).write(svg.as_bytes())?;
     }
-    let summary = summary(&args.input, &loaded, &fit);
-    if matches!(json_target, Some(Target::Stdout)) {
-        eprint!("{summary}");
-    } else {
-        print!("{summary}");
-    }
+    say(json_target.as_ref(), &summary(&args.input, &loaded, &fit));
     Ok(())
 }
 

@@ -2,7 +2,7 @@
 //! the report, meshes and a picture.
 
 use super::fit::{backend_name, EvoArgs, Monitor};
-use super::{parse_pair, usage, warn_all, Target};
+use super::{parse_pair, say, usage, warn_all, Target};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
 use bezchain::export::{
@@ -440,12 +440,10 @@ pub fn run(args: Args) -> Result<()> {
     for (target, bytes) in &outputs {
         target.write(bytes)?;
     }
-    let text = summary(&args, &fit, n, clock.elapsed().as_secs_f64());
-    if matches!(json_target, Some(Target::Stdout)) {
-        eprint!("{text}");
-    } else {
-        print!("{text}");
-    }
+    say(
+        json_target.as_ref(),
+        &summary(&args, &fit, n, clock.elapsed().as_secs_f64()),
+    );
     Ok(())
 }
 

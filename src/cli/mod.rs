@@ -116,6 +116,18 @@ impl Target {
     }
 }
 
+/// Print a command's readable text on standard output, or on standard error when its JSON
+/// report goes to standard output (so that the JSON stays parseable). Flushed at once, so long
+/// runs show each piece as it is made.
+pub fn say(json: Option<&Target>, text: &str) {
+    if matches!(json, Some(Target::Stdout)) {
+        eprint!("{text}");
+    } else {
+        print!("{text}");
+        let _ = std::io::stdout().flush();
+    }
+}
+
 /// Serialise `value` as pretty JSON (with a final newline) to `target`.
 pub fn write_json<T: serde::Serialize>(target: &Target, value: &T) -> Result<()> {
     let mut text = serde_json::to_string_pretty(value)?;
