@@ -8,8 +8,8 @@ use bezchain::chain::Continuity;
 use bezchain::export::{
     render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
 };
-use bezchain::fit::evo::{EvoHooks, Evolution};
-use bezchain::fit::surface_breaks::{projection_check, search_breaks_v};
+use bezchain::fit::evo::{Checkpoint, EvoHooks, Evolution};
+use bezchain::fit::surface_breaks::{projection_check, search_breaks_v, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
@@ -306,80 +306,27 @@ pub fn run(args: Args) -> Result<()> {
         SpanArg::Auto => None,
     };
 
-    if auto_v {
-        layout.breaks_v = choose_breaks_v(&args, &loaded.points, loaded.grid, &layout, &opts)?;
+    let searched = if auto_v {
+        choose_breaks_v(&args, &loaded.points, loaded.grid, &layout, &opts)?
+    } else {
+        None
+    };
+    if let Some(search) = &searched {
+        layout.breaks_v = Breaks::Params(search.fit.grid.layout().v.breaks().to_vec());
     }
 
-    // The spinner for least squares; an evolutionary run has the monitor's bar instead.
-    let bar = if evolutionary || args.evo.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new_spinner()
+    // A least-squares break search has already made (and checked) the fit it chose.
+    let (fit, check) = match searched {
+        Some(search) if !evolutionary => (search.fit, Some(search.check)),
+        _ => (
+            fit_with_progress(&args, &loaded.points, loaded.grid, &layout, &opts, resume)?,
+            None,
+        ),
     };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    bar.enable_steady_tick(Duration::from_millis(120));
-    let mut stage = "";
-    let mut stage_points = 0usize;
-    let mut monitor = Monitor::new(&args.evo);
-    let quiet = args.evo.quiet;
-    let mut started = false;
-    let mut on_generation = |run: &Evolution<'_>| {
-        if !started {
-            monitor.start_bar(run, quiet);
-            started = true;
-        }
-        monitor.generation(run)
-    };
-    let mut hooks = EvoHooks {
-        on_generation: if evolutionary {
-            Some(&mut on_generation)
-        } else {
-            None
-        },
-        resume,
-    };
-    let fit = fit_surface_with(
-        &loaded.points,
-        loaded.grid,
-        &layout,
-        &opts,
-        &mut |p| match p {
-            SurfaceProgress::Params { source, seconds } => {
-                bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
-            }
-            SurfaceProgress::Stage { name, points } => {
-                stage = name;
-                stage_points = points;
-                let what = if matches!(name, "ga" | "cmaes") {
-                    "evolution"
-                } else {
-                    "least squares"
-                };
-                bar.suspend(|| eprintln!("{name}: {what} on {points} points"));
-            }
-            SurfaceProgress::Iteration(it) => {
-                let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
-                bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
-            }
-            SurfaceProgress::Offsets { points } => {
-                bar.set_message(format!("closest points of all {points} points"));
-            }
-        },
-        &mut hooks,
-    );
-    drop(hooks);
-    monitor.finish();
-    bar.finish_and_clear();
-    let fit = fit.with_context(|| match &args.evo.resume {
-        Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
-        None => format!("{}: fitting {n} points", args.cloud.display()),
-    })?;
 
     if n <= CHECKED_POINTS {
-        let check = projection_check(&fit.grid, &loaded.points, fit.stats.rms, fit.stats.max);
+        let check = check
+            .unwrap_or_else(|| projection_check(&fit.grid, &loaded.points, fit.stats.rms, fit.stats.max));
         if !check.agrees {
             eprintln!(
                 "warning: {}: a coarse sampled search (7x7 seeds a patch, Gauss-Newton from the 4 nearest) \
@@ -450,31 +397,29 @@ pub fn run(args: Args) -> Result<()> {
 /// Clouds up to this size get the projection check after the fit (and the break search).
 const CHECKED_POINTS: usize = 20_000;
 
-/// `--breaks-v auto`: the span breaks of the least-squares fit with the smallest sum of
-/// squares whose closest points a coarse search also finds (see [`search_breaks_v`]); uniform
-/// for clouds larger than [`CHECKED_POINTS`] or than the subsample size.
+/// `--breaks-v auto`: the least-squares fit with the smallest sum of squares whose closest
+/// points a coarse search also finds (see [`search_breaks_v`]); `None` (uniform breaks) for a
+/// single patch along v and for clouds larger than [`CHECKED_POINTS`] or the subsample size.
 fn choose_breaks_v(
     args: &Args,
     points: &[DVec3],
     grid: Option<bezchain::geometry::Grid>,
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
-) -> Result<Breaks> {
-    let n = points.len();
+) -> Result<Option<BreakSearch>> {
     if layout.patches[1] < 2 {
-        return Ok(Breaks::Uniform);
+        return Ok(None);
     }
-    if n > CHECKED_POINTS || (opts.subsample > 0 && n > opts.subsample) {
+    let limit = match opts.subsample {
+        0 => CHECKED_POINTS,
+        s => s.min(CHECKED_POINTS),
+    };
+    if points.len() > limit {
         eprintln!(
-            "breaks v: uniform (the automatic break search runs on clouds of up to {} points; \
-             give --breaks-v for this one, e.g. stations:BLADE.json)",
-            CHECKED_POINTS.min(if opts.subsample > 0 {
-                opts.subsample
-            } else {
-                CHECKED_POINTS
-            })
+            "breaks v: uniform (the automatic break search runs on clouds of up to {limit} points; \
+             give --breaks-v for this one, e.g. stations:BLADE.json)"
         );
-        return Ok(Breaks::Uniform);
+        return Ok(None);
     }
     let search_opts = SurfaceOptions {
         method: SurfaceMethod::Lsq,
@@ -508,7 +453,87 @@ fn choose_breaks_v(
         search.fit.stats.sum_sq,
         search.candidates[0].sum_sq
     );
-    Ok(Breaks::Params(breaks))
+    Ok(Some(search))
+}
+
+/// The fit itself, with a spinner for least squares or the monitor's bar for an evolutionary
+/// run.
+fn fit_with_progress(
+    args: &Args,
+    points: &[DVec3],
+    grid: Option<bezchain::geometry::Grid>,
+    layout: &SurfaceLayout,
+    opts: &SurfaceOptions,
+    resume: Option<Checkpoint>,
+) -> Result<SurfaceFit> {
+    let evolutionary = args.method.evolutionary().is_some();
+    // The spinner for least squares; an evolutionary run has the monitor's bar instead.
+    let bar = if evolutionary || args.evo.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    let mut stage = "";
+    let mut stage_points = 0usize;
+    let mut monitor = Monitor::new(&args.evo);
+    let quiet = args.evo.quiet;
+    let mut started = false;
+    let mut on_generation = |run: &Evolution<'_>| {
+        if !started {
+            monitor.start_bar(run, quiet);
+            started = true;
+        }
+        monitor.generation(run)
+    };
+    let mut hooks = EvoHooks {
+        on_generation: if evolutionary {
+            Some(&mut on_generation)
+        } else {
+            None
+        },
+        resume,
+    };
+    let fit = fit_surface_with(
+        points,
+        grid,
+        layout,
+        opts,
+        &mut |p| match p {
+            SurfaceProgress::Params { source, seconds } => {
+                bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
+            }
+            SurfaceProgress::Stage { name, points } => {
+                stage = name;
+                stage_points = points;
+                let what = if matches!(name, "ga" | "cmaes") {
+                    "evolution"
+                } else {
+                    "least squares"
+                };
+                bar.suspend(|| eprintln!("{name}: {what} on {points} points"));
+            }
+            SurfaceProgress::Iteration(it) => {
+                let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
+                bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
+            }
+            SurfaceProgress::Offsets { points } => {
+                bar.set_message(format!("closest points of all {points} points"));
+            }
+        },
+        &mut hooks,
+    );
+    drop(hooks);
+    monitor.finish();
+    bar.finish_and_clear();
+    fit.with_context(|| match &args.evo.resume {
+        Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
+        None => format!("{}: fitting {} points", args.cloud.display(), points.len()),
+    })
 }
 
 /// A few readable lines about the fit.

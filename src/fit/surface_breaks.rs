@@ -136,9 +136,10 @@ const FRACTIONS: [f64; 11] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95,
 
 /// Fit `points` with `layout` (its `breaks_u` kept, its `breaks_v` replaced) for candidate
 /// `v` breaks: uniform first, then each interior break in turn over [`FRACTIONS`] of the
-/// interval between its neighbours. Keeps the smallest sum of squares among the fits that pass
-/// the [`projection_check`] (among all fits when none does). Least squares only; each fit is
-/// a whole [`fit_surface`] call, so the cost is `1 + 11 (pv - 1)` fits, run in parallel.
+/// interval between its neighbours (a position the break already has is not fitted again).
+/// Keeps the smallest sum of squares among the fits that pass the [`projection_check`] (among
+/// all fits when none does). Least squares only; each fit is a whole [`fit_surface`] call, so
+/// the cost is at most `1 + 11 (pv - 1)` fits, run in parallel.
 pub fn search_breaks_v(
     points: &[DVec3],
     grid: Option<Grid>,
@@ -159,7 +160,8 @@ pub fn search_breaks_v(
         let check = projection_check(&fit.grid, points, fit.stats.rms, fit.stats.max);
         Ok((fit, check))
     };
-    let total = 1 + FRACTIONS.len() * (pv - 1);
+    // An upper bound until each break's candidates are known.
+    let mut total = 1 + FRACTIONS.len() * (pv - 1);
     let mut done = 0;
     let uniform: Vec<f64> = (0..=pv).map(|k| k as f64 / pv as f64).collect();
     let (mut fit, mut check) = fit_with(&uniform)?;
@@ -180,12 +182,15 @@ pub fn search_breaks_v(
         let (lo, hi) = (breaks[k - 1], breaks[k + 1]);
         let trials: Vec<Vec<f64>> = FRACTIONS
             .iter()
-            .map(|f| {
+            .map(|f| lo + f * (hi - lo))
+            .filter(|&t| (t - breaks[k]).abs() > 1e-12)
+            .map(|t| {
                 let mut b = breaks.clone();
-                b[k] = lo + f * (hi - lo);
+                b[k] = t;
                 b
             })
             .collect();
+        total -= FRACTIONS.len() - trials.len();
         let fits: Vec<Result<(SurfaceFit, ProjectionCheck)>> =
             trials.par_iter().map(|b| fit_with(b)).collect();
         for (b, result) in trials.into_iter().zip(fits) {
