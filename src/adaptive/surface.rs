@@ -40,6 +40,7 @@ use super::spline::{SplineLayout, MAX_SUPPORT};
 use super::{HeldOut, Norm};
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
+pub use crate::fit::surface_breaks::sampled_offsets;
 use crate::fit::{shape_offsets, FootOptions, GridShape, Metric, OffsetStats};
 use crate::geometry::Grid;
 use glam::DVec3;
@@ -692,135 +693,6 @@ impl<'d, 'a> Fitter<'d, 'a> {
         }
         Some(best)
     }
-}
-
-/// De Casteljau's algorithm with `verify.py`'s arithmetic (`a + (b - a) t`, in order).
-fn casteljau(ctrl: &mut [DVec3], t: f64) -> DVec3 {
-    let n = ctrl.len();
-    for r in 1..n {
-        for i in 0..n - r {
-            ctrl[i] = ctrl[i] + (ctrl[i + 1] - ctrl[i]) * t;
-        }
-    }
-    ctrl[0]
-}
-
-/// One patch's control points (rows along u) and its evaluation with `verify.py`'s arithmetic.
-struct CheckPatch {
-    du: usize,
-    dv: usize,
-    ctrl: Vec<DVec3>,
-}
-
-impl CheckPatch {
-    fn eval(&self, u: f64, v: f64) -> DVec3 {
-        let mut rows: Vec<DVec3> = self
-            .ctrl
-            .chunks(self.dv + 1)
-            .map(|r| casteljau(&mut r.to_vec(), v))
-            .collect();
-        casteljau(&mut rows, u)
-    }
-
-    fn partials(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
-        let (du, dv) = (self.du as f64, self.dv as f64);
-        let mut rows = Vec::with_capacity(self.du + 1);
-        let mut drows = Vec::with_capacity(self.du + 1);
-        for r in self.ctrl.chunks(self.dv + 1) {
-            rows.push(casteljau(&mut r.to_vec(), v));
-            let mut d: Vec<DVec3> = r.windows(2).map(|w| (w[1] - w[0]) * dv).collect();
-            drows.push(casteljau(&mut d, v));
-        }
-        let p = casteljau(&mut rows.clone(), u);
-        let mut dr: Vec<DVec3> = rows.windows(2).map(|w| (w[1] - w[0]) * du).collect();
-        let pu = casteljau(&mut dr, u);
-        let pv = casteljau(&mut drows, u);
-        (p, pu, pv)
-    }
-}
-
-fn dist2(a: DVec3, b: DVec3) -> f64 {
-    let d = a - b;
-    d.x * d.x + d.y * d.y + d.z * d.z
-}
-
-/// The closest-point search of the shared checker `shared/tools/verify.py`, step for step:
-/// every patch sampled at the 7 x 7 local parameters `k / 6`, the four best samples of all
-/// (ties kept in sampling order, as Python's stable sort keeps them)
-/// refined by at most 25 clamped Gauss-Newton steps in their patch. Returns every point's
-/// distance: the distance to a point of the surface, so never below the true closest-point
-/// distance. [`adapt_surface`] accepts a layout only when this check meets the tolerance too,
-/// so that the checker confirms what the report claims.
-#[must_use]
-pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
-    let l = grid.layout();
-    let (du, dv) = (l.u.degree(), l.v.degree());
-    let (pu, pv) = l.patches();
-    let patches: Vec<CheckPatch> = (0..pu)
-        .flat_map(|i| (0..pv).map(move |j| (i, j)))
-        .map(|(i, j)| {
-            let p = grid.patch(i, j);
-            let ctrl = (0..=du)
-                .flat_map(|a| (0..=dv).map(move |b| (a, b)))
-                .map(|(a, b)| p.at(a, b))
-                .collect();
-            CheckPatch { du, dv, ctrl }
-        })
-        .collect();
-    let samples: Vec<(usize, f64, f64, DVec3)> = patches
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| {
-            (0..=6).flat_map(move |a| {
-                (0..=6).map(move |b| {
-                    let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
-                    (k, u, v, p.eval(u, v))
-                })
-            })
-        })
-        .collect();
-    points
-        .par_iter()
-        .map(|&q| {
-            // (distance², sample index): Python's stable sort by distance keeps ties in
-            // sampling order.
-            let mut cands: Vec<(f64, usize)> = samples
-                .iter()
-                .enumerate()
-                .map(|(i, s)| (dist2(s.3, q), i))
-                .collect();
-            let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-            let four = 4.min(cands.len());
-            cands.select_nth_unstable_by(four - 1, by);
-            cands[..four].sort_by(by);
-            let mut best = cands[0].0;
-            for &(_, i) in &cands[..four] {
-                let (k, u0, v0, _) = samples[i];
-                let p = &patches[k];
-                let (mut u, mut v) = (u0, v0);
-                for _ in 0..25 {
-                    let (s, su, sv) = p.partials(u, v);
-                    let r = s - q;
-                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
-                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
-                    let det = a11 * a22 - a12 * a12;
-                    if det.abs() < 1e-300 {
-                        break;
-                    }
-                    let du_ = (b1 * a22 - b2 * a12) / det;
-                    let dv_ = (a11 * b2 - a12 * b1) / det;
-                    let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
-                    if (un - u).abs() + (vn - v).abs() < 1e-14 {
-                        break;
-                    }
-                    u = un;
-                    v = vn;
-                }
-                best = best.min(dist2(p.eval(u, v), q));
-            }
-            best.sqrt()
-        })
-        .collect()
 }
 
 fn norm_of(err: &[f64], norm: Norm) -> f64 {

@@ -9,9 +9,10 @@
 //! [`projection_check`].
 //!
 //! The projection check measures every data point again the way a plain downstream tool
-//! would (and as `verify.py` does): seeds on a 7 × 7 grid per patch, Gauss-Newton clamped to
-//! the patch from the 4 nearest seeds. A grid whose overhangs or folds trap that search
-//! reports offsets that such a tool cannot reproduce; the check says so.
+//! would, with the shared checker `verify.py`'s search step for step ([`sampled_offsets`],
+//! also the acceptance test of the adaptive patch grids): seeds on a 7 × 7 grid per patch,
+//! Gauss-Newton clamped to the patch from the 4 nearest seeds. A grid whose overhangs or folds
+//! trap that search reports offsets that such a tool cannot reproduce; the check says so.
 
 use super::surface::{fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceOptions, SurfaceProgress};
 use crate::chain::PatchGrid;
@@ -20,12 +21,6 @@ use crate::geometry::Grid;
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Seeds per patch side of the coarse search (7 × 7 seeds).
-const SEEDS: usize = 7;
-/// Seeds refined by Gauss-Newton per point.
-const REFINED: usize = 4;
-/// Gauss-Newton steps per seed.
-const STEPS: usize = 25;
 /// The coarse search passes when its rms and max are within this factor of the exact ones.
 pub const AGREEMENT: f64 = 1.001;
 
@@ -40,73 +35,150 @@ pub struct ProjectionCheck {
     pub agrees: bool,
 }
 
-/// The distances a coarse sampled search finds from `points` to `grid` (an upper bound of
-/// the true ones), compared with the exact `rms` and `max`.
+/// The distances the checker's sampled search ([`sampled_offsets`]) finds from `points` to
+/// `grid` (upper bounds of the true ones), compared with the exact `rms` and `max`.
 #[must_use]
 pub fn projection_check(grid: &PatchGrid<DVec3>, points: &[DVec3], rms: f64, max: f64) -> ProjectionCheck {
-    let (pu, pv) = grid.layout().patches();
-    let patches: Vec<_> = (0..pu)
-        .flat_map(|i| (0..pv).map(move |j| (i, j)))
-        .map(|(i, j)| grid.patch(i, j))
-        .collect();
-    let step = 1.0 / (SEEDS - 1) as f64;
-    let seeds: Vec<(usize, f64, f64, DVec3)> = patches
-        .iter()
-        .enumerate()
-        .flat_map(|(k, patch)| {
-            (0..SEEDS).flat_map(move |a| {
-                (0..SEEDS).map(move |b| {
-                    let (u, v) = (a as f64 * step, b as f64 * step);
-                    (k, u, v, patch.eval(u, v))
-                })
-            })
-        })
-        .collect();
-    let d2: Vec<f64> = points
-        .par_iter()
-        .map(|&q| {
-            let mut near: Vec<(f64, usize)> = seeds
-                .iter()
-                .enumerate()
-                .map(|(s, seed)| (seed.3.distance_squared(q), s))
-                .collect();
-            let take = REFINED.min(near.len());
-            near.select_nth_unstable_by(take.saturating_sub(1), |a, b| a.0.total_cmp(&b.0));
-            let mut best = near[..take].iter().map(|n| n.0).fold(f64::INFINITY, f64::min);
-            for &(_, s) in &near[..take] {
-                let (k, mut u, mut v, _) = seeds[s];
-                let patch = &patches[k];
-                for _ in 0..STEPS {
-                    let (p, su, sv) = patch.partials(u, v);
-                    let r = p - q;
-                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
-                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
-                    let det = a11 * a22 - a12 * a12;
-                    if det.abs() < 1e-300 {
-                        break;
-                    }
-                    let un = (u + (b1 * a22 - b2 * a12) / det).clamp(0.0, 1.0);
-                    let vn = (v + (a11 * b2 - a12 * b1) / det).clamp(0.0, 1.0);
-                    let moved = (un - u).abs() + (vn - v).abs();
-                    (u, v) = (un, vn);
-                    if moved < 1e-14 {
-                        break;
-                    }
-                }
-                best = best.min(patch.eval(u, v).distance_squared(q));
-            }
-            best
-        })
-        .collect();
-    let n = d2.len().max(1) as f64;
-    let coarse_rms = (d2.iter().sum::<f64>() / n).sqrt();
-    let coarse_max = d2.iter().copied().fold(0.0, f64::max).sqrt();
+    let d = sampled_offsets(grid, points);
+    let n = d.len().max(1) as f64;
+    let coarse_rms = (d.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let coarse_max = d.iter().copied().fold(0.0, f64::max);
     let slack = |exact: f64| exact * AGREEMENT + 1e-15;
     ProjectionCheck {
         rms: coarse_rms,
         max: coarse_max,
         agrees: coarse_rms <= slack(rms) && coarse_max <= slack(max),
     }
+}
+
+/// De Casteljau's algorithm with `verify.py`'s arithmetic (`a + (b - a) t`, in order).
+fn casteljau(ctrl: &mut [DVec3], t: f64) -> DVec3 {
+    let n = ctrl.len();
+    for r in 1..n {
+        for i in 0..n - r {
+            ctrl[i] = ctrl[i] + (ctrl[i + 1] - ctrl[i]) * t;
+        }
+    }
+    ctrl[0]
+}
+
+/// One patch's control points (rows along u) and its evaluation with `verify.py`'s arithmetic.
+struct CheckPatch {
+    du: usize,
+    dv: usize,
+    ctrl: Vec<DVec3>,
+}
+
+impl CheckPatch {
+    fn eval(&self, u: f64, v: f64) -> DVec3 {
+        let mut rows: Vec<DVec3> = self
+            .ctrl
+            .chunks(self.dv + 1)
+            .map(|r| casteljau(&mut r.to_vec(), v))
+            .collect();
+        casteljau(&mut rows, u)
+    }
+
+    fn partials(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
+        let (du, dv) = (self.du as f64, self.dv as f64);
+        let mut rows = Vec::with_capacity(self.du + 1);
+        let mut drows = Vec::with_capacity(self.du + 1);
+        for r in self.ctrl.chunks(self.dv + 1) {
+            rows.push(casteljau(&mut r.to_vec(), v));
+            let mut d: Vec<DVec3> = r.windows(2).map(|w| (w[1] - w[0]) * dv).collect();
+            drows.push(casteljau(&mut d, v));
+        }
+        let p = casteljau(&mut rows.clone(), u);
+        let mut dr: Vec<DVec3> = rows.windows(2).map(|w| (w[1] - w[0]) * du).collect();
+        let pu = casteljau(&mut dr, u);
+        let pv = casteljau(&mut drows, u);
+        (p, pu, pv)
+    }
+}
+
+fn dist2(a: DVec3, b: DVec3) -> f64 {
+    let d = a - b;
+    d.x * d.x + d.y * d.y + d.z * d.z
+}
+
+/// The closest-point search of the shared checker `shared/tools/verify.py`, step for step:
+/// every patch sampled at the 7 x 7 local parameters `k / 6`, the four best samples of all
+/// (ties kept in sampling order, as Python's stable sort keeps them)
+/// refined by at most 25 clamped Gauss-Newton steps in their patch. Returns every point's
+/// distance: the distance to a point of the surface, so never below the true closest-point
+/// distance. [`projection_check`] compares it with a fit's exact offsets;
+/// [`crate::adaptive::adapt_surface`] accepts a layout only when it meets the tolerance too,
+/// so that the checker confirms what the report claims.
+#[must_use]
+pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
+    let l = grid.layout();
+    let (du, dv) = (l.u.degree(), l.v.degree());
+    let (pu, pv) = l.patches();
+    let patches: Vec<CheckPatch> = (0..pu)
+        .flat_map(|i| (0..pv).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let p = grid.patch(i, j);
+            let ctrl = (0..=du)
+                .flat_map(|a| (0..=dv).map(move |b| (a, b)))
+                .map(|(a, b)| p.at(a, b))
+                .collect();
+            CheckPatch { du, dv, ctrl }
+        })
+        .collect();
+    let samples: Vec<(usize, f64, f64, DVec3)> = patches
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| {
+            (0..=6).flat_map(move |a| {
+                (0..=6).map(move |b| {
+                    let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
+                    (k, u, v, p.eval(u, v))
+                })
+            })
+        })
+        .collect();
+    points
+        .par_iter()
+        .map(|&q| {
+            // (distance², sample index): Python's stable sort by distance keeps ties in
+            // sampling order.
+            let mut cands: Vec<(f64, usize)> = samples
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (dist2(s.3, q), i))
+                .collect();
+            let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+            let four = 4.min(cands.len());
+            cands.select_nth_unstable_by(four - 1, by);
+            cands[..four].sort_by(by);
+            let mut best = cands[0].0;
+            for &(_, i) in &cands[..four] {
+                let (k, u0, v0, _) = samples[i];
+                let p = &patches[k];
+                let (mut u, mut v) = (u0, v0);
+                for _ in 0..25 {
+                    let (s, su, sv) = p.partials(u, v);
+                    let r = s - q;
+                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
+                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
+                    let det = a11 * a22 - a12 * a12;
+                    if det.abs() < 1e-300 {
+                        break;
+                    }
+                    let du_ = (b1 * a22 - b2 * a12) / det;
+                    let dv_ = (a11 * b2 - a12 * b1) / det;
+                    let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
+                    if (un - u).abs() + (vn - v).abs() < 1e-14 {
+                        break;
+                    }
+                    u = un;
+                    v = vn;
+                }
+                best = best.min(dist2(p.eval(u, v), q));
+            }
+            best.sqrt()
+        })
+        .collect()
 }
 
 /// One candidate of the break search.
