@@ -6,6 +6,7 @@
 //! (WCE 2008, "Parameterization for Shape Optimization of Aerofoils").
 //!
 //! Modules:
+//! - [`aero`]: the inviscid panel method (XFOIL's), its exact truth, and the batched form.
 //! - [`bezier`]: Bernstein basis, single curves and patches (eval, deriv, split, elevate).
 //! - [`chain`]: chain and grid layouts, the extraction map `expanded = E · design`,
 //!   `CurveChain`, `PatchGrid`.
@@ -17,6 +18,7 @@
 //! - [`error`]: the library's error type.
 
 pub mod adaptive;
+pub mod aero;
 pub mod bezier;
 pub mod chain;
 pub mod error;

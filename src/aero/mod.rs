@@ -1,0 +1,18 @@
+//! Inviscid aerofoil aerodynamics for shape optimisation: XFOIL's linear-vorticity panel
+//! method as an f64 reference, its analytic truth, and the batched form that the population
+//! evaluator runs.
+//!
+//! - [`panel`]: [`PanelSolution`], the panel method on given nodes (two unit solutions, CL,
+//!   CM about the quarter chord, Cp at every node).
+//! - [`contour`]: [`Contour`] (a chain, a spline through raw coordinates) and
+//!   [`panel_params`], XFOIL's `PANE` node placement as fixed parameters on a contour.
+//! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
+//!   closed form.
+
+pub mod contour;
+pub mod karman_trefftz;
+pub mod panel;
+
+pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
+pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
+pub use panel::{integrate, Chord, Coefficients, PanelSolution};
