@@ -2,6 +2,7 @@
 //! method as an f64 reference, its analytic truth, and the batched form that the population
 //! evaluator runs.
 //!
+//! - [`analysis`]: [`Analysis`], a contour paneled and solved: its polar and pressures.
 //! - [`panel`]: [`PanelSolution`], the panel method on given nodes (two unit solutions, CL,
 //!   CM about the quarter chord, Cp at every node).
 //! - [`contour`]: [`Contour`] (a chain, a spline through raw coordinates) and
@@ -9,10 +10,12 @@
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
+pub mod analysis;
 pub mod contour;
 pub mod karman_trefftz;
 pub mod panel;
 
+pub use analysis::Analysis;
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
