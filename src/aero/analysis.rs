@@ -43,3 +43,110 @@ impl Analysis {
         alphas.iter().map(|&a| self.solution.coefficients(a)).collect()
     }
 }
+
+/// The chord as reported: leading edge, trailing-edge midpoint, length (model units).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ChordReport {
+    /// The leading edge.
+    pub le: [f64; 2],
+    /// The trailing-edge midpoint.
+    pub te: [f64; 2],
+    /// Their distance.
+    pub length: f64,
+}
+
+/// The pressure coefficient at every node at one angle.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Pressure {
+    /// Angle of attack, degrees.
+    pub alpha: f64,
+    /// `1 − γ²` at every node, in node order.
+    pub cp: Vec<f64>,
+}
+
+/// What was analysed.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AeroInput {
+    /// The input file as given.
+    pub path: String,
+    /// `coordinates` (a spline through the file's points) or `curve report` (its chain).
+    pub kind: String,
+    /// Points in the file (coordinates) or control points (report).
+    pub points: usize,
+}
+
+/// The JSON report of `bezchain aero`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AeroReport {
+    /// The input.
+    pub input: AeroInput,
+    /// Panel nodes.
+    pub nodes: usize,
+    /// The paneling's trailing-edge density ratio.
+    pub te_ratio: f64,
+    /// `sharp` (gap below 1e-4 chord: bisector condition) or `blunt` (trailing-edge panel).
+    pub trailing_edge: String,
+    /// The trailing-edge gap, model units.
+    pub te_gap: f64,
+    /// The chord the coefficients are based on.
+    pub chord: ChordReport,
+    /// CL and CM (about the quarter chord) at every angle.
+    pub polar: Vec<Coefficients>,
+    /// The node positions, counterclockwise from the upper trailing edge.
+    pub node_points: Vec<[f64; 2]>,
+    /// Cp at every node, per angle.
+    pub pressure: Vec<Pressure>,
+}
+
+impl AeroReport {
+    /// The report of `analysis` at `alphas` (degrees).
+    #[must_use]
+    pub fn new(analysis: &Analysis, paneling: &Paneling, alphas: &[f64], input: AeroInput) -> Self {
+        let s = &analysis.solution;
+        let c = s.chord();
+        let nodes = s.nodes();
+        AeroReport {
+            input,
+            nodes: nodes.len(),
+            te_ratio: paneling.te_ratio,
+            trailing_edge: if s.sharp() { "sharp" } else { "blunt" }.into(),
+            te_gap: (nodes[0] - nodes[nodes.len() - 1]).length(),
+            chord: ChordReport {
+                le: c.le.to_array(),
+                te: c.te.to_array(),
+                length: c.length,
+            },
+            polar: analysis.polar(alphas),
+            node_points: nodes.iter().map(|p| p.to_array()).collect(),
+            pressure: alphas
+                .iter()
+                .map(|&alpha| Pressure {
+                    alpha,
+                    cp: s.cp(alpha),
+                })
+                .collect(),
+        }
+    }
+
+    /// The picture: Cp against x at every angle above the shape.
+    #[must_use]
+    pub fn plot(&self, title: &str) -> super::plot::CpPlot {
+        let nodes: Vec<DVec2> = self.node_points.iter().map(|&p| DVec2::from_array(p)).collect();
+        super::plot::CpPlot {
+            title: title.into(),
+            curves: self
+                .pressure
+                .iter()
+                .zip(&self.polar)
+                .map(|(p, c)| super::plot::CpCurve {
+                    label: format!("α = {}°: CL {:.4}, CM {:.4}", p.alpha, c.cl, c.cm),
+                    points: nodes.iter().zip(&p.cp).map(|(n, &cp)| (n.x, cp)).collect(),
+                })
+                .collect(),
+            outlines: vec![super::plot::Outline {
+                label: format!("{} ({} nodes)", self.input.path, self.nodes),
+                nodes,
+            }],
+        }
+    }
+}

@@ -7,6 +7,7 @@
 //!   CM about the quarter chord, Cp at every node).
 //! - [`contour`]: [`Contour`] (a chain, a spline through raw coordinates) and
 //!   [`panel_params`], XFOIL's `PANE` node placement as fixed parameters on a contour.
+//! - [`plot`]: [`CpPlot`], Cp against x above the shapes, as SVG.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
@@ -14,8 +15,10 @@ pub mod analysis;
 pub mod contour;
 pub mod karman_trefftz;
 pub mod panel;
+pub mod plot;
 
-pub use analysis::Analysis;
+pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
+pub use plot::{CpCurve, CpPlot, Outline};

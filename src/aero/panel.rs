@@ -32,7 +32,7 @@
 
 use crate::error::{Error, Result};
 use glam::DVec2;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use std::f64::consts::PI;
 
 /// `1 / 4π`.

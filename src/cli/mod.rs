@@ -2,6 +2,7 @@
 
 pub mod adapt;
 pub mod adapt_surface;
+pub mod aero;
 pub mod bench;
 pub mod blade;
 pub mod compare;

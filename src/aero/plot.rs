@@ -1,0 +1,190 @@
+//! SVG pictures of pressure distributions: Cp against x (suction up, as aerodynamicists draw
+//! it) above the shapes that carry them, drawn to equal scales.
+
+use crate::error::{Error, Result};
+use glam::DVec2;
+use plotters::prelude::*;
+
+/// One pressure distribution: a label and `(x, Cp)` along the surface in node order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CpCurve {
+    /// Legend text.
+    pub label: String,
+    /// `(x, Cp)` at every node.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// One outline: a label and the contour's nodes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outline {
+    /// Legend text.
+    pub label: String,
+    /// The nodes, in order.
+    pub nodes: Vec<DVec2>,
+}
+
+/// What to draw: Cp curves in the top panel, outlines below.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CpPlot {
+    /// Title line.
+    pub title: String,
+    /// The pressure distributions (colours in order).
+    pub curves: Vec<CpCurve>,
+    /// The shapes (colours in order).
+    pub outlines: Vec<Outline>,
+}
+
+const WIDTH: u32 = 1000;
+const CP_HEIGHT: u32 = 560;
+
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
+    Error::Output(format!("svg plot: {e:?}"))
+}
+
+impl CpPlot {
+    /// Render as an SVG document.
+    pub fn to_svg(&self) -> Result<String> {
+        let xs = self
+            .curves
+            .iter()
+            .flat_map(|c| c.points.iter().map(|p| p.0))
+            .chain(self.outlines.iter().flat_map(|o| o.nodes.iter().map(|p| p.x)));
+        let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+        let (x0, x1) = if x1 > x0 { (x0, x1) } else { (0.0, 1.0) };
+        let pad = 0.03 * (x1 - x0);
+        let (x0, x1) = (x0 - pad, x1 + pad);
+        let (ylo, yhi) = self
+            .outlines
+            .iter()
+            .flat_map(|o| o.nodes.iter())
+            .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.y), b.max(p.y)));
+        let (ylo, yhi) = if yhi > ylo { (ylo, yhi) } else { (-0.1, 0.1) };
+        // The shape panel is as tall as equal scales need (with room for the legend).
+        let plot_w = f64::from(WIDTH - 100);
+        let shape_h = ((yhi - ylo) / (x1 - x0) * plot_w * 1.6) as u32 + 110;
+        let shape_h = shape_h.clamp(180, 600);
+        let cps = self.curves.iter().flat_map(|c| c.points.iter().map(|p| p.1));
+        let (cmin, cmax) = cps.fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c), b.max(c)));
+        let (cmin, cmax) = if cmax > cmin { (cmin, cmax) } else { (-1.0, 1.0) };
+        let cpad = 0.05 * (cmax - cmin);
+        let mut out = String::new();
+        {
+            let root = SVGBackend::with_string(&mut out, (WIDTH, CP_HEIGHT + shape_h)).into_drawing_area();
+            root.fill(&WHITE).map_err(plot_err)?;
+            let (top, bottom) = root.split_vertically(CP_HEIGHT);
+            // Suction up: the axis runs from the largest Cp at the bottom to the smallest on top.
+            let mut chart = ChartBuilder::on(&top)
+                .caption(&self.title, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(35)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, (cmax + cpad)..(cmin - cpad))
+                .map_err(plot_err)?;
+            chart
+                .configure_mesh()
+                .x_desc("x")
+                .y_desc("Cp")
+                .light_line_style(RGBColor(235, 235, 235))
+                .draw()
+                .map_err(plot_err)?;
+            for (k, c) in self.curves.iter().enumerate() {
+                let colour = PALETTE[k % PALETTE.len()];
+                chart
+                    .draw_series(LineSeries::new(c.points.iter().copied(), colour.stroke_width(2)))
+                    .map_err(plot_err)?
+                    .label(c.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(150, 150, 150))
+                .draw()
+                .map_err(plot_err)?;
+            // Equal scales below.
+            let plot_h = f64::from(shape_h - 80);
+            let span = ((x1 - x0) / plot_w).max((yhi - ylo) / plot_h);
+            let cy = 0.5 * (ylo + yhi);
+            let (y0, y1) = (cy - 0.5 * span * plot_h, cy + 0.5 * span * plot_h);
+            let mut shape = ChartBuilder::on(&bottom)
+                .margin(12)
+                .x_label_area_size(35)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x0 + span * plot_w, y0..y1)
+                .map_err(plot_err)?;
+            shape
+                .configure_mesh()
+                .x_desc("x")
+                .y_desc("y")
+                .light_line_style(WHITE)
+                .draw()
+                .map_err(plot_err)?;
+            for (k, o) in self.outlines.iter().enumerate() {
+                let colour = PALETTE[k % PALETTE.len()];
+                let mut pts: Vec<(f64, f64)> = o.nodes.iter().map(|p| (p.x, p.y)).collect();
+                if let Some(&first) = pts.first() {
+                    pts.push(first);
+                }
+                shape
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_err)?
+                    .label(o.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+                    });
+            }
+            shape
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(150, 150, 150))
+                .draw()
+                .map_err(plot_err)?;
+            root.present().map_err(plot_err)?;
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plot_holds_every_curve_and_outline() {
+        let nodes: Vec<DVec2> = (0..50)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / 49.0;
+                DVec2::new(0.5 + 0.5 * a.cos(), 0.06 * a.sin())
+            })
+            .collect();
+        let curve = |label: &str, s: f64| CpCurve {
+            label: label.into(),
+            points: nodes.iter().map(|p| (p.x, s * (1.0 - 4.0 * p.y.abs()))).collect(),
+        };
+        let svg = CpPlot {
+            title: "test".into(),
+            curves: vec![curve("α = 0°", 1.0), curve("α = 4°", -1.0)],
+            outlines: vec![Outline {
+                label: "shape".into(),
+                nodes: nodes.clone(),
+            }],
+        }
+        .to_svg()
+        .unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert!(svg.contains("α = 0°") && svg.contains("α = 4°") && svg.contains("shape"));
+    }
+}

@@ -1,0 +1,143 @@
+//! `bezchain aero`: the inviscid panel method on an aerofoil file or a curve report: a table of
+//! CL and CM, a JSON report with the pressures, an SVG of Cp above the shape.
+
+use super::{say, usage, warn_all, write_json, Target};
+use anyhow::Result;
+use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
+use bezchain::export::Report;
+use bezchain::geometry::read_curve;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `bezchain aero`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// An aerofoil file (Selig or Lednicer `.dat`, CSV/XYZ `x y` rows: a spline through its
+    /// points) or a curve report (JSON from `fit`, `adapt` or `optimise`: its chain).
+    pub input: PathBuf,
+    /// Angles of attack, degrees, comma-separated.
+    #[arg(
+        long,
+        default_value = "0,4,8",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub alpha: Vec<f64>,
+    /// Panel nodes (XFOIL's PANE uses 160).
+    #[arg(long, default_value_t = DEFAULT_NODES)]
+    pub panels: usize,
+    /// Trailing-edge panel density relative to the leading edge's curvature (XFOIL's CTERAT).
+    #[arg(long, default_value_t = 0.15, allow_negative_numbers = true)]
+    pub te_ratio: f64,
+    /// Write the JSON report (polar and pressures) here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write an SVG of Cp against x above the shape here.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+}
+
+/// Most panel nodes accepted: the dense system grows as the square.
+const MAX_PANELS: usize = 4000;
+
+/// Whether `path` holds a JSON report rather than coordinates (its first character is `{`).
+fn is_report(path: &Path) -> Result<bool> {
+    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
+}
+
+/// Refuse an output path whose folder does not exist, before any work or any other output.
+pub fn check_output(path: Option<&Path>, flag: &str) -> Result<()> {
+    if let Some(p) = path.filter(|p| p.as_os_str() != "-") {
+        let dir = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if !dir.is_dir() {
+            return Err(usage(format!(
+                "{flag} {}: folder {} does not exist",
+                p.display(),
+                dir.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Analyse and write the outputs.
+pub fn run(args: Args) -> Result<()> {
+    check_output(args.json.as_deref(), "--json")?;
+    check_output(args.svg.as_deref(), "--svg")?;
+    if args.alpha.is_empty() || args.alpha.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
+        return Err(usage("--alpha takes angles in degrees between -90 and 90"));
+    }
+    if !(8..=MAX_PANELS).contains(&args.panels) {
+        return Err(usage(format!("--panels must be between 8 and {MAX_PANELS}")));
+    }
+    let paneling = Paneling {
+        nodes: args.panels,
+        te_ratio: args.te_ratio,
+    };
+    let path_text = args.input.display().to_string();
+    let (analysis, input, what) = if is_report(&args.input)? {
+        let chain = match Report::read(&args.input)? {
+            Report::Curve(rep) => rep.chain()?,
+            Report::Surface(_) => {
+                return Err(usage(format!(
+                    "{path_text}: a surface report; aero needs a curve"
+                )));
+            }
+        };
+        let what = format!(
+            "curve report, degree {}, {} segments",
+            chain.layout().degree(),
+            chain.layout().segments()
+        );
+        let input = AeroInput {
+            path: path_text.clone(),
+            kind: "curve report".into(),
+            points: chain.ctrl().len(),
+        };
+        (Analysis::of_chain(&chain, &paneling)?, input, what)
+    } else {
+        let loaded = read_curve(&args.input)?;
+        warn_all(&args.input, &loaded.warnings);
+        let what = format!("{} points ({})", loaded.points.len(), loaded.name);
+        let input = AeroInput {
+            path: path_text.clone(),
+            kind: "coordinates".into(),
+            points: loaded.points.len(),
+        };
+        (Analysis::of_points(&loaded.points, &paneling)?, input, what)
+    };
+    let report = AeroReport::new(&analysis, &paneling, &args.alpha, input);
+    // Everything is made before anything is written.
+    let svg = match &args.svg {
+        Some(_) => Some(
+            report
+                .plot(&format!("{path_text}: inviscid Cp, {} panel nodes", report.nodes))
+                .to_svg()?,
+        ),
+        None => None,
+    };
+    let json = args.json.as_deref().map(Target::parse);
+    let mut text = format!(
+        "{path_text}: {what}, {} panel nodes, {} trailing edge (gap {:.3e}), chord {:.6}\n",
+        report.nodes, report.trailing_edge, report.te_gap, report.chord.length
+    );
+    let _ = writeln!(text, "   alpha          CL          CM");
+    for c in &report.polar {
+        let _ = writeln!(text, "{:8.3} {:11.5} {:11.5}", c.alpha, c.cl, c.cm);
+    }
+    say(json.as_ref(), &text);
+    if let Some(target) = &json {
+        write_json(target, &report)?;
+    }
+    if let (Some(path), Some(svg)) = (&args.svg, svg) {
+        Target::parse(path).write(svg.as_bytes())?;
+    }
+    Ok(())
+}
