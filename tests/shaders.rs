@@ -2,6 +2,7 @@
 //! specialised for a range of layouts, and every Rust mirror struct checked against naga's
 //! layout of its WGSL twin.
 
+use bezchain::aero::batch::{AeroConfig, AeroResult, AeroStep};
 use bezchain::eval::gpu::{prepare, source};
 use bezchain::eval::{Config, Fitness, MapEntry, Partial, Target, Vertex};
 use std::mem::{offset_of, size_of};
@@ -40,7 +41,13 @@ fn every_wgsl_file_validates_as_written() {
     let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(
         names,
-        ["dense_grid.wgsl", "eval_patch.wgsl", "expand.wgsl", "reduce.wgsl"]
+        [
+            "aero.wgsl",
+            "dense_grid.wgsl",
+            "eval_patch.wgsl",
+            "expand.wgsl",
+            "reduce.wgsl"
+        ]
     );
     for (name, src) in &files {
         let module = validate(name, src);
@@ -53,6 +60,7 @@ fn every_wgsl_file_validates_as_written() {
 fn the_embedded_sources_are_the_files() {
     let files = shader_files();
     let embedded = [
+        bezchain::eval::gpu::AERO,
         source::DENSE_GRID,
         source::EVAL_PATCH,
         source::EXPAND,
@@ -164,6 +172,25 @@ fn rust_structs_match_their_wgsl_twins() {
         size_of::<MapEntry>(),
         &offsets!(MapEntry; index, weight),
         &["expand.wgsl"],
+    );
+    check(
+        "AeroConfig",
+        size_of::<AeroConfig>(),
+        &offsets!(AeroConfig; population, stride, n_vars, n_nodes, objective, target_samples,
+            constraints, _pad0, cos_alpha, sin_alpha, min_thickness, cm_min),
+        &["aero.wgsl"],
+    );
+    check(
+        "AeroStep",
+        size_of::<AeroStep>(),
+        &offsets!(AeroStep; phase, first, last, _pad0),
+        &["aero.wgsl"],
+    );
+    check(
+        "AeroResult",
+        size_of::<AeroResult>(),
+        &offsets!(AeroResult; cl, cm, thickness, objective, score, flags, violation, _pad0),
+        &["aero.wgsl"],
     );
     check(
         "Vertex",

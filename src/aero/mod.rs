@@ -8,17 +8,29 @@
 //! - [`contour`]: [`Contour`] (a chain, a spline through raw coordinates) and
 //!   [`panel_params`], XFOIL's `PANE` node placement as fixed parameters on a contour.
 //! - [`plot`]: [`CpPlot`], Cp against x above the shapes, as SVG.
+//! - [`design`]: [`DesignSpace`], an adapted encoding's stored numbers as bounded offsets,
+//!   and their linear map to panel nodes.
+//! - [`batch`]: [`AeroBatch`], the panel method for populations: a node map linear in the
+//!   design offsets, the objective and constraints, the f32 kernel's data and evaluators
+//!   (`shaders/aero.wgsl` and its CPU mirror), and the f64 reference.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
 pub mod analysis;
+pub mod batch;
 pub mod contour;
+pub mod design;
 pub mod karman_trefftz;
 pub mod panel;
 pub mod plot;
 
 pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
+pub use batch::{
+    build_aero_evaluator, AeroBatch, AeroEval, AeroEvaluator, AeroKernel, AeroResult, Constraints, NodeMap,
+    Objective, TargetCp,
+};
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
+pub use design::DesignSpace;
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
 pub use plot::{CpCurve, CpPlot, Outline};

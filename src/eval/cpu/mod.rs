@@ -12,6 +12,7 @@
 // The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
 #![allow(clippy::needless_range_loop)]
 
+pub(crate) mod aero;
 pub(crate) mod dense_grid;
 pub(crate) mod eval_patch;
 pub(crate) mod expand;
@@ -56,7 +57,7 @@ impl Simd {
         Simd::Portable
     }
 
-    fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Simd::Avx2 => "AVX2",
             Simd::Portable => "portable",

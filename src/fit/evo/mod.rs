@@ -25,12 +25,12 @@ pub mod checkpoint;
 pub mod cmaes;
 pub mod ga;
 pub mod problem;
-mod rng;
+pub(crate) mod rng;
 
 pub use checkpoint::Checkpoint;
 pub use cmaes::{default_lambda, CmaesOptions, CmaesState};
 pub use ga::GaOptions;
-pub use problem::{EvoProblem, Score};
+pub use problem::{EvoProblem, Score, SearchSpace};
 
 use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};

@@ -14,6 +14,30 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
+/// What the GA and CMA-ES operators see of a problem: the number of variables, their box
+/// bounds and the start. [`EvoProblem`] is one; the aerodynamic optimiser's design space
+/// ([`crate::aero::optimise`]) another.
+pub trait SearchSpace {
+    /// Design variables per individual.
+    fn dim(&self) -> usize;
+    /// `[lower, upper]` of every design variable.
+    fn bounds(&self) -> &[[f64; 2]];
+    /// The start design, flat.
+    fn start(&self) -> &[f64];
+}
+
+impl SearchSpace for EvoProblem {
+    fn dim(&self) -> usize {
+        EvoProblem::dim(self)
+    }
+    fn bounds(&self) -> &[[f64; 2]] {
+        EvoProblem::bounds(self)
+    }
+    fn start(&self) -> &[f64] {
+        EvoProblem::start(self)
+    }
+}
+
 /// The data of a problem: plane points for a chain, space points for a grid.
 #[derive(Clone, Debug, PartialEq)]
 enum Data {
