@@ -138,7 +138,7 @@ pub const MAX_VIOLATION: f64 = 1e5;
 /// A surface may run back in x by this much (chord fraction) before it counts as folded.
 pub const FOLD_TOLERANCE: f64 = 1e-3;
 /// Samples per surface of the target Cp table.
-pub const TARGET_SAMPLES: usize = 201;
+pub const TARGET_SAMPLES: usize = 1001;
 
 /// Panel nodes as an affine function of the design offsets: node `k` is
 /// `base[k] + Σ_i columns[i][k] δ_i` (model units).
