@@ -186,8 +186,9 @@ fn atan2r(y: f32, x: f32) -> f32 {
 // neglected term is below 1e-7 of the result at that distance.
 const FAR2: f32 = 25.0;
 
-// The vortex integrals of panel a → b at f (src/aero/panel.rs `panel_terms`): (psis, psid).
-fn vortex_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+// The vortex integrals of panel a → b at f (src/aero/panel.rs `panel_terms`) from the Taylor
+// series about the midpoint: (psis, psid, 1 if the panel is far, else 0).
+fn vortex_far(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec3<f32> {
     let d = b - a;
     let len2 = d.x * d.x + d.y * d.y;
     let len = sqrt(len2);
@@ -199,16 +200,22 @@ fn vortex_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     let c2 = c * c;
     let y2 = y * y;
     let rho = c2 + y2;
-    if rho > FAR2 * len2 {
-        let g = ln(rho);
-        let g1 = 2.0 * c / rho;
-        let g2 = 2.0 * (y2 - c2) / (rho * rho);
-        let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
-        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-        let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
-        let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
-        return vec2<f32>(psis, psid);
-    }
+    let g = ln(rho);
+    let g1 = 2.0 * c / rho;
+    let g2 = 2.0 * (y2 - c2) / (rho * rho);
+    let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
+    let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
+    let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
+    let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
+    return vec3<f32>(psis, psid, select(0.0, 1.0, rho > FAR2 * len2));
+}
+
+// The same from the closed forms (near panels): (psis, psid).
+fn vortex_near(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let d = b - a;
+    let len2 = d.x * d.x + d.y * d.y;
+    let len = sqrt(len2);
+    let s = d / len;
     let r1 = f - a;
     let r2 = f - b;
     let x1 = s.x * r1.x + s.y * r1.y;
@@ -222,6 +229,15 @@ fn vortex_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub;
     let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / (x1 - x2);
     return vec2<f32>(psis, psid);
+}
+
+// The vortex integrals: the series when the panel is far, else the closed forms.
+fn vortex_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let t = vortex_far(f, a, b);
+    if t.z != 0.0 {
+        return t.xy;
+    }
+    return vortex_near(f, a, b);
 }
 
 // The uniform vortex and source integrals of the trailing-edge panel a → b at f: (psis, psig).

@@ -13,11 +13,13 @@
 //! - [`batch`]: [`AeroBatch`], the panel method for populations: a node map linear in the
 //!   design offsets, the objective and constraints, the f32 kernel's data and evaluators
 //!   (`shaders/aero.wgsl` and its CPU mirror), and the f64 reference.
+//! - [`bench`]: the `bezchain bench --kernel aero` benchmark.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
 pub mod analysis;
 pub mod batch;
+pub mod bench;
 pub mod contour;
 pub mod design;
 pub mod karman_trefftz;

@@ -1,4 +1,5 @@
-//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid.
+//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, or (`--kernel
+//! aero`) the panel method on populations of aerofoils.
 
 use super::{parse_backend, write_json, Target};
 use anyhow::Result;
@@ -6,9 +7,24 @@ use bezchain::eval::bench::{run as run_bench, BenchOptions};
 use bezchain::eval::Backend;
 use std::path::PathBuf;
 
+/// Which kernel `bench` times.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Kernel {
+    /// The GA fitness kernel (closest-point offsets of a patch grid).
+    Fitness,
+    /// The panel method (shapes per second; --population and --panels apply).
+    Aero,
+}
+
 /// Arguments of `bezchain bench`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
+    /// The kernel to time.
+    #[arg(long, value_enum, default_value = "fitness")]
+    pub kernel: Kernel,
+    /// Panel nodes per shape (`--kernel aero`).
+    #[arg(long, default_value_t = bezchain::aero::DEFAULT_NODES)]
+    pub panels: usize,
     /// Individuals per population.
     #[arg(long, default_value_t = 1024)]
     pub population: usize,
@@ -34,6 +50,22 @@ pub struct Args {
 
 /// Run the benchmark and print its JSON.
 pub fn run(args: Args) -> Result<()> {
+    if args.kernel == Kernel::Aero {
+        if !(8..=bezchain::aero::batch::MAX_GPU_NODES).contains(&args.panels) {
+            return Err(super::usage(format!(
+                "--panels must be between 8 and {}",
+                bezchain::aero::batch::MAX_GPU_NODES
+            )));
+        }
+        let report = bezchain::aero::bench::run(&bezchain::aero::bench::AeroBenchOptions {
+            population: args.population,
+            nodes: args.panels,
+            backend: args.backend,
+            runs: args.runs,
+            ..Default::default()
+        })?;
+        return write_json(&Target::parse(&args.json), &report);
+    }
     let opts = BenchOptions {
         population: args.population,
         points: args.points,

@@ -122,9 +122,10 @@ pub(crate) fn atan2r(y: f32, x: f32) -> f32 {
 /// The shader's `FAR2`: panels farther than 5 lengths take the series.
 const FAR2: f32 = 25.0;
 
-/// The shader's `vortex_terms`: `(psis, psid)`.
+/// The shader's `vortex_terms` in the far field (its Taylor series), and whether the panel is
+/// far: `((psis, psid), far)`. Branch-free, so the lanes run it side by side.
 #[inline(always)]
-fn vortex_terms(f: V2, a: V2, b: V2) -> [f32; 2] {
+fn vortex_far(f: V2, a: V2, b: V2) -> ([f32; 2], bool) {
     let d = sub(b, a);
     let len2 = d[0] * d[0] + d[1] * d[1];
     let len = len2.sqrt();
@@ -136,16 +137,23 @@ fn vortex_terms(f: V2, a: V2, b: V2) -> [f32; 2] {
     let c2 = c * c;
     let y2 = y * y;
     let rho = c2 + y2;
-    if rho > FAR2 * len2 {
-        let g = ln(rho);
-        let g1 = 2.0 * c / rho;
-        let g2 = 2.0 * (y2 - c2) / (rho * rho);
-        let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
-        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-        let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
-        let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
-        return [psis, psid];
-    }
+    let g = ln(rho);
+    let g1 = 2.0 * c / rho;
+    let g2 = 2.0 * (y2 - c2) / (rho * rho);
+    let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
+    let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
+    let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
+    let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
+    ([psis, psid], rho > FAR2 * len2)
+}
+
+/// The shader's `vortex_terms` in the near field (the closed forms).
+#[inline(always)]
+fn vortex_near(f: V2, a: V2, b: V2) -> [f32; 2] {
+    let d = sub(b, a);
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let len = len2.sqrt();
+    let s = [d[0] / len, d[1] / len];
     let r1 = sub(f, a);
     let r2 = sub(f, b);
     let x1 = s[0] * r1[0] + s[1] * r1[1];
@@ -456,13 +464,32 @@ fn aero_block(
     // Assembly: Ψ at every node.
     for i in 0..n {
         let f: [V2; LANES] = std::array::from_fn(|l| node(work, i, l));
+        let (fx, fy) = (work[2 * i], work[2 * i + 1]);
         let mut carry = [0.0f32; LANES];
         for j in 0..n - 1 {
+            // The series for every lane side by side (the nodes' x and y arrive as lanes), the
+            // closed forms where a panel is near.
+            let (ax, ay, bx, by) = (work[2 * j], work[2 * j + 1], work[2 * j + 2], work[2 * j + 3]);
+            let mut psis = [0.0f32; LANES];
+            let mut psid = [0.0f32; LANES];
+            let mut near = [0u32; LANES];
+            for l in 0..LANES {
+                let (t, far) = vortex_far([fx[l], fy[l]], [ax[l], ay[l]], [bx[l], by[l]]);
+                psis[l] = t[0];
+                psid[l] = t[1];
+                near[l] = u32::from(!far);
+            }
+            if near.iter().any(|&x| x != 0) {
+                for l in 0..LANES {
+                    if near[l] != 0 {
+                        [psis[l], psid[l]] = vortex_near(f[l], [ax[l], ay[l]], [bx[l], by[l]]);
+                    }
+                }
+            }
             let mut entry = [0.0f32; LANES];
             for l in 0..LANES {
-                let t = vortex_terms(f[l], node(work, j, l), node(work, j + 1, l));
-                entry[l] = carry[l] + QOPI * (t[0] - t[1]);
-                carry[l] = QOPI * (t[0] + t[1]);
+                entry[l] = carry[l] + QOPI * (psis[l] - psid[l]);
+                carry[l] = QOPI * (psis[l] + psid[l]);
             }
             work[lay.mat(i, j)] = entry;
         }
