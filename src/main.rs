@@ -38,6 +38,9 @@ enum Command {
     Bench(cli::bench::Args),
     /// Inviscid aerodynamics (XFOIL's panel method) of an aerofoil file or curve report.
     Aero(cli::aero::Args),
+    /// Optimise an aerofoil's adapted encoding for an aerodynamic objective (max-cl or
+    /// inverse:TARGET) with the GA or CMA-ES on the panel-method evaluator.
+    Optimise(Box<cli::optimise::Args>),
 }
 
 fn main() -> ExitCode {
@@ -54,6 +57,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::Aero(args) => cli::aero::run(args),
+        Command::Optimise(args) => cli::optimise::run(*args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

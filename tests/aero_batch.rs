@@ -32,7 +32,13 @@ fn space() -> DesignSpace {
         },
     )
     .unwrap();
-    DesignSpace::new(&a.encoding, &Paneling::default(), 0.1).unwrap()
+    DesignSpace::new(
+        &a.encoding,
+        &Paneling::default(),
+        0.1,
+        bezchain::aero::Hold::ChordLine,
+    )
+    .unwrap()
 }
 
 /// Offsets of up to `spread` chords around the start; the first row is the start.

@@ -94,7 +94,12 @@ pub fn run(options: &AeroBenchOptions) -> Result<AeroBenchReport> {
             ..AdaptOptions::default()
         },
     )?;
-    let space = DesignSpace::new(&adapted.encoding, &Paneling::with_nodes(options.nodes), 0.1)?;
+    let space = DesignSpace::new(
+        &adapted.encoding,
+        &Paneling::with_nodes(options.nodes),
+        0.1,
+        super::Hold::ChordLine,
+    )?;
     let batch = AeroBatch::new(
         space.map().clone(),
         4.0,

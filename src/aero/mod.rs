@@ -14,6 +14,8 @@
 //!   design offsets, the objective and constraints, the f32 kernel's data and evaluators
 //!   (`shaders/aero.wgsl` and its CPU mirror), and the f64 reference.
 //! - [`bench`]: the `bezchain bench --kernel aero` benchmark.
+//! - [`optimise`]: [`Optimisation`], the GA and CMA-ES over a design space, every generation
+//!   one call of the panel-method evaluator, with checkpoints.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
@@ -23,6 +25,7 @@ pub mod bench;
 pub mod contour;
 pub mod design;
 pub mod karman_trefftz;
+pub mod optimise;
 pub mod panel;
 pub mod plot;
 
@@ -32,7 +35,8 @@ pub use batch::{
     Objective, TargetCp,
 };
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
-pub use design::DesignSpace;
+pub use design::{DesignSpace, Hold};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
+pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons, Stop};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
 pub use plot::{CpCurve, CpPlot, Outline};

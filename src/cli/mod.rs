@@ -10,6 +10,7 @@ pub mod eval;
 pub mod fit;
 pub mod fit_surface;
 pub mod naca;
+pub mod optimise;
 
 use anyhow::Result;
 use std::io::Write;

@@ -78,7 +78,7 @@ pub fn default_lambda(n: usize) -> usize {
 }
 
 /// Generations of the flatness test: `10 + ⌈30 n / λ⌉`.
-fn flat_window(n: usize, lambda: usize) -> usize {
+pub(crate) fn flat_window(n: usize, lambda: usize) -> usize {
     10 + (30 * n).div_ceil(lambda.max(1))
 }
 
