@@ -9,10 +9,12 @@
 //! **What is held** ([`Hold`]). Pressures, CL and CM do not change when a shape is moved or
 //! scaled, and turning it is a change of the angle of attack: an optimiser left free to do so
 //! drifts (an inverse design matches the target's pressures with a shape shifted and scaled)
-//! or cheats (max-CL turns the nose up). So the trailing-edge midpoint and the x of the
-//! leading edge (the point at the start's leading-edge parameter) stay where the start has
-//! them, and with [`Hold::ChordLine`] the leading edge's y too: three or four linear
-//! conditions on the stored numbers, each solved for one of them (the one it weighs most).
+//! or cheats (max-CL turns the nose up). And an inviscid solver rewards a thick blunt base
+//! with lift that real flow would not give (max-CL opens the trailing edge to a tenth of the
+//! chord). So both trailing-edge points and the x of the leading edge (the point at the
+//! start's leading-edge parameter) stay where the start has them, and with
+//! [`Hold::ChordLine`] the leading edge's y too: linear conditions on the stored numbers, each
+//! independent one solved for one of them (the one it weighs most).
 //! The design variables are the other stored numbers; [`DesignSpace::names`] lists them and
 //! [`DesignSpace::dependents`] the ones that follow.
 //!
@@ -42,10 +44,11 @@ enum Var {
 /// What the design space holds where the start has it (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Hold {
-    /// The trailing-edge midpoint and the leading edge's x: no translation, no scaling; the
-    /// shape may turn (which changes its pressures). For inverse design.
+    /// The trailing-edge points and the leading edge's x: no translation, no scaling, the
+    /// same trailing edge; the shape may turn (which changes its pressures). For inverse
+    /// design.
     Similarity,
-    /// The trailing-edge midpoint and the leading edge: the chord line. For objectives that
+    /// The trailing-edge points and the leading edge: the chord line too. For objectives that
     /// turning would improve (max CL).
     ChordLine,
 }
@@ -93,22 +96,22 @@ impl DesignSpace {
         let scale = base.iter().fold(chord, |acc, p| acc.max(p.abs().max_element()));
         // Each stored number's effect on the nodes and on the chord line (leading edge, trailing
         // edge midpoint), checked to be linear.
-        let probe = |i: usize, d: f64| -> Result<(Vec<DVec2>, [f64; 4])> {
+        // Rows: leading edge x and y, the two trailing-edge points' x and y.
+        let line = |c: &CurveChain<DVec2>| {
+            let (le, a, b) = (c.eval(t_le), c.eval(0.0), c.eval(1.0));
+            [le.x, le.y, a.x, a.y, b.x, b.y]
+        };
+        let probe = |i: usize, d: f64| -> Result<(Vec<DVec2>, [f64; 6])> {
             let mut e = start.clone();
             apply(&mut e, stored[i], d);
             let c = chain_of(&e)?;
             let nodes = params.iter().map(|&t| c.eval(t)).collect();
-            let (le, te) = (c.eval(t_le), 0.5 * (c.eval(0.0) + c.eval(1.0)));
-            Ok((nodes, [le.x, le.y, te.x, te.y]))
+            Ok((nodes, line(&c)))
         };
-        let line0 = {
-            let (le, te) = (chain.eval(t_le), 0.5 * (chain.eval(0.0) + chain.eval(1.0)));
-            [le.x, le.y, te.x, te.y]
-        };
+        let line0 = line(&chain);
         let mut cols = Vec::with_capacity(m);
-        let mut conditions = vec![vec![0.0; m]; 4];
-        // Rows: leading edge x, leading edge y, trailing-edge midpoint x and y.
-        let held = [true, hold == Hold::ChordLine, true, true];
+        let mut conditions = vec![vec![0.0; m]; 6];
+        let held = [true, hold == Hold::ChordLine, true, true, true, true];
         for i in 0..m {
             let (one, l1) = probe(i, 1.0)?;
             let (two, _) = probe(i, 2.0)?;
@@ -124,7 +127,7 @@ impl DesignSpace {
                     "the nodes are not linear in stored number {i} (off by {off:.3e})"
                 )));
             }
-            for r in 0..4 {
+            for r in 0..6 {
                 conditions[r][i] = l1[r] - line0[r];
             }
             cols.push(col);
@@ -335,11 +338,12 @@ mod tests {
         .unwrap();
         let stored = a.encoding.count().total - a.encoding.count().breaks;
         let similar = DesignSpace::new(&a.encoding, &Paneling::default(), 0.1, Hold::Similarity).unwrap();
-        assert_eq!(similar.dependents().len(), 3, "{:?}", similar.dependents());
+        // The rule's two numbers and the two end y values.
+        assert_eq!(similar.dependents().len(), 4, "{:?}", similar.dependents());
         let space = DesignSpace::new(&a.encoding, &Paneling::default(), 0.1, Hold::ChordLine).unwrap();
-        // The aerofoil rule's numbers and two y values keep the chord line.
+        // And the y nearest the leading edge.
         assert_eq!(space.dim() + space.dependents().len(), stored);
-        assert_eq!(space.dependents().len(), 4, "{:?}", space.dependents());
+        assert_eq!(space.dependents().len(), 5, "{:?}", space.dependents());
         let delta: Vec<f64> = (0..space.dim())
             .map(|i| 0.01 * ((i as f64) * 1.7).sin())
             .collect();
@@ -352,7 +356,8 @@ mod tests {
         let (c0, c1) = (space.chain(space.start()).unwrap(), space.chain(&delta).unwrap());
         let t_le = crate::aero::leading_edge_param(&c0);
         assert!((c0.eval(t_le) - c1.eval(t_le)).length() < 1e-12);
-        let te = |c: &CurveChain<DVec2>| 0.5 * (c.eval(0.0) + c.eval(1.0));
-        assert!((te(&c0) - te(&c1)).length() < 1e-12);
+        for t in [0.0, 1.0] {
+            assert!((c0.eval(t) - c1.eval(t)).length() < 1e-12);
+        }
     }
 }

@@ -349,10 +349,10 @@ struct OptimiseReport {
     optimise: OptimiseBlock,
 }
 
-const CHORD_LINE: &str = "the trailing-edge midpoint and the leading edge's x stay where the start has them \
-(pressures do not change when a shape moves or scales), and for max-cl the leading edge's y too (turning the \
-shape would change the angle of attack): the dependents are the stored numbers solved from those conditions, \
-the variables the others";
+const CHORD_LINE: &str = "both trailing-edge points and the leading edge's x stay where the start has them \
+(pressures do not change when a shape moves or scales, and an inviscid solver rewards a thick blunt base with \
+lift real flow would not give), and for max-cl the leading edge's y too (turning the shape would change the \
+angle of attack): the dependents are the stored numbers solved from those conditions, the variables the others";
 
 const CONSTRAINT_HANDLING: &str = "penalties ranked as Deb's rules: a valid shape meeting the constraints \
 scores its objective (max-cl: −CL; inverse: the arclength-weighted mean of (Cp − Cp_target)²); a valid shape \
