@@ -108,6 +108,7 @@ const S_SCS: u32 = 9u;
 const S_SDS: u32 = 10u;
 const S_FB: u32 = 11u;
 const S_NB: u32 = 13u;
+const S_LE_AFTER: u32 = 15u;
 
 const PENALTY_GEOMETRY: f32 = 1e6;
 const PENALTY_CONSTRAINT: f32 = 1e3;
@@ -422,6 +423,8 @@ fn phase_nodes() {
     work[scalar(S_FB + 1u)] = fb.y;
     work[scalar(S_NB)] = -bis.y;
     work[scalar(S_NB + 1u)] = bis.x;
+    // The leading edge lies after node kle: kle is on the upper surface.
+    work[scalar(S_LE_AFTER)] = select(0.0, 1.0, sv > 0.0);
 }
 
 // Phase 1: Ψ at nodes first..last (rows); with the last row, the sharp edge's bisector row
@@ -551,6 +554,7 @@ fn phase_finish() {
         return;
     }
     let kle = u32(work[scalar(S_KLE)]);
+    let le_after = work[scalar(S_LE_AFTER)] != 0.0;
     let le = scalar2(S_LE);
     let te = scalar2(S_TE);
     let chord = work[scalar(S_CHORD)];
@@ -668,7 +672,8 @@ fn phase_finish() {
             let xi = min(sqrt(xk), 1.0) * f32(ns - 1u);
             let lo = min(u32(xi), ns - 2u);
             let fr = xi - f32(lo);
-            let side = select(ns, 0u, k <= kle);
+            let upper = k < kle || (k == kle && le_after);
+            let side = select(ns, 0u, upper);
             let ct = target_cp[side + lo] + fr * (target_cp[side + lo + 1u] - target_cp[side + lo]);
             let g = ca * work[rhs(0u, k)] + sa * work[rhs(1u, k)];
             let dc = (1.0 - g * g) - ct;

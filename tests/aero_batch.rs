@@ -55,8 +55,8 @@ fn population(space: &DesignSpace, size: usize, spread: f64, seed: u64) -> Vec<f
         .collect()
 }
 
-/// Rows that are bad on purpose: NaN, infinity, one surface pushed through the other, a huge
-/// offset that folds the contour.
+/// Rows that are bad on purpose: NaN, infinity, one surface pushed through the other, offsets
+/// so large that the chord is no longer a finite f32.
 fn degenerate(space: &DesignSpace) -> Vec<f32> {
     let n = space.dim();
     let mut rows = vec![0.0f32; 4 * n];
@@ -69,9 +69,8 @@ fn degenerate(space: &DesignSpace) -> Vec<f32> {
     for (j, &i) in ys.iter().enumerate() {
         rows[2 * n + i] = if j < half { -0.2 } else { 0.2 };
     }
-    // The leading-edge x of the rule far behind the trailing edge: the surfaces fold.
-    if let Some(i) = names.iter().position(|s| s == "rule0") {
-        rows[3 * n + i] = 3.0;
+    for v in &mut rows[3 * n..] {
+        *v = 1e30;
     }
     rows
 }

@@ -166,6 +166,9 @@ impl NodeMap {
 
 /// The pressure distribution to match: Cp against `ξ = √(x/c)` on each surface (from the
 /// leading edge), [`TARGET_SAMPLES`] even steps of ξ from 0 to 1, upper surface then lower.
+/// A node belongs to the upper surface when it lies before the leading edge
+/// ([`Chord::upper`]: the refined leading edge, so that the assignment changes only where a
+/// node passes the leading edge itself, ξ = 0, and the objective stays continuous).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TargetCp {
     /// `2 × TARGET_SAMPLES` values.
@@ -180,10 +183,17 @@ impl TargetCp {
         let cp = solution.cp(alpha);
         let dir = (chord.te - chord.le) / chord.length;
         let xi = |p: DVec2| ((p - chord.le).dot(dir) / chord.length).max(0.0).sqrt().min(1.0);
-        let k = chord.le_node;
         // Each surface from the leading edge: (ξ, Cp), ξ increasing.
-        let upper: Vec<(f64, f64)> = (0..=k).rev().map(|i| (xi(nodes[i]), cp[i])).collect();
-        let lower: Vec<(f64, f64)> = (k..nodes.len()).map(|i| (xi(nodes[i]), cp[i])).collect();
+        let n = nodes.len();
+        let upper: Vec<(f64, f64)> = (0..n)
+            .rev()
+            .filter(|&i| chord.upper(i))
+            .map(|i| (xi(nodes[i]), cp[i]))
+            .collect();
+        let lower: Vec<(f64, f64)> = (0..n)
+            .filter(|&i| !chord.upper(i))
+            .map(|i| (xi(nodes[i]), cp[i]))
+            .collect();
         let mut table = Vec::with_capacity(2 * TARGET_SAMPLES);
         for side in [&upper, &lower] {
             for m in 0..TARGET_SAMPLES {
@@ -520,7 +530,7 @@ fn inverse_objective(sol: &PanelSolution, alpha: f64, target: &TargetCp) -> f64 
         let next = (k + 1).min(n - 1);
         let w = 0.5 * ((nodes[k] - nodes[prev]).length() + (nodes[next] - nodes[k]).length());
         let x = ((nodes[k] - chord.le).dot(dir) / chord.length).max(0.0);
-        let ct = target.at(k <= chord.le_node, x.sqrt().min(1.0));
+        let ct = target.at(chord.upper(k), x.sqrt().min(1.0));
         sum += w * (cp[k] - ct).powi(2);
         wsum += w;
     }

@@ -122,6 +122,7 @@ impl KarmanTrefftz {
             le,
             te,
             le_node: 0,
+            le_after: false,
             length: (te - le).length(),
         }
     }

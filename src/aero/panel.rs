@@ -54,8 +54,11 @@ pub struct Chord {
     pub le: DVec2,
     /// The trailing-edge midpoint.
     pub te: DVec2,
-    /// Index of the node nearest the leading edge.
+    /// Index of the node farthest from the trailing-edge midpoint.
     pub le_node: usize,
+    /// Whether the leading edge (the parabola's vertex) lies after that node in node order:
+    /// node `le_node` then belongs to the first (upper) surface.
+    pub le_after: bool,
     /// `|te − le|`, model units.
     pub length: f64,
 }
@@ -105,8 +108,15 @@ impl Chord {
             le,
             te,
             le_node: k,
+            le_after: s > 0.0,
             length: (te - le).length(),
         }
+    }
+
+    /// Whether node `k` lies on the first (upper) surface: before the leading edge.
+    #[must_use]
+    pub fn upper(&self, k: usize) -> bool {
+        k < self.le_node || (k == self.le_node && self.le_after)
     }
 
     /// The moment reference: a quarter of the chord behind the leading edge.
