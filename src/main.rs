@@ -22,7 +22,7 @@ enum Command {
     Fit(Box<cli::fit::Args>),
     /// The paper's optimiser comparison on its three NACA 4413 cases, as one table.
     Compare(cli::compare::Args),
-    /// Loft a blade definition (JSON) into a 3D point cloud.
+    /// Loft a blade definition (JSON, windIO v1/v2 or AeroDyn 15) into a 3D point cloud.
     Blade(cli::blade::Args),
     /// Find the chain with the fewest stored scalars whose offsets meet a tolerance (exit
     /// status 1, reports still written, when no layout meets it).
