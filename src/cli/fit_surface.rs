@@ -74,6 +74,8 @@ pub struct Args {
     /// Write the JSON report here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
     /// Write the fitted surface as a Wavefront OBJ mesh here.
     #[arg(long)]
     pub obj: Option<PathBuf>,
@@ -258,6 +260,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     // Outputs whose folder is missing are refused now, not after a long fit (and not after
     // some of the other outputs were written).
+    args.cad.check()?;
     for (flag, path) in [
         ("--json", &args.json),
         ("--obj", &args.obj),
@@ -383,6 +386,10 @@ pub fn run(args: Args) -> Result<()> {
         if let Some(path) = &args.svg {
             outputs.push((Target::parse(path), render_svg(&fit.grid, &ropts)?.into_bytes()));
         }
+    }
+    if args.cad.wanted() {
+        let shape = bezchain::export::CadShape::from_surface_report(&rep)?;
+        outputs.extend(args.cad.files(&[shape], &name)?);
     }
     for (target, bytes) in &outputs {
         target.write(bytes)?;
