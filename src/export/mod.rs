@@ -12,8 +12,8 @@ pub use cad::{distinct_knots, utc_now, write_cad, BsplineCurve, BsplineSurface, 
 pub use iges::iges_text;
 pub use mesh::SurfaceMesh;
 pub use render::{
-    render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT,
-    GENERATED_POINT, NET, SURFACE,
+    local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
+    DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
 pub use report::{CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
