@@ -205,13 +205,15 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
     let doc: Doc = serde_saphyr::from_str(text).map_err(|e| {
         let line = e.location().map_or(1, |l| l.line());
         let message = e.without_snippet().to_string();
+        let what = if text.lines().any(|l| l.starts_with("components:")) {
+            "not a windIO blade"
+        } else {
+            "not a blade file (JSON, windIO YAML or an AeroDyn 15 primary file)"
+        };
         at(
             path,
             line,
-            format!(
-                "not a blade file (JSON, windIO YAML or an AeroDyn 15 primary file): {}",
-                message.lines().next().unwrap_or("").trim()
-            ),
+            format!("{what}: {}", message.lines().next().unwrap_or("").trim()),
         )
     })?;
     let bad = |message: String| Error::Input {
@@ -242,6 +244,8 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
         axis: [Checked; 3],
         /// (span position, label, line)
         placed: Vec<(f64, String, u64)>,
+        /// How the span positions of the aerofoils are named in messages.
+        placed_field: String,
     }
     let shape = match (blade.outer_shape_bem, blade.outer_shape) {
         (Some(v1), _) => {
@@ -285,6 +289,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
                     check(&v1.reference_axis.y, &format!("{p}.reference_axis.y"), path)?,
                     check(&v1.reference_axis.z, &format!("{p}.reference_axis.z"), path)?,
                 ],
+                placed_field: format!("{p}.airfoil_position.grid"),
                 placed: g
                     .iter()
                     .zip(labels)
@@ -314,6 +319,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
                     check(&axis.y, "components.blade.reference_axis.y", path)?,
                     check(&axis.z, "components.blade.reference_axis.z", path)?,
                 ],
+                placed_field: format!("{p}.airfoils[..].spanwise_position"),
                 placed: v2
                     .airfoils
                     .iter()
@@ -346,8 +352,8 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
                 path,
                 w[1].2,
                 format!(
-                    "aerofoil '{}': the span does not increase ({} after {})",
-                    w[1].1, w[1].0, w[0].0
+                    "field '{}': the span does not increase ({} after {}, aerofoil '{}')",
+                    shape.placed_field, w[1].0, w[0].0, w[1].1
                 ),
             ));
         }
