@@ -266,7 +266,7 @@ pub fn local_offsets(mesh: &SurfaceMesh, offsets: &[([f64; 2], f64)]) -> Option<
         let (i, j) = (cell(&us, u), cell(&vs, v));
         for (a, b) in [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)] {
             let slot = &mut value[a * cols + b];
-            if !(*slot >= e) {
+            if slot.is_nan() || *slot < e {
                 *slot = e;
             }
         }

@@ -614,7 +614,7 @@ pub(crate) fn unit_contour(mut points: Vec<DVec2>) -> std::result::Result<(Vec<D
         ));
     }
     let area = twice_signed_area(&points);
-    if !(area.abs() > 1e-12) {
+    if area.abs() <= 1e-12 {
         return Err("the contour encloses no area (is it a camber line or one surface only?)".into());
     }
     let reversed = area < 0.0;

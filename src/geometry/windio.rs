@@ -347,7 +347,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
         )));
     }
     for w in shape.placed.windows(2) {
-        if !(w[1].0 > w[0].0) {
+        if w[1].0.partial_cmp(&w[0].0) != Some(std::cmp::Ordering::Greater) {
             return Err(at(
                 path,
                 w[1].2,
@@ -501,7 +501,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
         return Err(bad(format!("field '{p}.chord': at least 2 stations are needed")));
     }
     for w in stations.windows(2) {
-        if !(w[1].radius > w[0].radius) {
+        if w[1].radius.partial_cmp(&w[0].radius) != Some(std::cmp::Ordering::Greater) {
             return Err(at(
                 path,
                 shape.axis[2].line,
