@@ -502,7 +502,7 @@ fn surface_and_adapt_surface_reports_regenerate() {
         .as_array()
         .unwrap()
         .iter()
-        .flat_map(|r| points(r))
+        .flat_map(points)
         .collect();
     let gap = gap(&net, &stored);
     assert!(gap < 1e-12, "regenerated control net differs by {gap:e}");
