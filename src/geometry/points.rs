@@ -217,9 +217,9 @@ enum Want {
 struct Header {
     /// Number of fields every data row must have.
     fields: usize,
-    /// The separator of a delimited header (`,` or `;`): its rows are split on it alone, so
-    /// text columns may hold blanks. `None` for a header separated by blanks.
-    sep: Option<u8>,
+    /// A delimited header (fields separated by `,` or `;`): its rows are split on those alone,
+    /// so text columns may hold blanks. False for a header separated by blanks.
+    delimited: bool,
     /// The column names, lower case.
     names: Vec<String>,
     /// Positions of x, y and (if present) z.
@@ -252,10 +252,10 @@ fn column_name(field: &str) -> String {
     unquoted.trim().to_ascii_lowercase()
 }
 
-/// The first `,` or `;` of `line` outside double quotes.
-fn delimiter(line: &str) -> Option<u8> {
+/// True when `line` has a `,` or `;` outside double quotes.
+fn is_delimited(line: &str) -> bool {
     let mut quoted = false;
-    line.bytes().find(|&b| {
+    line.bytes().any(|b| {
         if b == b'"' {
             quoted = !quoted;
         }
@@ -263,13 +263,14 @@ fn delimiter(line: &str) -> Option<u8> {
     })
 }
 
-/// Split a delimited line on `sep` alone, fields trimmed of blanks. A field that starts with a
-/// double quote runs to its closing quote (`""` inside is a quote) and is returned without the
-/// quotes, so it may hold separators.
-fn split_delimited<'a>(line: &'a str, sep: u8, out: &mut Vec<&'a str>) -> std::result::Result<(), String> {
+/// Split a delimited line on `,` and `;` alone, fields trimmed of blanks. A field that starts
+/// with a double quote runs to its closing quote (`""` inside is a quote) and is returned
+/// without the quotes, so it may hold separators.
+fn split_delimited<'a>(line: &'a str, out: &mut Vec<&'a str>) -> std::result::Result<(), String> {
     out.clear();
     let b = line.as_bytes();
     let blank = |c: u8| c == b' ' || c == b'\t';
+    let is_sep = |c: u8| c == b',' || c == b';';
     let mut i = 0;
     loop {
         while i < b.len() && blank(b[i]) {
@@ -293,12 +294,12 @@ fn split_delimited<'a>(line: &'a str, sep: u8, out: &mut Vec<&'a str>) -> std::r
             while i < b.len() && blank(b[i]) {
                 i += 1;
             }
-            if i < b.len() && b[i] != sep {
+            if i < b.len() && !is_sep(b[i]) {
                 return Err(format!("text after a closing quote in '{}'", io::excerpt(line)));
             }
         } else {
             let start = i;
-            while i < b.len() && b[i] != sep {
+            while i < b.len() && !is_sep(b[i]) {
                 i += 1;
             }
             out.push(line[start..i].trim_matches(|c| c == ' ' || c == '\t'));
@@ -319,8 +320,7 @@ impl Header {
     fn classify(content: &str) -> FirstLine {
         let not_number = |f: &str| io::parse_number(f.trim()) == Err(BadNumber::NotNumeric);
         let mut fields = Vec::new();
-        let sep = delimiter(content);
-        let delimited = sep.is_some_and(|s| split_delimited(content, s, &mut fields).is_ok());
+        let delimited = is_delimited(content) && split_delimited(content, &mut fields).is_ok();
         if !delimited {
             let plain = |f: &&str| {
                 f.chars()
@@ -362,7 +362,7 @@ impl Header {
         }
         FirstLine::Header(Header {
             fields: names.len(),
-            sep: if delimited { sep } else { None },
+            delimited,
             coords,
             section: find(&["section", "station"]),
             index: find(&["index", "point"]),
@@ -392,21 +392,23 @@ impl Header {
         fields: &mut Vec<&'a str>,
         coords: &mut Vec<f64>,
     ) -> std::result::Result<(Option<f64>, Option<f64>), String> {
-        match self.sep {
-            Some(sep) => {
-                split_delimited(content, sep, fields)?;
-                // A single trailing separator is tolerated.
-                if fields.len() == self.fields + 1 && fields.last().is_some_and(|f| f.is_empty()) {
-                    fields.pop();
-                }
+        if self.delimited {
+            split_delimited(content, fields)?;
+            // A single trailing separator is tolerated.
+            if fields.len() == self.fields + 1 && fields.last().is_some_and(|f| f.is_empty()) {
+                fields.pop();
             }
-            None => {
-                io::split_fields(content, fields)?;
-            }
+        } else {
+            io::split_fields(content, fields)?;
         }
         if fields.len() != self.fields {
+            let empty = if fields.iter().any(|f| f.is_empty()) {
+                format!("empty field in '{}': ", io::excerpt(content))
+            } else {
+                String::new()
+            };
             return Err(format!(
-                "{} fields, but the header names {}",
+                "{empty}{} fields, but the header names {}",
                 fields.len(),
                 self.fields
             ));
@@ -952,8 +954,8 @@ mod tests {
             l.points,
             [DVec2::new(2.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)]
         );
-        // Semicolons let a text column hold commas and blanks.
-        let l = parse_curve("name; x; y\nNACA 4413, upper; 1; 0\nle; 0; 0\n", p()).unwrap();
+        // Text columns may hold blanks, and commas in quotes.
+        let l = parse_curve("name; x; y\n\"NACA 4413, upper\"; 1; 0\nle, 0; 0\n", p()).unwrap();
         assert_eq!(l.points, [DVec2::new(1.0, 0.0), DVec2::ZERO]);
     }
 
