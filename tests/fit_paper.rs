@@ -5,7 +5,8 @@ mod common;
 
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::fit::{alternate, fit_curve, CurveProblem, FitOptions, Method, Metric};
-use common::{independent_offsets, naca4413};
+use common::check::independent_offsets;
+use common::naca4413;
 
 /// (degree, segments, design points, expanded points, the paper's total offset).
 const CASES: [(usize, usize, usize, usize, f64); 3] = [

@@ -3,7 +3,7 @@
 //! extraction of the expanded Bezier control points.
 //!
 //! A join of continuity `Ck` in a chain of degree `d` is an interior knot of multiplicity
-//! `d - k` (DESIGN.md §2). The paper's chains have `k = 1` at every join; a join with `k > 1`
+//! `d - k` (`docs/ARCHITECTURE.md` §2.2). The paper's chains have `k = 1` at every join; a join with `k > 1`
 //! generates more of its neighbouring control points and so stores fewer. The expanded
 //! Bezier control points are the B-spline's after every interior knot is raised to
 //! multiplicity `d` (Boehm's insertion), so any such chain is also a C1 chain of the same

@@ -1,5 +1,5 @@
 //! Chains of Bezier curves and grids of Bezier patches whose joins are generated from their
-//! neighbours (DESIGN.md §2): the layout, the sparse extraction map `expanded = E · design`,
+//! neighbours (`docs/ARCHITECTURE.md` §2.2, §2.3): the layout, the sparse extraction map `expanded = E · design`,
 //! `CurveChain` and `PatchGrid`.
 
 mod curve_chain;
