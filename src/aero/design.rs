@@ -213,6 +213,7 @@ impl DesignSpace {
     }
 
     /// The nodes at offsets `delta` by evaluating the chain (the node map's definition).
+    #[cfg(test)]
     fn nodes_direct(&self, delta: &[f64]) -> Result<Vec<DVec2>> {
         let chain = self.chain(delta)?;
         Ok(self.params.iter().map(|&t| chain.eval(t)).collect())
