@@ -9,7 +9,7 @@
 //! the distance to *some* point of the curve, so never below the true closest distance, and
 //! a tolerance met by them is met by the true offsets.
 
-use super::spline::{BezierForm, SplineLayout, MAX_SUPPORT};
+use crate::chain::{ChainLayout, MAX_SUPPORT};
 use crate::error::{Error, Result};
 use glam::DVec2;
 
@@ -34,7 +34,7 @@ pub(crate) enum XRule {
 /// A candidate parameterisation: the spline layout and how x is stored.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Model {
-    pub layout: SplineLayout,
+    pub layout: ChainLayout,
     pub rule: XRule,
 }
 
@@ -43,7 +43,7 @@ pub(crate) const LE_BREAK: f64 = 0.5;
 
 impl Model {
     /// A model with free x.
-    pub fn free(layout: SplineLayout) -> Self {
+    pub fn free(layout: ChainLayout) -> Self {
         Model {
             layout,
             rule: XRule::Free,
@@ -52,7 +52,7 @@ impl Model {
 
     /// A model with the aerofoil rule (one trailing-edge x for both surfaces with
     /// `shared_te`); the layout must have a C1 (or C0) break at 1/2 and degree 2 or more.
-    pub fn aerofoil(layout: SplineLayout, shared_te: bool) -> Result<Self> {
+    pub fn aerofoil(layout: ChainLayout, shared_te: bool) -> Result<Self> {
         let d = layout.degree();
         let le = layout.breaks().iter().position(|&b| b == LE_BREAK);
         match le {
@@ -73,20 +73,20 @@ impl Model {
     /// Number of x unknowns.
     pub fn x_unknowns(&self) -> usize {
         match &self.rule {
-            XRule::Free => self.layout.coeff_count(),
+            XRule::Free => self.layout.design_count(),
             XRule::Aerofoil { shared_te, .. } => 3 - usize::from(*shared_te),
         }
     }
 
     /// Number of unknowns: x unknowns then one y per design point.
     pub fn unknowns(&self) -> usize {
-        self.x_unknowns() + self.layout.coeff_count()
+        self.x_unknowns() + self.layout.design_count()
     }
 
     /// The design points (B-spline coefficients) from the unknowns.
     pub fn coeffs(&self, z: &[f64]) -> Vec<DVec2> {
         let mx = self.x_unknowns();
-        let n = self.layout.coeff_count();
+        let n = self.layout.design_count();
         (0..n)
             .map(|i| {
                 let x = match &self.rule {
@@ -151,11 +151,11 @@ impl Model {
 /// B-spline coefficients of the rule's three piecewise quadratics, by blossoming (the
 /// coefficient of basis function `i` is the blossom of the polynomial piece at the knots
 /// `τ_{i+1} … τ_{i+d}`; the pieces agree wherever the window spans the leading edge).
-fn rule_rows(layout: &SplineLayout) -> Vec<[f64; 3]> {
+fn rule_rows(layout: &ChainLayout) -> Vec<[f64; 3]> {
     let d = layout.degree();
     let knots = layout.knots();
     let pairs = (d * (d - 1) / 2) as f64;
-    (0..layout.coeff_count())
+    (0..layout.design_count())
         .map(|i| {
             let args = &knots[i + 1..=i + d];
             // Blossom of 4 (t - 1/2)²: 4 Σ_{a<b} (x_a - 1/2)(x_b - 1/2) / C(d, 2).
@@ -179,8 +179,6 @@ fn rule_rows(layout: &SplineLayout) -> Vec<[f64; 3]> {
 pub(crate) struct State {
     pub z: Vec<f64>,
     pub coeffs: Vec<DVec2>,
-    /// The curve in Bezier form.
-    pub curve: BezierForm,
     pub params: Vec<f64>,
     /// Distance of each data point to the curve at its parameter (an upper bound of the true
     /// closest distance).
@@ -360,9 +358,9 @@ fn cholesky_solve(a: &[f64], b: &[f64], m: usize) -> Option<Vec<f64>> {
 
 /// The local foot point of `q` from `t0`: Newton's method on the squared distance, clamped to
 /// `[0, 1]`, each step accepted only if the distance does not grow. Returns `(t, distance²)`.
-pub(crate) fn foot(curve: &BezierForm, q: DVec2, t0: f64) -> (f64, f64) {
+pub(crate) fn foot(layout: &ChainLayout, coeffs: &[DVec2], q: DVec2, t0: f64) -> (f64, f64) {
     let mut t = t0.clamp(0.0, 1.0);
-    let (mut p, mut d1, mut d2) = curve.jet(t);
+    let [mut p, mut d1, mut d2] = layout.jet(coeffs, t);
     let mut e = (p - q).length_squared();
     for _ in 0..16 {
         let r = p - q;
@@ -387,7 +385,7 @@ pub(crate) fn foot(curve: &BezierForm, q: DVec2, t0: f64) -> (f64, f64) {
             if tn == t {
                 break;
             }
-            let (pn, d1n, d2n) = curve.jet(tn);
+            let [pn, d1n, d2n] = layout.jet(coeffs, tn);
             let en = (pn - q).length_squared();
             if en <= e {
                 moved = (tn - t).abs() > 1e-14;
@@ -406,16 +404,16 @@ pub(crate) fn foot(curve: &BezierForm, q: DVec2, t0: f64) -> (f64, f64) {
 
 /// Project every parameter (but the anchored ends) to its local foot point; returns the
 /// distances.
-fn project(curve: &BezierForm, data: &Data<'_>, params: &mut [f64]) -> Vec<f64> {
+fn project(layout: &ChainLayout, coeffs: &[DVec2], data: &Data<'_>, params: &mut [f64]) -> Vec<f64> {
     let n = data.points.len();
     let mut dist = vec![0.0; n];
     for j in 0..n {
         let q = data.points[j];
         if data.anchored(j) {
             params[j] = if j == 0 { 0.0 } else { 1.0 };
-            dist[j] = (curve.eval(params[j]) - q).length();
+            dist[j] = (layout.eval(coeffs, params[j]) - q).length();
         } else {
-            let (t, e) = foot(curve, q, params[j]);
+            let (t, e) = foot(layout, coeffs, q, params[j]);
             params[j] = t;
             dist[j] = e.sqrt();
         }
@@ -436,7 +434,8 @@ pub(crate) fn linear_fit(
     let mut ys = [(0usize, 0.0); MAX_SUPPORT];
     let d = model.layout.degree();
     for (j, (&q, &t)) in data.points.iter().zip(params).enumerate() {
-        let (first, value) = model.layout.basis_values(t);
+        let b = model.layout.basis(t, 0);
+        let (first, value) = (b.first, b.value);
         let w = weights.map_or(1.0, |w| w[j]);
         let nx = model.x_entries(first, &value, &mut xs);
         for a in 0..=d {
@@ -447,19 +446,17 @@ pub(crate) fn linear_fit(
     }
     let centroid = data.points.iter().fold(DVec2::ZERO, |a, &p| a + p) / data.points.len() as f64;
     let mut fallback = vec![centroid.x; mx];
-    fallback.extend(std::iter::repeat_n(centroid.y, model.layout.coeff_count()));
+    fallback.extend(std::iter::repeat_n(centroid.y, model.layout.design_count()));
     normal.solve(&fallback)
 }
 
 /// A state from unknowns and starting parameters, projected.
 pub(crate) fn state(model: &Model, data: &Data<'_>, z: Vec<f64>, mut params: Vec<f64>) -> State {
     let coeffs = model.coeffs(&z);
-    let curve = BezierForm::new(&model.layout, &coeffs);
-    let dist = project(&curve, data, &mut params);
+    let dist = project(&model.layout, &coeffs, data, &mut params);
     State {
         z,
         coeffs,
-        curve,
         params,
         dist,
     }
@@ -483,13 +480,14 @@ fn tdm_solve(model: &Model, data: &Data<'_>, s: &State, weights: &[f64], lambda:
     let mut ys = [(0usize, 0.0); MAX_SUPPORT];
     for (j, &q) in data.points.iter().enumerate() {
         let t = s.params[j];
-        let (first, value) = layout.basis_values(t);
+        let b = layout.basis(t, 0);
+        let (first, value) = (b.first, b.value);
         let nx = model.x_entries(first, &value, &mut xs);
         for a in 0..=d {
             ys[a] = (mx + first + a, value[a]);
         }
         let w = weights[j];
-        let tangent = s.curve.tangent(t);
+        let tangent = layout.jet(&s.coeffs, t)[1];
         let end = t <= 0.0 || t >= 1.0;
         // The point's 2 x 2 weight: w (n nᵀ + tw t tᵀ), or w I for its full residual.
         let weight = if data.anchored(j) || end || tangent.length_squared() == 0.0 {
@@ -655,10 +653,10 @@ mod tests {
                 1 => vec![0.0, 0.5, 1.0],
                 _ => vec![0.0, 0.2, 0.5, 0.9, 1.0],
             };
-            let l = SplineLayout::new(d, breaks, orders).unwrap();
+            let l = ChainLayout::with_orders(d, breaks, orders).unwrap();
             let m = Model::aerofoil(l.clone(), false).unwrap();
             let theta = [0.01, 1.02, 0.98];
-            let z = m.unknowns_of(&vec![DVec2::ZERO; l.coeff_count()], Some(&theta));
+            let z = m.unknowns_of(&vec![DVec2::ZERO; l.design_count()], Some(&theta));
             let c = m.coeffs(&z);
             for i in 0..=200 {
                 let t = i as f64 / 200.0;
@@ -671,16 +669,16 @@ mod tests {
                 assert!((x - expect).abs() < 1e-14, "d={d} t={t}: {x} vs {expect}");
             }
         }
-        let no_le = SplineLayout::with_order(3, vec![0.0, 0.4, 1.0], 1).unwrap();
+        let no_le = ChainLayout::with_order(3, vec![0.0, 0.4, 1.0], 1).unwrap();
         assert!(Model::aerofoil(no_le, false).is_err());
-        let c2_le = SplineLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
+        let c2_le = ChainLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
         assert!(Model::aerofoil(c2_le, true).is_err());
     }
 
     #[test]
     fn recovers_a_curve_sampled_off_its_parameters() {
-        let l = SplineLayout::new(4, vec![0.0, 0.35, 0.6, 1.0], vec![3, 1]).unwrap();
-        let truth: Vec<DVec2> = (0..l.coeff_count())
+        let l = ChainLayout::with_orders(4, vec![0.0, 0.35, 0.6, 1.0], vec![3, 1]).unwrap();
+        let truth: Vec<DVec2> = (0..l.design_count())
             .map(|i| DVec2::new(i as f64 * 0.2, 0.3 * (1.3 * i as f64).sin()))
             .collect();
         let pts: Vec<DVec2> = (0..150)
@@ -695,7 +693,7 @@ mod tests {
 
     #[test]
     fn minimax_lowers_the_largest_distance() {
-        let l = SplineLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
+        let l = ChainLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
         let pts: Vec<DVec2> = (0..120)
             .map(|i| {
                 let a = i as f64 / 119.0 * 3.0;

@@ -6,8 +6,8 @@
 
 use super::encoding::{per_side_breaks, Breaks, Encoding, XStore};
 use super::engine::{self, Data, Effort, Model, State, XRule, LE_BREAK};
-use super::spline::SplineLayout;
 use super::{AdaptOptions, FamilyTrace, Norm};
+use crate::chain::ChainLayout;
 use glam::DVec2;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -104,7 +104,7 @@ impl Family {
     /// The model of this family over `breaks` at `degree`.
     fn model(&self, degree: usize, breaks: Vec<f64>) -> Option<Model> {
         let orders = self.orders(degree, &breaks);
-        let layout = SplineLayout::new(degree, breaks, orders).ok()?;
+        let layout = ChainLayout::with_orders(degree, breaks, orders).ok()?;
         if self.aerofoil {
             Model::aerofoil(layout, self.shared_te).ok()
         } else {
@@ -113,8 +113,8 @@ impl Family {
     }
 
     /// Stored scalars of a layout of this family.
-    fn count(&self, layout: &SplineLayout) -> usize {
-        let n = layout.coeff_count();
+    fn count(&self, layout: &ChainLayout) -> usize {
+        let n = layout.design_count();
         let stored_breaks = match self.breaks {
             BreakKind::Uniform => 0,
             BreakKind::Stored => layout.segments() - 1 - usize::from(self.aerofoil),
@@ -572,7 +572,7 @@ impl<'a> Search<'a> {
 
     /// True when `model` has more design points or stored scalars than the data allow.
     fn over_limit(&self, fam: Family, model: &Model) -> bool {
-        model.layout.coeff_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
+        model.layout.design_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
     }
 
     /// The first fit of a family. Its layout (one segment, or one per aerofoil surface) has no
@@ -659,7 +659,7 @@ impl<'a> Search<'a> {
         let layout = &c.model.layout;
         let mut err = vec![0.0_f64; layout.segments()];
         for (&t, &d) in c.state.params.iter().zip(&c.state.dist) {
-            let k = layout.segment_of(t);
+            let k = layout.locate(t).0;
             err[k] = err[k].max(d);
         }
         err

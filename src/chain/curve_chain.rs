@@ -113,6 +113,33 @@ impl<P: Vector> CurveChain<P> {
             .fold(0.0, f64::max)
     }
 
+    /// The same chain as a C1 chain of its degree and breaks, with the same expanded control
+    /// points: its design points are the control points less the generated joins. An error
+    /// when a join is only C0, or when the regenerated control points differ (they cannot,
+    /// up to rounding, for joins at least C1).
+    pub fn to_c1(&self) -> Result<CurveChain<P>> {
+        let c1 = self
+            .layout
+            .as_c1()
+            .ok_or_else(|| Error::invalid("a chain with C0 joins has no C1 form"))?;
+        let d = c1.degree();
+        let last = c1.segments() * d;
+        let design: Vec<P> = self
+            .ctrl
+            .iter()
+            .enumerate()
+            .filter(|(r, _)| r % d != 0 || *r == 0 || *r == last)
+            .map(|(_, &p)| p)
+            .collect();
+        let chain = CurveChain::new(c1, design)?;
+        if !same_points(chain.ctrl(), &self.ctrl) {
+            return Err(Error::Numerical(
+                "the chain's joins are not C1 (internal inconsistency)".into(),
+            ));
+        }
+        Ok(chain)
+    }
+
     /// The closest point of the chain to `q`: `(t, squared distance)`.
     ///
     /// Every segment is searched by [`BezierCurve::nearest`] with `samples` samples.
@@ -127,6 +154,12 @@ impl<P: Vector> CurveChain<P> {
         }
         best
     }
+}
+
+/// True when `a` and `b` are the same points to `1e-9` of their largest coordinate.
+pub(crate) fn same_points<P: Vector>(a: &[P], b: &[P]) -> bool {
+    let scale = b.iter().fold(1.0_f64, |m, p| m.max(p.max_abs()));
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (*x - *y).max_abs() <= 1e-9 * scale)
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 pub struct Args {
     /// Contour: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y` (detected).
     pub input: PathBuf,
-    /// Degree of every segment (1 to 16).
+    /// Degree of every segment (1 to 7).
     #[arg(long)]
     pub degree: usize,
     /// Number of chained segments.

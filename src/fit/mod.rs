@@ -33,10 +33,10 @@ pub mod offset;
 pub mod paper;
 pub mod param;
 pub mod problem;
-pub mod shape;
 pub mod surface;
 pub mod surface_breaks;
 
+pub use crate::chain::shape::{self, Basis, CurveShape, GridShape, Jet, Shape};
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
 pub use foot::{Foot, FootOptions};
@@ -53,7 +53,6 @@ pub use offset::{
 pub use paper::{PaperCase, PAPER_CASES};
 pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
 pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
-pub use shape::{Basis, ChainBasis, CurveShape, GridShape, Jet, Shape};
 pub use surface::{
     fit_surface, fit_surface_with, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout,
     SurfaceMethod, SurfaceOptions, SurfaceProgress, SurfaceStage,
