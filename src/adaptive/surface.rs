@@ -40,7 +40,7 @@ use super::{HeldOut, Norm};
 use crate::chain::MAX_SUPPORT;
 use crate::chain::{ChainLayout, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-pub use crate::fit::surface_breaks::sampled_offsets;
+pub use crate::fit::checker::sampled_offsets;
 use crate::fit::{shape_offsets, FootOptions, GridShape, Metric, OffsetStats};
 use crate::geometry::Grid;
 use glam::DVec3;

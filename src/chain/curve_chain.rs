@@ -139,21 +139,6 @@ impl<P: Vector> CurveChain<P> {
         }
         Ok(chain)
     }
-
-    /// The closest point of the chain to `q`: `(t, squared distance)`.
-    ///
-    /// Every segment is searched by [`BezierCurve::nearest`] with `samples` samples.
-    #[must_use]
-    pub fn nearest(&self, q: P, samples: usize) -> (f64, f64) {
-        let mut best = (0.0, f64::INFINITY);
-        for k in 0..self.layout.segments() {
-            let n = self.segment(k).nearest(q, samples);
-            if n.distance_sq < best.1 {
-                best = (self.layout.global(k, n.u), n.distance_sq);
-            }
-        }
-        best
-    }
 }
 
 /// True when `a` and `b` are the same points to `1e-9` of their largest coordinate.
@@ -221,22 +206,6 @@ mod tests {
         let chain = CurveChain::new(layout, design).unwrap();
         assert_eq!(chain.eval(0.5), DVec2::new(2.0, 0.0));
         assert!(chain.continuity_error(1) > 0.1);
-    }
-
-    #[test]
-    fn nearest_finds_the_closest_segment() {
-        let layout = ChainLayout::uniform(3, 3, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..layout.design_count())
-            .map(|i| DVec2::new(i as f64, (i as f64).sin()))
-            .collect();
-        let chain = CurveChain::new(layout, design).unwrap();
-        let q = DVec2::new(4.1, 0.2);
-        let (t, e) = chain.nearest(q, 16);
-        for i in 0..=3000 {
-            let s = i as f64 / 3000.0;
-            assert!((chain.eval(s) - q).length_squared() >= e - 1e-14);
-        }
-        assert!((chain.eval(t) - q).length_squared() - e < 1e-15);
     }
 
     #[test]

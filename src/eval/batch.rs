@@ -2,17 +2,17 @@
 //! optimisers outside bezchain.
 //!
 //! Offsets are closest-point distances. Each data point's start parameters come from the
-//! first individual: the point is projected onto that shape in f64 (sampling every segment or
-//! patch, then Newton, see [`nearest`](super::nearest)). Every individual then refines those
+//! first individual: the point is projected onto that shape in f64 by the library's
+//! closest-point search ([`crate::closest`]). Every individual then refines those
 //! parameters with [`BatchOptions::newton`] clamped Newton steps of its own in f32, free to
 //! cross segment and patch borders, and keeps the least distance met. For individuals in the
 //! basin of the first one (a GA or CMA-ES population around a current design) this is the
 //! true closest-point distance to f32 accuracy; for an unrelated shape it is an upper bound
 //! (a local, not global, foot point).
 
-use super::nearest::{curve_nearest, grid_nearest};
 use super::{build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
+use crate::closest::{chain_feet, grid_feet, FootOptions};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 
@@ -83,9 +83,9 @@ pub fn eval_curve_population(
     let row = first_row(population, layout.design_count() * 2)?;
     let design: Vec<DVec2> = row.chunks_exact(2).map(|c| DVec2::new(c[0], c[1])).collect();
     let chain = CurveChain::new(layout.clone(), design)?;
-    let t: Vec<f64> = curve_nearest(&chain, points, options.samples)
-        .into_iter()
-        .map(|(t, _)| t)
+    let t: Vec<f64> = chain_feet(&chain, points, &samples(options))
+        .iter()
+        .map(|f| f.t[0])
         .collect();
     let targets = Targets::curve(points, &t)?;
     run(EvalLayout::Curve(layout.clone()), &targets, population, options)
@@ -106,12 +106,20 @@ pub fn eval_grid_population(
         .map(|c| DVec3::new(c[0], c[1], c[2]))
         .collect();
     let grid = PatchGrid::new(layout.clone(), design)?;
-    let uv: Vec<DVec2> = grid_nearest(&grid, points, options.samples)
-        .into_iter()
-        .map(|(uv, _)| uv)
+    let uv: Vec<DVec2> = grid_feet(&grid, points, &samples(options))
+        .iter()
+        .map(|f| DVec2::from_array(f.t))
         .collect();
     let targets = Targets::grid(points, &uv)?;
     run(EvalLayout::Grid(layout.clone()), &targets, population, options)
+}
+
+/// The closest-point search with the batch's samples per segment or patch side.
+fn samples(options: &BatchOptions) -> FootOptions {
+    FootOptions {
+        samples: options.samples.max(1),
+        ..FootOptions::default()
+    }
 }
 
 fn run(

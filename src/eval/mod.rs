@@ -21,7 +21,6 @@ pub mod cpu;
 pub mod dense;
 pub mod gpu;
 mod kernel;
-pub mod nearest;
 
 pub use cpu::CpuEvaluator;
 pub use gpu::{GpuContext, GpuEvaluator, GpuOptions};

@@ -3,7 +3,6 @@
 
 use super::bfgs::{bfgs, BfgsOptions};
 use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary, Stage};
-use super::foot::FootOptions;
 use super::lsq::{lsq_each_guarded, pick, Guard, HasReport, LsqFit, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
@@ -11,6 +10,7 @@ use super::offset::{corresponding_stats, exponent_params, offset_stats, span_rat
 use super::problem::CurveProblem;
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
+use crate::closest::FootOptions;
 use crate::error::{Error, Result};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};

@@ -42,12 +42,12 @@
 //! minimum.
 
 use super::band::{rcm_order, BandMatrix};
-use super::foot::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use super::objective::{SolveReport, StopReason};
 use super::offset::Metric;
 use super::problem::{chunked_sum, FitProblem};
 use super::shape::{Basis, Shape};
 use crate::bezier::Vector;
+use crate::closest::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;

@@ -3,7 +3,6 @@
 //!
 //! - [`shape`]: the [`Shape`] trait (a chain or grid as a map linear in its design points),
 //!   [`CurveShape`] (parameter dimension 1) and [`GridShape`] (dimension 2).
-//! - [`foot`]: closest points by sampling and Newton's method.
 //! - [`offset`]: the metrics ([`Metric`]), [`OffsetStats`], chord-length parameters.
 //! - [`problem`]: [`FitProblem`], the one problem every solver consumes (objective, gradient,
 //!   residual blocks, linear least squares, the paper's start).
@@ -15,7 +14,9 @@
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 //! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
 //! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
-//! - [`surface_breaks`]: the span-break search and the projection check of fitted grids.
+//! - [`surface_breaks`]: the span-break search of fitted grids.
+//! - [`checker`]: the emulation of the outside checker `verify.py`'s closest-point search and
+//!   the projection check built on it (kept apart from [`crate::closest`] on purpose).
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
@@ -23,9 +24,9 @@
 
 pub mod band;
 pub mod bfgs;
+pub mod checker;
 pub mod curve;
 pub mod evo;
-pub mod foot;
 pub mod lsq;
 pub mod nelder_mead;
 pub mod objective;
@@ -37,9 +38,9 @@ pub mod surface;
 pub mod surface_breaks;
 
 pub use crate::chain::shape::{self, Basis, CurveShape, GridShape, Jet, Shape};
+pub use crate::closest::{Foot, FootOptions};
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
-pub use foot::{Foot, FootOptions};
 pub use lsq::{
     alternate, levenberg_marquardt, levenberg_marquardt_guarded, levenberg_marquardt_observed, lsq, lsq_each,
     lsq_each_guarded, lsq_from, Guard, LsqFit, LsqIterate, LsqOptions, Start,

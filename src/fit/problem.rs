@@ -2,12 +2,12 @@
 //! minimises (sum of squared offsets), its gradient, and the per-point residual blocks of the
 //! Gauss-Newton solver.
 
-use super::foot::{closest_all, refine, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
 use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
+use crate::closest::{closest_all, refine, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;

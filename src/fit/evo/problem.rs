@@ -3,8 +3,8 @@
 //! parameters it starts from.
 
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
+use crate::closest::{chain_feet, grid_feet, FootOptions};
 use crate::error::{Error, Result};
-use crate::eval::nearest::{curve_nearest, grid_nearest};
 use crate::eval::{
     build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, PopulationEvaluator,
     Targets,
@@ -245,8 +245,8 @@ impl EvoProblem {
                 let d: Vec<DVec2> = design.chunks_exact(2).map(|c| DVec2::new(c[0], c[1])).collect();
                 let chain = CurveChain::new(layout.clone(), d)?;
                 let free: Vec<DVec2> = self.free.iter().map(|&j| points[j]).collect();
-                let near = curve_nearest(&chain, &free, samples);
-                Ok(near.iter().map(|&(t, d2)| ([t, 0.0], d2)).unzip())
+                let near = chain_feet(&chain, &free, &foot_options(samples));
+                Ok(near.iter().map(|f| ([f.t[0], 0.0], f.dist_sq)).unzip())
             }
             (EvalLayout::Grid(layout), Data::Grid(points)) => {
                 let d: Vec<DVec3> = design
@@ -255,8 +255,8 @@ impl EvoProblem {
                     .collect();
                 let grid = PatchGrid::new(layout.clone(), d)?;
                 let free: Vec<DVec3> = self.free.iter().map(|&j| points[j]).collect();
-                let near = grid_nearest(&grid, &free, samples);
-                Ok(near.iter().map(|&(uv, d2)| ([uv.x, uv.y], d2)).unzip())
+                let near = grid_feet(&grid, &free, &foot_options(samples));
+                Ok(near.iter().map(|f| (f.t, f.dist_sq)).unzip())
             }
             _ => Err(Error::invalid("evo problem: layout and data disagree")),
         }
@@ -337,6 +337,14 @@ impl EvoProblem {
         }
         h.f64s(&self.start);
         h.finish()
+    }
+}
+
+/// The closest-point search with `samples` per segment or patch side.
+fn foot_options(samples: usize) -> FootOptions {
+    FootOptions {
+        samples: samples.max(1),
+        ..FootOptions::default()
     }
 }
 
