@@ -200,13 +200,30 @@ pub fn refine<S: Shape<K>, const K: usize>(
     max_iter: usize,
     scratch: &mut Basis<K>,
 ) -> Foot<K> {
+    refine_held(shape, design, q, t0, [false; K], max_iter, scratch)
+}
+
+/// [`refine`] with the parameter directions marked in `held` kept at `t0` (a sectioned
+/// cloud's points move along their section only).
+pub fn refine_held<S: Shape<K>, const K: usize>(
+    shape: &S,
+    design: &[S::Point],
+    q: S::Point,
+    t0: [f64; K],
+    held: [bool; K],
+    max_iter: usize,
+    scratch: &mut Basis<K>,
+) -> Foot<K> {
     let mut t = clamp01(t0);
     let mut jet = shape.eval_jet(t, 2, design, scratch);
     let mut r = jet.point - q;
     let mut f = r.length_squared();
     for _ in 0..max_iter {
         let (g, h, gn) = local_model(&jet, r);
-        let free = free_params(&t, &g);
+        let mut free = free_params(&t, &g);
+        for (f, &h) in free.iter_mut().zip(&held) {
+            *f = *f && !h;
+        }
         if !free.iter().any(|&x| x) {
             break;
         }

@@ -44,7 +44,7 @@
 use super::band::{rcm_order, BandMatrix};
 use super::objective::{SolveReport, StopReason};
 use super::offset::Metric;
-use super::problem::{chunked_sum, FitProblem};
+use super::problem::{chunked_sum, Constraint, FitProblem};
 use super::shape::{Basis, Shape};
 use crate::bezier::Vector;
 use crate::closest::{clamp01, free_params, solve_spd, PARALLEL_MIN};
@@ -74,6 +74,8 @@ pub struct LsqOptions {
     /// Iterations over which the `ftol` test measures the decrease. Default 10: on aerofoils
     /// the iteration crosses flat stretches of a valley where single steps gain little.
     pub window: usize,
+    /// The method. Default [`LsqMethod::Joint`].
+    pub method: LsqMethod,
 }
 
 impl Default for LsqOptions {
@@ -85,8 +87,22 @@ impl Default for LsqOptions {
             initial_damping: 10.0,
             global_checks: 3,
             window: 10,
+            method: LsqMethod::Joint,
         }
     }
+}
+
+/// How [`lsq`] iterates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LsqMethod {
+    /// Levenberg-Marquardt over the design and the parameters together (see the module docs).
+    #[default]
+    Joint,
+    /// Hoschek's parameter correction, the baseline the joint method replaces: each iteration
+    /// is a linear least-squares solve at fixed parameters, then a projection of every
+    /// parameter to its local foot point. `max_iterations` rounds at most; only the observer
+    /// stops it earlier.
+    Alternate,
 }
 
 /// The result of a least-squares fit.
@@ -119,7 +135,7 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
     /// The model of a point with residual `r` and tangents `T` at parameter `t`. Parameters
     /// held at a bound by an outward gradient, with a degenerate tangent, or anchored, are
     /// fixed (their rows of `M⁻¹` are zero).
-    fn new(r: P, tangents: [P; K], t: &[f64; K], lambda: f64, anchored: bool) -> Self {
+    fn new(r: P, tangents: [P; K], t: &[f64; K], lambda: f64, anchored: bool, held: [bool; K]) -> Self {
         let mut g = [0.0; K];
         let mut m = [[0.0; K]; K];
         for k in 0..K {
@@ -129,6 +145,9 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
             }
         }
         let mut free = if anchored { [false; K] } else { free_params(t, &g) };
+        for (f, &h) in free.iter_mut().zip(&held) {
+            *f = *f && !h;
+        }
         let mut m_diag = [0.0; K];
         for k in 0..K {
             m_diag[k] = m[k][k];
@@ -237,7 +256,14 @@ fn model_at<S: Shape<K>, const K: usize>(
     b: &mut Basis<K>,
 ) -> PointModel<S::Point, K> {
     let res = problem.residual(design, j, *t, b);
-    PointModel::new(res.r, res.tangents, t, lambda, problem.is_anchored(j))
+    PointModel::new(
+        res.r,
+        res.tangents,
+        t,
+        lambda,
+        problem.is_anchored(j),
+        problem.held(),
+    )
 }
 
 /// The reduced normal equations, accumulated per cell over the cell's support.
@@ -303,7 +329,11 @@ fn assemble<S: Shape<K>, const K: usize>(
         |(acc, b), range| {
             for j in range {
                 let pm = model_at(problem, design, j, &params[j], lambda, b);
-                let proj = pm.projector();
+                let mut proj = pm.projector();
+                let w = problem.weight(j);
+                if w != 1.0 {
+                    proj.iter_mut().flatten().for_each(|x| *x *= w);
+                }
                 let mut pr = [0.0; 3];
                 for (c1, x) in pr.iter_mut().enumerate().take(dim) {
                     *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
@@ -311,7 +341,7 @@ fn assemble<S: Shape<K>, const K: usize>(
                 let (cell, s) = (b.cell, b.value.len());
                 let (block, rhs, diag) = (&mut acc.blocks[cell], &mut acc.rhs[cell], &mut acc.diag[cell]);
                 for (a, &wa) in b.value.iter().enumerate() {
-                    diag[a] += wa * wa;
+                    diag[a] += w * wa * wa;
                     for c1 in 0..dim {
                         rhs[a * dim + c1] += wa * pr[c1];
                     }
@@ -350,6 +380,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
     shape: &S,
     normal: &Normal,
     lambda: f64,
+    constraint: Option<&Constraint>,
 ) -> Option<(Vec<S::Point>, Vec<f64>)> {
     let dim = S::Point::DIM;
     let m = shape.design_count();
@@ -397,7 +428,36 @@ fn solve_step<S: Shape<K>, const K: usize>(
         }
     };
     let band = (reach + 1) * dim - 1;
-    let x: Vec<f64> = if nn >= BAND_MIN && band < nn / 2 {
+    let x: Vec<f64> = if let Some(con) = constraint {
+        // Within the constraint the step is `A dz`: (Aᵀ S A + λ Dz) dz = -Aᵀ b, with `Dz` the
+        // design damping carried over to the unknowns.
+        let mut full = DMatrix::<f64>::zeros(nn, nn);
+        for_entries(&mut |r, c, v| full[(r, c)] += v);
+        let nz = con.unknowns();
+        let rows: Vec<Vec<(usize, f64)>> = (0..nn)
+            .map(|r| con.flat_row(r / dim, r % dim).0.collect())
+            .collect();
+        let mut sz = DMatrix::<f64>::zeros(nz, nz);
+        let mut bz = DVector::<f64>::zeros(nz);
+        for r in 0..nn {
+            for &(a, wa) in &rows[r] {
+                bz[a] -= wa * b[r];
+                sz[(a, a)] += lambda * wa * wa * dx[r / dim];
+                for c in 0..nn {
+                    let v = full[(r, c)];
+                    if v != 0.0 {
+                        for &(z, wz) in &rows[c] {
+                            sz[(a, z)] += wa * v * wz;
+                        }
+                    }
+                }
+            }
+        }
+        let dz = sz.cholesky()?.solve(&bz);
+        (0..nn)
+            .map(|r| rows[r].iter().map(|&(a, w)| w * dz[a]).sum())
+            .collect()
+    } else if nn >= BAND_MIN && band < nn / 2 {
         // Reorder the design points (reverse Cuthill-McKee) when that narrows the band: the
         // factorisation costs O(n b²).
         let order = rcm_order(m, (0..shape.cell_count()).map(|c| shape.support(c)));
@@ -479,7 +539,7 @@ fn trial_starts<S: Shape<K>, const K: usize>(
             pred += -pm.g[k] * dt[k] + lambda * pm.m_diag[k] * dt[k] * dt[k];
             t[k] += dt[k];
         }
-        (clamp01(t), pred)
+        (clamp01(t), problem.weight(j) * pred)
     };
     let n = params.len();
     let out: Vec<([f64; K], f64)> = if n < PARALLEL_MIN {
@@ -503,188 +563,48 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     (starts, pred)
 }
 
-/// Levenberg-Marquardt on the design points and the data points' parameters together, from
-/// `design` and `params` (see the module docs). For the corresponding-points metric the
-/// parameters stay fixed and one linear solve is exact: use [`lsq`].
-pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, None, &mut |_| true)
-}
-
-/// A test of a design and its parameters that [`levenberg_marquardt_guarded`] keeps true.
+/// A test of a design and its parameters that the fit keeps true once it holds (see
+/// [`LsqHooks::guard`]).
 pub type Guard<'g, P, const K: usize> = &'g (dyn Fn(&[P], &[[f64; K]]) -> bool + Sync);
 
-/// [`levenberg_marquardt`] that, once `guard` holds, rejects every step after which it would
-/// no longer hold (a barrier: the fit stays in the region the guard admits, e.g. chains that do
-/// not fold back on themselves). From a start where the guard fails, steps are taken freely
-/// until it holds.
-pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, guard, &mut |_| true)
+/// An observer of every iteration (the iterate, the current design and parameters); returning
+/// false stops the fit (reason [`StopReason::MaxIterations`]).
+pub type Observer<'o, P, const K: usize> = &'o mut dyn FnMut(&LsqIterate, &[P], &[[f64; K]]) -> bool;
+
+/// What a caller may hook into [`lsq`].
+pub struct LsqHooks<'h, P, const K: usize> {
+    /// Once the guard holds, every step after which it would no longer hold is rejected (a
+    /// barrier: the fit stays in the region the guard admits, e.g. chains that do not fold
+    /// back on themselves). From a start where it fails, steps are taken freely until it
+    /// holds. Joint method only.
+    pub guard: Option<Guard<'h, P, K>>,
+    /// Called after every iteration. With an observer, several starts run one after another.
+    pub observe: Option<Observer<'h, P, K>>,
 }
 
-/// The state after one Levenberg-Marquardt iteration, for progress reports.
+impl<P, const K: usize> Default for LsqHooks<'_, P, K> {
+    fn default() -> Self {
+        LsqHooks {
+            guard: None,
+            observe: None,
+        }
+    }
+}
+
+/// The state after one iteration, for progress reports and observers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LsqIterate {
     /// Iterations so far (steps tried).
     pub iteration: usize,
-    /// The sum of squares at the current design, in squared model units.
+    /// The (weighted) sum of squares at the current design, in squared model units.
     pub sum_sq: f64,
-    /// The damping `λ` for the next step.
+    /// The largest distance of any data point at the current design and parameters, model
+    /// units.
+    pub max: f64,
+    /// The damping `λ` for the next step (0 for the alternating method).
     pub lambda: f64,
     /// True when this iteration's step was accepted.
     pub accepted: bool,
-}
-
-/// [`levenberg_marquardt`], calling `observe` after every iteration; the iteration stops
-/// (reason [`StopReason::MaxIterations`]) when `observe` returns false.
-pub fn levenberg_marquardt_observed<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    observe: &mut dyn FnMut(&LsqIterate) -> bool,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, None, observe)
-}
-
-/// Levenberg-Marquardt with an optional guard and an observer (see the two wrappers above).
-fn levenberg_marquardt_core<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-    observe: &mut dyn FnMut(&LsqIterate) -> bool,
-) -> Result<LsqFit<S::Point, K>> {
-    let clock = Instant::now();
-    if design.len() != problem.design_count() || params.len() != problem.points().len() {
-        return Err(Error::invalid(format!(
-            "levenberg_marquardt: {} design points and {} parameters given, the problem needs {} and {}",
-            design.len(),
-            params.len(),
-            problem.design_count(),
-            problem.points().len()
-        )));
-    }
-    let (mut design, mut params) = (design, params);
-    // Below this sum of squares the data lie on the shape to rounding.
-    let tiny = (f64::EPSILON * problem.extent()).powi(2) * problem.points().len() as f64;
-    let mut evaluations = 1;
-    let mut iterations = 0;
-    let mut phi = problem.project(&design, &mut params);
-    let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
-    let mut feasible = admits(&design, &params);
-    let mut lambda = opts.initial_damping;
-    let mut nu = 2.0;
-    // The sum of squares after every iteration, for the windowed convergence test.
-    let window = opts.window.max(1);
-    let mut history = vec![phi];
-    let mut checks = 0;
-    let stop = loop {
-        let mut done = None;
-        if phi <= tiny {
-            done = Some(StopReason::Converged);
-        } else if iterations >= opts.max_iterations {
-            break StopReason::MaxIterations;
-        } else {
-            iterations += 1;
-            let normal = assemble(problem, &design, &params, lambda);
-            let mut accepted = false;
-            if let Some((step, dx)) = solve_step(problem.shape(), &normal, lambda) {
-                let (starts, pred) = trial_starts(problem, &design, &params, &step, &dx, lambda);
-                let trial: Vec<S::Point> = design.iter().zip(&step).map(|(&x, &d)| x + d).collect();
-                let mut trial_params = starts;
-                let phi_trial = problem.project(&trial, &mut trial_params);
-                evaluations += 1;
-                let rho = (phi - phi_trial) / pred;
-                let trial_feasible = || admits(&trial, &trial_params);
-                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 && (!feasible || trial_feasible()) {
-                    feasible = feasible || trial_feasible();
-                    accepted = true;
-                    let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
-                    design = trial;
-                    params = trial_params;
-                    // Nielsen's update: shrink the damping by up to 3 when the model was good.
-                    lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0);
-                    nu = 2.0;
-                    phi = phi_trial;
-                    if moved <= opts.xtol * problem.extent() {
-                        done = Some(StopReason::Converged);
-                    }
-                }
-            }
-            if !accepted {
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > 1e16 {
-                    done = Some(StopReason::NoProgress);
-                }
-            }
-            history.push(phi);
-            if history.len() > window && history[history.len() - 1 - window] - phi <= opts.ftol * phi {
-                done = done.or(Some(StopReason::Converged));
-            }
-            let state = LsqIterate {
-                iteration: iterations,
-                sum_sq: phi,
-                lambda,
-                accepted,
-            };
-            if !observe(&state) && done.is_none() {
-                break StopReason::MaxIterations;
-            }
-        }
-        if let Some(reason) = done {
-            if problem.metric() == Metric::Closest && checks < opts.global_checks && phi > tiny {
-                let feet = problem.feet(&design, Some(&params));
-                evaluations += 1;
-                let phi_global: f64 = feet.iter().map(|f| f.dist_sq).sum();
-                if phi_global < phi * (1.0 - 1e-9) {
-                    checks += 1;
-                    params = feet.iter().map(|f| f.t).collect();
-                    phi = phi_global;
-                    history.clear();
-                    history.push(phi);
-                    lambda = opts.initial_damping;
-                    nu = 2.0;
-                    continue;
-                }
-            }
-            break reason;
-        }
-    };
-    Ok(LsqFit {
-        design,
-        params,
-        sum_sq: phi,
-        report: SolveReport {
-            iterations,
-            evaluations,
-            seconds: clock.elapsed().as_secs_f64(),
-            stop,
-        },
-    })
-}
-
-/// The least-squares fit of the problem: a linear least-squares solve at the problem's
-/// parameters, then, for the closest-point metric, [`levenberg_marquardt`] from there. For the
-/// corresponding-points metric the linear solve is the exact optimum (one iteration, one
-/// evaluation).
-pub fn lsq<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    opts: &LsqOptions,
-) -> Result<LsqFit<S::Point, K>> {
-    lsq_from(problem, &[Start::Params(problem.params().to_vec())], opts)
 }
 
 /// Where a least-squares fit starts.
@@ -697,23 +617,20 @@ pub enum Start<P, const K: usize> {
     Design(Vec<P>, Vec<[f64; K]>),
 }
 
-/// [`lsq`] from several starts, run in parallel: one fit per start, in order. For the
-/// corresponding-points metric only the problem's own parameters matter: one linear solve.
-pub fn lsq_each<S: Shape<K>, const K: usize>(
+/// The least-squares fit of `problem` from each of `starts`, one fit per start, in order
+/// (several starts run in parallel unless an observer is hooked).
+///
+/// For the closest-point metric each start is followed by the method of `opts`:
+/// Levenberg-Marquardt over the design and the parameters together ([`LsqMethod::Joint`],
+/// see the module docs) or Hoschek's alternation ([`LsqMethod::Alternate`]). Anchored points
+/// keep the problem's parameters whatever the start says. For the corresponding-points metric
+/// the parameters are fixed and one linear solve at the problem's parameters is exact: one
+/// fit, whatever the starts. [`LsqFit::best`] picks the lowest sum of squares.
+pub fn lsq<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     starts: &[Start<S::Point, K>],
     opts: &LsqOptions,
-) -> Result<Vec<LsqFit<S::Point, K>>> {
-    lsq_each_guarded(problem, starts, opts, None)
-}
-
-/// [`lsq_each`] with every run kept where `guard` admits once it holds (see
-/// [`levenberg_marquardt_guarded`]).
-pub fn lsq_each_guarded<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    starts: &[Start<S::Point, K>],
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
+    hooks: LsqHooks<'_, S::Point, K>,
 ) -> Result<Vec<LsqFit<S::Point, K>>> {
     let clock = Instant::now();
     if problem.metric() == Metric::Corresponding {
@@ -755,38 +672,166 @@ pub fn lsq_each_guarded<S: Shape<K>, const K: usize>(
             })
             .collect())
     };
-    let run = |start: &Start<S::Point, K>| -> Result<LsqFit<S::Point, K>> {
-        let (design, params) = match start {
-            Start::Params(t) => {
-                let params = own(t)?;
-                (problem.linear_fit(&params)?, params)
+    let guard = hooks.guard;
+    let run =
+        |start: &Start<S::Point, K>, observe: Observer<'_, S::Point, K>| -> Result<LsqFit<S::Point, K>> {
+            let (design, params) = match start {
+                Start::Params(t) => (None, own(t)?),
+                Start::Design(x, t) => (Some(x.clone()), own(t)?),
+            };
+            match opts.method {
+                LsqMethod::Joint => {
+                    let design = match design {
+                        Some(x) => x,
+                        None => problem.linear_fit(&params)?,
+                    };
+                    levenberg_marquardt(problem, design, params, opts, guard, observe)
+                }
+                LsqMethod::Alternate => alternate(problem, design, params, opts, observe),
             }
-            Start::Design(x, t) => (x.clone(), own(t)?),
         };
-        levenberg_marquardt_guarded(problem, design, params, opts, guard)
-    };
-    if starts.len() == 1 {
-        return Ok(vec![run(&starts[0])?]);
+    match hooks.observe {
+        Some(observe) => starts.iter().map(|s| run(s, &mut *observe)).collect(),
+        None if starts.len() == 1 => Ok(vec![run(&starts[0], &mut |_, _, _| true)?]),
+        None => starts.par_iter().map(|s| run(s, &mut |_, _, _| true)).collect(),
     }
-    starts.par_iter().map(run).collect()
 }
 
-/// [`lsq`] from several starts, run in parallel; the fit with the least sum of squares wins
-/// (the first on ties). The closest-point objective has many local minima on real data, and
-/// different parameterisations of the data (chord length, centripetal, ...) reach different
-/// ones. The report sums the iterations and evaluations of all starts; `seconds` is the
-/// wall-clock time of the whole call.
-pub fn lsq_from<S: Shape<K>, const K: usize>(
+impl<P, const K: usize> LsqFit<P, K> {
+    /// The fit with the least sum of squares (the first on ties), its report carrying the
+    /// summed iterations and evaluations of all; `None` for no fits.
+    #[must_use]
+    pub fn best(fits: Vec<Self>) -> Option<Self> {
+        pick(fits, |a, b| a.sum_sq < b.sum_sq)
+    }
+}
+
+/// Levenberg-Marquardt on the design points and the data points' parameters together, from
+/// `design` and `params` (see the module docs), under `guard`, calling `observe` after every
+/// iteration.
+fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    starts: &[Start<S::Point, K>],
+    design: Vec<S::Point>,
+    params: Vec<[f64; K]>,
     opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+    observe: Observer<'_, S::Point, K>,
 ) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
-    let fits = lsq_each(problem, starts, opts)?;
-    let mut best = pick(fits, |a, b| a.sum_sq < b.sum_sq)
-        .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
-    best.report.seconds = clock.elapsed().as_secs_f64();
-    Ok(best)
+    if design.len() != problem.design_count() || params.len() != problem.points().len() {
+        return Err(Error::invalid(format!(
+            "levenberg_marquardt: {} design points and {} parameters given, the problem needs {} and {}",
+            design.len(),
+            params.len(),
+            problem.design_count(),
+            problem.points().len()
+        )));
+    }
+    let (mut design, mut params) = (design, params);
+    // Below this sum of squares the data lie on the shape to rounding.
+    let tiny = (f64::EPSILON * problem.extent()).powi(2) * problem.points().len() as f64;
+    let mut evaluations = 1;
+    let mut iterations = 0;
+    let (mut phi, mut max) = problem.project_max(&design, &mut params);
+    let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
+    let mut feasible = admits(&design, &params);
+    let mut lambda = opts.initial_damping;
+    let mut nu = 2.0;
+    // The sum of squares after every iteration, for the windowed convergence test.
+    let window = opts.window.max(1);
+    let mut history = vec![phi];
+    let mut checks = 0;
+    let stop = loop {
+        let mut done = None;
+        if phi <= tiny {
+            done = Some(StopReason::Converged);
+        } else if iterations >= opts.max_iterations {
+            break StopReason::MaxIterations;
+        } else {
+            iterations += 1;
+            let normal = assemble(problem, &design, &params, lambda);
+            let mut accepted = false;
+            if let Some((step, dx)) = solve_step(problem.shape(), &normal, lambda, problem.constraint()) {
+                let (starts, pred) = trial_starts(problem, &design, &params, &step, &dx, lambda);
+                let trial: Vec<S::Point> = design.iter().zip(&step).map(|(&x, &d)| x + d).collect();
+                let mut trial_params = starts;
+                let (phi_trial, max_trial) = problem.project_max(&trial, &mut trial_params);
+                evaluations += 1;
+                let rho = (phi - phi_trial) / pred;
+                let trial_feasible = || admits(&trial, &trial_params);
+                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 && (!feasible || trial_feasible()) {
+                    feasible = feasible || trial_feasible();
+                    accepted = true;
+                    let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
+                    design = trial;
+                    params = trial_params;
+                    // Nielsen's update: shrink the damping by up to 3 when the model was good.
+                    lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0);
+                    nu = 2.0;
+                    phi = phi_trial;
+                    max = max_trial;
+                    if moved <= opts.xtol * problem.extent() {
+                        done = Some(StopReason::Converged);
+                    }
+                }
+            }
+            if !accepted {
+                lambda *= nu;
+                nu *= 2.0;
+                if lambda > 1e16 {
+                    done = Some(StopReason::NoProgress);
+                }
+            }
+            history.push(phi);
+            if history.len() > window && history[history.len() - 1 - window] - phi <= opts.ftol * phi {
+                done = done.or(Some(StopReason::Converged));
+            }
+            let state = LsqIterate {
+                iteration: iterations,
+                sum_sq: phi,
+                max,
+                lambda,
+                accepted,
+            };
+            if !observe(&state, &design, &params) && done.is_none() {
+                break StopReason::MaxIterations;
+            }
+        }
+        if let Some(reason) = done {
+            if problem.metric() == Metric::Closest && checks < opts.global_checks && phi > tiny {
+                let feet = problem.feet(&design, Some(&params));
+                evaluations += 1;
+                let phi_global: f64 = feet
+                    .iter()
+                    .enumerate()
+                    .map(|(j, f)| problem.weight(j) * f.dist_sq)
+                    .sum();
+                if phi_global < phi * (1.0 - 1e-9) {
+                    checks += 1;
+                    params = feet.iter().map(|f| f.t).collect();
+                    phi = phi_global;
+                    max = feet.iter().fold(0.0_f64, |m, f| m.max(f.dist_sq)).sqrt();
+                    history.clear();
+                    history.push(phi);
+                    lambda = opts.initial_damping;
+                    nu = 2.0;
+                    continue;
+                }
+            }
+            break reason;
+        }
+    };
+    Ok(LsqFit {
+        design,
+        params,
+        sum_sq: phi,
+        report: SolveReport {
+            iterations,
+            evaluations,
+            seconds: clock.elapsed().as_secs_f64(),
+            stop,
+        },
+    })
 }
 
 /// The fit that `better` prefers (the first on ties), its report carrying the summed
@@ -829,32 +874,58 @@ impl<P, const K: usize> HasReport for LsqFit<P, K> {
     }
 }
 
-/// The baseline the joint method replaces: `rounds` alternations of a linear least-squares
-/// solve at fixed parameters and a projection of every parameter to its local foot point
-/// (Hoschek's parameter correction), from the problem's parameters. Returns the last design
-/// with its foot points and sum of squares.
-pub fn alternate<S: Shape<K>, const K: usize>(
+/// Hoschek's parameter correction (the baseline the joint method replaces): rounds of a
+/// linear least-squares solve at fixed parameters and a projection of every parameter to its
+/// local foot point, from `design` (projected first) or the linear fit at `params`, at most
+/// `opts.max_iterations` rounds. Returns the last design with its foot points and sum of
+/// squares.
+fn alternate<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    rounds: usize,
+    design: Option<Vec<S::Point>>,
+    mut params: Vec<[f64; K]>,
+    opts: &LsqOptions,
+    observe: Observer<'_, S::Point, K>,
 ) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
-    let rounds = rounds.max(1);
-    let mut params = problem.params().to_vec();
-    let mut design = problem.linear_fit(&params)?;
-    let mut sum_sq = problem.project(&design, &mut params);
-    for _ in 1..rounds {
+    let rounds = opts.max_iterations.max(1);
+    let (mut design, mut iterations, mut evaluations) = match design {
+        Some(x) => (x, 0, 1),
+        None => (problem.linear_fit(&params)?, 1, 0),
+    };
+    let (mut sum_sq, mut max) = problem.project_max(&design, &mut params);
+    let mut stop = StopReason::MaxIterations;
+    loop {
+        let state = LsqIterate {
+            iteration: iterations,
+            sum_sq,
+            max,
+            lambda: 0.0,
+            accepted: true,
+        };
+        if iterations > 0 && !observe(&state, &design, &params) {
+            break;
+        }
+        if iterations >= rounds {
+            break;
+        }
         design = problem.linear_fit(&params)?;
-        sum_sq = problem.project(&design, &mut params);
+        (sum_sq, max) = problem.project_max(&design, &mut params);
+        iterations += 1;
+        evaluations += 1;
+        if !sum_sq.is_finite() {
+            stop = StopReason::NoProgress;
+            break;
+        }
     }
     Ok(LsqFit {
         design,
         params,
         sum_sq,
         report: SolveReport {
-            iterations: rounds,
-            evaluations: rounds,
+            iterations,
+            evaluations: evaluations.max(1),
             seconds: clock.elapsed().as_secs_f64(),
-            stop: StopReason::MaxIterations,
+            stop,
         },
     })
 }
@@ -865,6 +936,18 @@ mod tests {
     use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
     use crate::fit::problem::CurveProblem;
     use glam::{DVec2, DVec3};
+
+    /// The fit from the problem's own parameters.
+    fn own<S: Shape<K>, const K: usize>(p: &FitProblem<'_, S, K>, opts: &LsqOptions) -> LsqFit<S::Point, K> {
+        lsq(
+            p,
+            &[Start::Params(p.params().to_vec())],
+            opts,
+            LsqHooks::default(),
+        )
+        .unwrap()
+        .remove(0)
+    }
 
     #[test]
     fn recovers_a_chain_from_points_sampled_off_its_chord_length_parameters() {
@@ -878,7 +961,7 @@ mod tests {
             .map(|i| chain.eval((i as f64 / 119.0).powf(1.4)))
             .collect();
         let p = CurveProblem::curve(layout, &pts, Metric::Closest).unwrap();
-        let fit = lsq(&p, &LsqOptions::default()).unwrap();
+        let fit = own(&p, &LsqOptions::default());
         assert!(fit.sum_sq < 1e-24, "sum_sq {}", fit.sum_sq);
         let (stats, _) = p.stats(&fit.design);
         assert!(stats.max < 1e-12, "max {}", stats.max);
@@ -902,8 +985,16 @@ mod tests {
             })
             .collect();
         let p = CurveProblem::curve(layout, &pts, Metric::Closest).unwrap();
-        let joint = lsq(&p, &LsqOptions::default()).unwrap();
-        let slow = alternate(&p, 50).unwrap();
+        let joint = own(&p, &LsqOptions::default());
+        let slow = own(
+            &p,
+            &LsqOptions {
+                method: LsqMethod::Alternate,
+                max_iterations: 50,
+                ..LsqOptions::default()
+            },
+        );
+        assert_eq!(slow.report.iterations, 50);
         assert!(joint.report.converged());
         assert!(joint.sum_sq < slow.sum_sq, "{} vs {}", joint.sum_sq, slow.sum_sq);
         // The optimum is stationary: the gradient of the objective (a sum of `2 φ_i r_j`
@@ -953,7 +1044,7 @@ mod tests {
             .unwrap()
             .with_anchors(&corners)
             .unwrap();
-        let fit = lsq(&p, &LsqOptions::default()).unwrap();
+        let fit = own(&p, &LsqOptions::default());
         assert!(fit.sum_sq < 1e-20, "sum_sq {}", fit.sum_sq);
         let fitted = p.patch_grid(&fit.design).unwrap();
         assert!(fitted.continuity_error() < 1e-9);

@@ -9,8 +9,10 @@
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly, the default.
 //! - [`band`]: banded Cholesky for the large, sparse normal equations of patch grids.
 //! - [`mod@nelder_mead`], [`mod@bfgs`]: general minimisers of an [`Objective`].
-//! - [`evo`]: the genetic algorithm and CMA-ES on the population evaluator, for chains and
-//!   grids, with checkpoints; `ga+lsq` / `cmaes+lsq` polish their result by least squares.
+//! - [`evo`]: the genetic algorithm and CMA-ES on any [`evo::PopulationObjective`], with
+//!   checkpoints; `ga+lsq` / `cmaes+lsq` polish their result by least squares.
+//! - [`population`]: the fitting problem as a population objective on the population
+//!   evaluator (GPU or CPU), and `bezchain eval`'s batch evaluation.
 //! - [`curve`]: [`fit_curve`], one call from data and layout to a fitted chain.
 //! - [`mod@param`]: initial `(u, v)` of 3D clouds, from sections or blade-aware.
 //! - [`surface`]: [`fit_surface`], one call from a cloud and a grid layout to a fitted grid.
@@ -33,6 +35,7 @@ pub mod objective;
 pub mod offset;
 pub mod paper;
 pub mod param;
+pub mod population;
 pub mod problem;
 pub mod surface;
 pub mod surface_breaks;
@@ -41,10 +44,7 @@ pub use crate::chain::shape::{self, Basis, CurveShape, GridShape, Jet, Shape};
 pub use crate::closest::{Foot, FootOptions};
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
-pub use lsq::{
-    alternate, levenberg_marquardt, levenberg_marquardt_guarded, levenberg_marquardt_observed, lsq, lsq_each,
-    lsq_each_guarded, lsq_from, Guard, LsqFit, LsqIterate, LsqOptions, Start,
-};
+pub use lsq::{lsq, Guard, LsqFit, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Observer, Start};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{
@@ -53,7 +53,9 @@ pub use offset::{
 };
 pub use paper::{PaperCase, PAPER_CASES};
 pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
-pub use problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
+pub use problem::{
+    increment_start, Constraint, CoordRule, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual,
+};
 pub use surface::{
     fit_surface, fit_surface_with, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout,
     SurfaceMethod, SurfaceOptions, SurfaceProgress, SurfaceStage,

@@ -1,5 +1,5 @@
 //! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
-//! readers and writers, blade definitions and lofting.
+//! readers and writers, population files, blade definitions and lofting.
 
 mod blade;
 mod dat;
@@ -8,6 +8,7 @@ mod io;
 mod loft;
 mod naca;
 mod points;
+mod population;
 
 pub use blade::{Aerofoil, Blade, Station, DEFAULT_NACA_POINTS, DEFAULT_PITCH_AXIS};
 pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
@@ -18,3 +19,4 @@ pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
     write_csv_to, write_curve_csv, Cloud, Format, Grid, Loaded, Loaded2, Loaded3, LoadedPoints,
 };
+pub use population::{parse_population, read_population};
