@@ -55,6 +55,10 @@ pub struct FootOptions {
     pub samples: usize,
     /// Newton iterations at most from one start. Default 40.
     pub max_newton: usize,
+    /// Newton's method stops before a step that would move the foot point by less than this
+    /// along the shape, model units: the foot is found to within it, and the distance to
+    /// within its square over the curvature radius. 0 (the default): to rounding.
+    pub tolerance: f64,
 }
 
 impl Default for FootOptions {
@@ -62,6 +66,7 @@ impl Default for FootOptions {
         FootOptions {
             samples: 32,
             max_newton: 40,
+            tolerance: 0.0,
         }
     }
 }
@@ -145,6 +150,17 @@ pub(crate) fn solve_spd<const K: usize>(
 /// times cheaper and accepts the same matrices.
 #[inline]
 fn solve_newton<const K: usize>(a: &[[f64; K]; K], g: &[f64; K], free: &[bool; K]) -> Option<[f64; K]> {
+    if K == 1 && free[0] {
+        // solve_spd's arithmetic for one unknown, without its index bookkeeping.
+        let a = a[0][0];
+        if !(a > 1e-13 * a.abs()) || !a.is_finite() {
+            return None;
+        }
+        let l = a.sqrt();
+        let mut x = [0.0; K];
+        x[0] = -g[0] / l / l;
+        return Some(x);
+    }
     if K != 2 || !free.iter().all(|&f| f) {
         return solve_spd(a, g, free);
     }
@@ -194,31 +210,32 @@ pub(crate) fn free_params<const K: usize>(t: &[f64; K], g: &[f64; K]) -> [bool; 
 /// `scratch` is working space for [`Shape::eval_jet`].
 pub fn refine<S: Shape<K>, const K: usize>(
     shape: &S,
-    design: &[S::Point],
+    design: &S::Prepared<'_>,
     q: S::Point,
     t0: [f64; K],
-    max_iter: usize,
+    opts: &FootOptions,
     scratch: &mut Basis<K>,
 ) -> Foot<K> {
-    refine_held(shape, design, q, t0, [false; K], max_iter, scratch)
+    refine_held(shape, design, q, t0, [false; K], opts, scratch)
 }
 
 /// [`refine`] with the parameter directions marked in `held` kept at `t0` (a sectioned
 /// cloud's points move along their section only).
 pub fn refine_held<S: Shape<K>, const K: usize>(
     shape: &S,
-    design: &[S::Point],
+    design: &S::Prepared<'_>,
     q: S::Point,
     t0: [f64; K],
     held: [bool; K],
-    max_iter: usize,
+    opts: &FootOptions,
     scratch: &mut Basis<K>,
 ) -> Foot<K> {
     let mut t = clamp01(t0);
-    let mut jet = shape.eval_jet(t, 2, design, scratch);
+    let mut jet = shape.jet_at(design, t, 2, scratch);
     let mut r = jet.point - q;
     let mut f = r.length_squared();
-    for _ in 0..max_iter {
+    let tol_sq = opts.tolerance * opts.tolerance;
+    for _ in 0..opts.max_newton {
         let (g, h, gn) = local_model(&jet, r);
         let mut free = free_params(&t, &g);
         for (f, &h) in free.iter_mut().zip(&held) {
@@ -238,6 +255,18 @@ pub fn refine_held<S: Shape<K>, const K: usize>(
         if !(size > PARAM_TOL) {
             break;
         }
+        if tol_sq > 0.0 {
+            // |J s|², the squared distance the step would move the foot along the shape.
+            let mut moved_sq = 0.0;
+            for k in 0..K {
+                for l in 0..K {
+                    moved_sq += step[k] * gn[k][l] * step[l];
+                }
+            }
+            if moved_sq <= tol_sq {
+                break;
+            }
+        }
         let mut alpha = 1.0;
         let mut moved = 0.0;
         while alpha * size > PARAM_TOL {
@@ -245,7 +274,7 @@ pub fn refine_held<S: Shape<K>, const K: usize>(
             for k in 0..K {
                 tn[k] = (t[k] + alpha * step[k]).clamp(0.0, 1.0);
             }
-            let jn = shape.eval_jet(tn, 2, design, scratch);
+            let jn = shape.jet_at(design, tn, 2, scratch);
             let rn = jn.point - q;
             let fn_ = rn.length_squared();
             // Rounding tolerance: near the foot point the squared distance changes by less
@@ -545,7 +574,7 @@ impl<const K: usize> SampleGrid<K> {
         &self,
         shape: &S,
         sampled: &Sampled<S::Point>,
-        design: &[S::Point],
+        design: &S::Prepared<'_>,
         q: S::Point,
         warm: Option<[f64; K]>,
         opts: &FootOptions,
@@ -559,7 +588,7 @@ impl<const K: usize> SampleGrid<K> {
             dist_sq: f64::INFINITY,
         };
         if let Some(w) = warm {
-            best = refine(shape, design, q, w, opts.max_newton, &mut scratch.basis);
+            best = refine(shape, design, q, w, opts, &mut scratch.basis);
         }
         let cells = self.len() / self.per_cell;
         scratch.order.clear();
@@ -612,14 +641,7 @@ impl<const K: usize> SampleGrid<K> {
             if best.dist_sq.is_finite() && ds.sqrt() - 1.5 * sampled.spacing[cell] > best.dist_sq.sqrt() {
                 continue;
             }
-            let f = refine(
-                shape,
-                design,
-                q,
-                self.params[s],
-                opts.max_newton,
-                &mut scratch.basis,
-            );
+            let f = refine(shape, design, q, self.params[s], opts, &mut scratch.basis);
             if f.dist_sq < best.dist_sq {
                 best = f;
             }
@@ -643,7 +665,7 @@ impl<const K: usize> SampleGrid<K> {
         &self,
         shape: &S,
         sampled: &Sampled<S::Point>,
-        design: &[S::Point],
+        design: &S::Prepared<'_>,
         q: S::Point,
         warm: Option<[f64; K]>,
         opts: &FootOptions,
@@ -654,7 +676,7 @@ impl<const K: usize> SampleGrid<K> {
             dist_sq: f64::INFINITY,
         };
         if let Some(w) = warm {
-            best = refine(shape, design, q, w, opts.max_newton, &mut scratch.basis);
+            best = refine(shape, design, q, w, opts, &mut scratch.basis);
         }
         let cells = self.len() / self.per_cell;
         scratch.order.clear();
@@ -733,14 +755,7 @@ impl<const K: usize> SampleGrid<K> {
                 continue;
             }
             tried += 1;
-            let f = refine(
-                shape,
-                design,
-                q,
-                self.params[s],
-                opts.max_newton,
-                &mut scratch.basis,
-            );
+            let f = refine(shape, design, q, self.params[s], opts, &mut scratch.basis);
             if f.dist_sq < best.dist_sq {
                 best = f;
             }
@@ -836,11 +851,12 @@ pub fn closest_all<S: Shape<K>, const K: usize>(
 ) {
     debug_assert_eq!(points.len(), feet.len(), "closest_all: one foot per point");
     let sampled = grid.sample(shape, design);
+    let prepared = shape.prepare(design);
     let run = |offset: usize, pts: &[S::Point], out: &mut [Foot<K>]| {
         let mut scratch = FootScratch::new();
         for (j, (q, f)) in pts.iter().zip(out.iter_mut()).enumerate() {
             let w = warm.map(|w| w[offset + j]);
-            *f = grid.closest(shape, &sampled, design, *q, w, opts, &mut scratch);
+            *f = grid.closest(shape, &sampled, &prepared, *q, w, opts, &mut scratch);
         }
     };
     if points.len() < PARALLEL_MIN {
@@ -881,7 +897,7 @@ mod tests {
             let f = grid.closest(
                 &shape,
                 &sampled,
-                chain.design(),
+                &shape.prepare(chain.design()),
                 q,
                 None,
                 &FootOptions::default(),
@@ -898,7 +914,7 @@ mod tests {
             let w = grid.closest(
                 &shape,
                 &sampled,
-                chain.design(),
+                &shape.prepare(chain.design()),
                 q,
                 Some([0.93]),
                 &FootOptions::default(),
@@ -914,7 +930,14 @@ mod tests {
         let shape = CurveShape::<DVec2>::new(chain.layout().clone());
         let mut b = Basis::new();
         let q = DVec2::new(1.3, 0.9);
-        let f = refine(&shape, chain.design(), q, [0.6], 40, &mut b);
+        let f = refine(
+            &shape,
+            &shape.prepare(chain.design()),
+            q,
+            [0.6],
+            &FootOptions::default(),
+            &mut b,
+        );
         if f.t[0] > 0.0 && f.t[0] < 1.0 {
             let r = chain.eval(f.t[0]) - q;
             let d = chain.deriv(f.t[0]);
@@ -935,7 +958,7 @@ mod tests {
         let f = grid.closest(
             &shape,
             &sampled,
-            chain.design(),
+            &shape.prepare(chain.design()),
             q,
             Some([0.2]),
             &opts,
@@ -973,7 +996,7 @@ mod tests {
                 let f = grid.closest(
                     &shape,
                     &sampled,
-                    &design,
+                    &shape.prepare(&design),
                     q,
                     None,
                     &FootOptions::default(),
@@ -1033,7 +1056,15 @@ mod tests {
             let n = pu.cross(pv).normalize();
             let q = p + n * (0.004 * ((k % 7) as f64 - 3.0));
             for warm in [None, Some(t), Some([1.0 - t[0], t[1]])] {
-                let f = grid.closest(&shape, &sampled, &design, q, warm, &opts, &mut scratch);
+                let f = grid.closest(
+                    &shape,
+                    &sampled,
+                    &shape.prepare(&design),
+                    q,
+                    warm,
+                    &opts,
+                    &mut scratch,
+                );
                 let scan = dense
                     .iter()
                     .map(|(_, x)| (*x - q).length_squared())

@@ -169,7 +169,9 @@ impl Cand {
         };
         let x = match self.model.rule {
             XRule::Free => XStore::Free(self.state.coeffs.iter().map(|p| p.x).collect()),
-            XRule::Aerofoil { .. } => XStore::AerofoilRule(self.state.z[..self.model.x_unknowns()].to_vec()),
+            XRule::Aerofoil { .. } => {
+                XStore::AerofoilRule(self.model.theta(&self.state.coeffs).unwrap_or_default())
+            }
         };
         Encoding {
             degree: layout.degree(),
@@ -280,7 +282,7 @@ impl<'a> Search<'a> {
         &self,
         fam: Family,
         model: Model,
-        z: Option<Vec<f64>>,
+        start: Option<Vec<DVec2>>,
         params: Vec<f64>,
         effort: &Effort,
     ) -> Option<Cand> {
@@ -305,8 +307,8 @@ impl<'a> Search<'a> {
             max_stall: if fam.aerofoil { effort.max_stall } else { 0 },
             ..*effort
         };
-        let state = engine::fit(&model, &self.data, z, params, &effort)?;
-        if !state.z.iter().all(|v| v.is_finite()) {
+        let state = engine::fit(&model, &self.data, start, params, &effort)?;
+        if !state.coeffs.iter().all(|v| v.is_finite()) {
             return None;
         }
         let count = fam.count(&model.layout);
@@ -338,7 +340,7 @@ impl<'a> Search<'a> {
         if let Some(state) = engine::fit(
             &c.model,
             &self.data,
-            Some(c.state.z.clone()),
+            Some(c.state.coeffs.clone()),
             c.state.params.clone(),
             &full,
         ) {
@@ -499,7 +501,7 @@ impl<'a> Search<'a> {
     pub fn continue_from(&self, cand: &Cand, params: Vec<f64>, max_steps: usize) -> Option<(Cand, bool)> {
         // The candidate as it is, measured on these data: often the tolerance already holds.
         let same = Cand {
-            state: engine::state(&cand.model, &self.data, cand.state.z.clone(), params.clone()),
+            state: engine::state(&cand.model, &self.data, cand.state.coeffs.clone(), params.clone()),
             ..cand.clone()
         };
         if self.measure(&same.state) <= self.tol {
@@ -508,7 +510,7 @@ impl<'a> Search<'a> {
         let c = self.fit(
             cand.fam,
             cand.model.clone(),
-            Some(cand.state.z.clone()),
+            Some(cand.state.coeffs.clone()),
             params,
             &GROW,
         )?;
@@ -670,7 +672,7 @@ impl<'a> Search<'a> {
     /// the tolerance so is every segment within half the worst (the exact splits are the
     /// warm start). Uniform breaks: one equal segment more on the worse surface, or half as
     /// many again while far above the tolerance.
-    fn grow(&self, c: &Cand) -> Option<(Model, Option<Vec<f64>>)> {
+    fn grow(&self, c: &Cand) -> Option<(Model, Option<Vec<DVec2>>)> {
         let fam = c.fam;
         let layout = &c.model.layout;
         let d = layout.degree();
@@ -696,9 +698,7 @@ impl<'a> Search<'a> {
                     XRule::Free => Model::free(l2),
                     XRule::Aerofoil { shared_te, .. } => Model::aerofoil(l2, *shared_te).ok()?,
                 };
-                let theta = &c.state.z[..c.model.x_unknowns()];
-                let z = model.unknowns_of(&c2, fam.aerofoil.then_some(theta));
-                Some((model, Some(z)))
+                Some((model, Some(c2)))
             }
             BreakKind::Uniform => {
                 let more = |s: usize, e: f64| if e > far { s + (s / 2).max(1) } else { s + 1 };

@@ -127,6 +127,10 @@ pub struct ChainLayout {
 /// Bins of the segment lookup table of non-uniform chains.
 const LOOKUP: usize = 256;
 
+/// Non-uniform chains with at most this many segments locate a parameter by counting the
+/// breaks below it instead of the lookup table.
+const SCAN_MAX: usize = 16;
+
 /// The basis functions of a chain that are non-zero at one parameter: design points
 /// `first ..= first + degree`, with the values and the first and second derivatives with
 /// respect to the global parameter.
@@ -367,6 +371,11 @@ impl ChainLayout {
         let s = self.segments();
         let t = t.clamp(0.0, 1.0);
         let breaks = &self.breaks;
+        if !self.uniform && s <= SCAN_MAX {
+            // Few breaks: count those at or below t (branch-free).
+            let k = breaks[1..s].iter().map(|&b| usize::from(b <= t)).sum::<usize>();
+            return (k, ((t - breaks[k]) / self.segment_length(k)).clamp(0.0, 1.0));
+        }
         if !self.uniform {
             // The bin's first segment, then forward past every break at or below t.
             let mut k = self
@@ -431,6 +440,7 @@ impl ChainLayout {
     }
 
     /// [`ChainLayout::basis`] at local parameter `u` of segment `k`.
+    #[inline]
     #[must_use]
     pub fn basis_in(&self, k: usize, u: f64, order: usize) -> SpanBasis {
         let mut out = SpanBasis {
@@ -440,7 +450,7 @@ impl ChainLayout {
             d1: [0.0; MAX_SUPPORT],
             d2: [0.0; MAX_SUPPORT],
         };
-        // Fixed-size paths for each degree keep every buffer on the stack, unrolled.
+        // One monomorphic path per degree: every loop length is a constant, unrolled.
         match self.degree {
             1 => self.eval_fixed::<2>(k, u, order, &mut out),
             2 => self.eval_fixed::<3>(k, u, order, &mut out),
@@ -453,11 +463,15 @@ impl ChainLayout {
         out
     }
 
-    /// The basis in segment `k` at local `u`, with buffers of `N >= degree + 1`.
-    #[inline]
+    /// The basis in segment `k` at local `u`, for degree `N - 1`.
     fn eval_fixed<const N: usize>(&self, k: usize, u: f64, order: usize, out: &mut SpanBasis) {
-        let d = self.degree;
-        debug_assert!(d < N, "eval_fixed: buffer of {N} too small for degree {d}");
+        debug_assert_eq!(
+            self.degree + 1,
+            N,
+            "eval_fixed: wrong path for degree {}",
+            self.degree
+        );
+        let d = N - 1;
         let v = 1.0 - u;
         // Bernstein polynomials of degree d - 2, d - 1 and d by the triangular recurrence,
         // each level kept for the derivatives.
@@ -477,23 +491,25 @@ impl ChainLayout {
         }
         // After the loop `cur` holds degree d, the one before it d - 1, before that d - 2.
         let (ld, ld1, ld2) = (cur, (cur + 2) % 3, (cur + 1) % 3);
-        let n = d + 1;
-        let dot = |m: &[f64], w: &[f64], out: &mut [f64], scale: f64| {
-            let len = w.len();
-            for (x, row) in out[..n].iter_mut().zip(m.chunks_exact(len.max(1))) {
-                *x = scale * row.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
+        // Row `a` of a block of `len` columns against the first `len` Bernstein values.
+        fn dot<const N: usize>(m: &[f64], w: &[f64; N], len: usize, out: &mut [f64], scale: f64) {
+            for (x, row) in out[..N].iter_mut().zip(m.chunks_exact(len.max(1))) {
+                *x = scale * row.iter().zip(&w[..len]).map(|(a, b)| a * b).sum::<f64>();
             }
-        };
+        }
+        let n = N;
         dot(
             &self.local[k * n * n..(k + 1) * n * n],
-            &levels[ld][..=d],
+            &levels[ld],
+            n,
             &mut out.value,
             1.0,
         );
         if order >= 1 && d >= 1 {
             dot(
                 &self.local_d1[k * n * d..(k + 1) * n * d],
-                &levels[ld1][..d],
+                &levels[ld1],
+                d,
                 &mut out.d1,
                 self.inv_len[k],
             );
@@ -502,11 +518,42 @@ impl ChainLayout {
             let m = n * (d - 1);
             dot(
                 &self.local_d2[k * m..(k + 1) * m],
-                &levels[ld2][..d - 1],
+                &levels[ld2],
+                d - 1,
                 &mut out.d2,
                 self.inv_len[k] * self.inv_len[k],
             );
         }
+    }
+
+    /// The chain with expanded Bezier control points `ctrl` at `t`: the point and its
+    /// derivatives with respect to `t` up to `order` (higher ones zero), by Horner's scheme on
+    /// the segment's control points and their differences (the hodographs').
+    #[inline]
+    #[must_use]
+    pub fn segment_jet<P: Vector>(&self, ctrl: &[P], t: f64, order: usize) -> [P; 3] {
+        let (k, u) = self.locate(t);
+        let d = self.degree;
+        let c = &ctrl[k * d..=(k + 1) * d];
+        let v = 1.0 - u;
+        let h = self.inv_len[k];
+        let mut out = [P::ZERO; 3];
+        out[0] = horner(c, u, v);
+        if order >= 1 {
+            let mut c1 = [P::ZERO; MAX_SUPPORT];
+            for i in 0..d {
+                c1[i] = c[i + 1] - c[i];
+            }
+            let df = d as f64;
+            out[1] = horner(&c1[..d], u, v) * (df * h);
+            if order >= 2 && d >= 2 {
+                for i in 0..d - 1 {
+                    c1[i] = c1[i + 1] - c1[i];
+                }
+                out[2] = horner(&c1[..d - 1], u, v) * (df * (df - 1.0) * h * h);
+            }
+        }
+        out
     }
 
     /// The chain with coefficients `coeffs` at `t`: the point and its first and second
@@ -584,6 +631,38 @@ impl ChainLayout {
         }
         ChainLayout::with_breaks(self.degree, self.breaks.clone(), Continuity::C1).ok()
     }
+}
+
+/// The Bezier curve with control points `c` at `u` (`v = 1 - u`), by the Horner-like scheme
+/// for Bernstein sums.
+#[inline]
+fn horner<P: Vector>(c: &[P], u: f64, v: f64) -> P {
+    let row = &BINOMIAL[c.len() - 1];
+    let mut acc = c[0];
+    let mut pow = 1.0;
+    for i in 1..c.len() {
+        pow *= u;
+        acc = acc * v + c[i] * (row[i] * pow);
+    }
+    acc
+}
+
+/// Binomial coefficients `C(n, i)` for `n <= MAX_DEGREE`.
+const BINOMIAL: [[f64; MAX_SUPPORT]; MAX_SUPPORT] = binomials();
+
+const fn binomials() -> [[f64; MAX_SUPPORT]; MAX_SUPPORT] {
+    let mut t = [[0.0; MAX_SUPPORT]; MAX_SUPPORT];
+    let mut n = 0;
+    while n < MAX_SUPPORT {
+        t[n][0] = 1.0;
+        let mut i = 1;
+        while i <= n {
+            t[n][i] = t[n - 1][i - 1] + if i < n { t[n - 1][i] } else { 0.0 };
+            i += 1;
+        }
+        n += 1;
+    }
+    t
 }
 
 #[cfg(test)]
@@ -698,6 +777,11 @@ mod tests {
                 let seg = crate::bezier::BezierCurve::new(ctrl[4 * k..=4 * k + 4].to_vec());
                 let u = (t - t0) / (t1 - t0);
                 assert!((seg.eval(u) - p).length() < 1e-13, "{orders:?} t={t}");
+                let [q, e1, e2] = l.segment_jet(&ctrl, t, 2);
+                let [_, b1, b2] = l.jet(&c, t);
+                assert!((q - p).length() < 1e-13);
+                assert!((e1 - b1).length() < 1e-11 * (1.0 + b1.length()));
+                assert!((e2 - b2).length() < 1e-9 * (1.0 + b2.length()));
                 if t - t0 > 2.0 * h && t1 - t > 2.0 * h {
                     let [_, d1, d2] = l.jet(&c, t);
                     let fd1 = (l.eval(&c, t + h) - l.eval(&c, t - h)) / (2.0 * h);

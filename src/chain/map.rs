@@ -29,36 +29,47 @@ impl ExtractionMap {
         let p = degree;
         let mut knots = knots.to_vec();
         let cols = knots.len() - p - 1;
-        // Each control point as its (dense) weights over the design points.
-        let mut pts: Vec<Vec<f64>> = (0..cols)
-            .map(|i| {
-                let mut e = vec![0.0; cols];
-                e[i] = 1.0;
-                e
-            })
-            .collect();
-        let lerp = |x: &Vec<f64>, y: &Vec<f64>, a: f64| -> Vec<f64> {
-            x.iter().zip(y).map(|(x, y)| (1.0 - a) * x + a * y).collect()
-        };
+        let rows = (breaks.len() - 1) * p + 1;
+        // Each control point as its dense weights over the design points, row-major in one
+        // buffer with room for every row the insertions add.
+        let mut pts = vec![0.0; rows * cols];
+        for i in 0..cols {
+            pts[i * cols + i] = 1.0;
+        }
+        let mut count = cols;
+        let mut row = vec![0.0; cols];
         for &b in &breaks[1..breaks.len() - 1] {
             let mult = knots.iter().filter(|&&x| x == b).count();
             for _ in mult..p {
-                insert_knot(&mut knots, &mut pts, p, b, lerp);
+                // Boehm's insertion (as `insert_knot`), rows shifted in place from the back.
+                let k = knots.partition_point(|&x| x <= b) - 1;
+                let m = knots.iter().filter(|&&x| x == b).count();
+                for i in (0..=count).rev() {
+                    if i + p <= k {
+                        break;
+                    }
+                    if i + m > k {
+                        pts.copy_within((i - 1) * cols..i * cols, i * cols);
+                    } else {
+                        let a = (b - knots[i]) / (knots[i + p] - knots[i]);
+                        for (j, x) in row.iter_mut().enumerate() {
+                            *x = (1.0 - a) * pts[(i - 1) * cols + j] + a * pts[i * cols + j];
+                        }
+                        pts[i * cols..(i + 1) * cols].copy_from_slice(&row);
+                    }
+                }
+                knots.insert(k + 1, b);
+                count += 1;
             }
         }
-        let rows = pts.len();
-        debug_assert_eq!(
-            rows,
-            (breaks.len() - 1) * p + 1,
-            "Bezier extraction produced the wrong count"
-        );
+        debug_assert_eq!(count, rows, "Bezier extraction produced the wrong count");
         let mut map = ExtractionMap {
             cols,
             start: vec![0],
             index: Vec::new(),
             weight: Vec::new(),
         };
-        for row in &pts {
+        for row in pts.chunks_exact(cols) {
             for (j, &w) in row.iter().enumerate() {
                 if w.abs() > WEIGHT_EPS {
                     map.index.push(j as u32);

@@ -105,6 +105,41 @@ pub trait Shape<const K: usize>: Sync {
         self.jet(scratch, design, order)
     }
 
+    /// A design prepared for evaluation at many parameters (see [`Shape::prepare`]).
+    type Prepared<'d>: Sync
+    where
+        Self: 'd;
+
+    /// Prepare `design` for [`Shape::jet_at`]: chains keep their expanded Bezier control
+    /// points, so that each evaluation is a Horner scheme on one segment's points; grids keep
+    /// the design as it is.
+    fn prepare<'d>(&self, design: &'d [Self::Point]) -> Self::Prepared<'d>;
+
+    /// The point and its derivatives up to `order` at global parameter `t` of a prepared
+    /// design (the same as [`Shape::eval_jet`] to rounding); `scratch` is working space.
+    fn jet_at(
+        &self,
+        prepared: &Self::Prepared<'_>,
+        t: [f64; K],
+        order: usize,
+        scratch: &mut Basis<K>,
+    ) -> Jet<Self::Point, K>;
+
+    /// The basis at `t` (its values; shapes may fill more) and the point with its first
+    /// derivatives there, the design given both prepared and as it is: what a residual and
+    /// its Jacobian take. The default fills the basis with first derivatives and applies
+    /// [`Shape::jet`].
+    fn basis_and_jet(
+        &self,
+        _prepared: &Self::Prepared<'_>,
+        design: &[Self::Point],
+        t: [f64; K],
+        out: &mut Basis<K>,
+    ) -> Jet<Self::Point, K> {
+        self.basis(t, 1, out);
+        self.jet(out, design, 1)
+    }
+
     /// Evaluate the shape from its basis at some parameter and the design points.
     #[must_use]
     fn jet(&self, basis: &Basis<K>, design: &[Self::Point], order: usize) -> Jet<Self::Point, K> {
@@ -161,6 +196,27 @@ impl<P: Vector> CurveShape<P> {
 
 impl<P: Vector> Shape<1> for CurveShape<P> {
     type Point = P;
+    type Prepared<'d> = Vec<P>;
+
+    fn prepare<'d>(&self, design: &'d [P]) -> Vec<P> {
+        self.layout.bezier(design)
+    }
+
+    /// The basis values, and the point and tangent by Horner's scheme.
+    fn basis_and_jet(&self, ctrl: &Vec<P>, _design: &[P], t: [f64; 1], out: &mut Basis<1>) -> Jet<P, 1> {
+        self.basis(t, 0, out);
+        self.jet_at(ctrl, t, 1, out)
+    }
+
+    /// Horner's scheme on the segment's Bezier control points and their differences.
+    fn jet_at(&self, ctrl: &Vec<P>, t: [f64; 1], order: usize, _scratch: &mut Basis<1>) -> Jet<P, 1> {
+        let [point, d1, d2] = self.layout.segment_jet(ctrl, t[0], order);
+        Jet {
+            point,
+            d1: [d1],
+            d2: [[d2]],
+        }
+    }
 
     fn design_count(&self) -> usize {
         self.layout.design_count()
@@ -177,6 +233,28 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
     fn cell_box(&self, cell: usize) -> ([f64; 1], [f64; 1]) {
         let b = self.layout.breaks();
         ([b[cell]], [b[cell + 1]])
+    }
+
+    /// From the layout's basis on the stack, without filling `scratch`.
+    fn eval_jet(&self, t: [f64; 1], order: usize, design: &[P], _scratch: &mut Basis<1>) -> Jet<P, 1> {
+        let b = self.layout.basis(t[0], order);
+        let zero = P::ZERO;
+        let mut jet = Jet {
+            point: zero,
+            d1: [zero],
+            d2: [[zero]],
+        };
+        for a in 0..=self.layout.degree() {
+            let x = design[b.first + a];
+            jet.point += x * b.value[a];
+            if order >= 1 {
+                jet.d1[0] += x * b.d1[a];
+            }
+            if order >= 2 {
+                jet.d2[0][0] += x * b.d2[a];
+            }
+        }
+        jet
     }
 
     fn basis(&self, t: [f64; 1], order: usize, out: &mut Basis<1>) {
@@ -244,6 +322,15 @@ impl<P: Vector> GridShape<P> {
 
 impl<P: Vector> Shape<2> for GridShape<P> {
     type Point = P;
+    type Prepared<'d> = &'d [P];
+
+    fn prepare<'d>(&self, design: &'d [P]) -> &'d [P] {
+        design
+    }
+
+    fn jet_at(&self, design: &&[P], t: [f64; 2], order: usize, scratch: &mut Basis<2>) -> Jet<P, 2> {
+        self.eval_jet(t, order, design, scratch)
+    }
 
     fn design_count(&self) -> usize {
         self.u.design_count() * self.v.design_count()

@@ -74,8 +74,30 @@ pub struct LsqOptions {
     /// Iterations over which the `ftol` test measures the decrease. Default 10: on aerofoils
     /// the iteration crosses flat stretches of a valley where single steps gain little.
     pub window: usize,
+    /// Smallest ratio of the actual to the predicted decrease of the sum of squares for a step
+    /// to be accepted. Default 1e-4.
+    pub accept_ratio: f64,
+    /// `[down, up]`: the damping is divided by `down` (not below 1e-12) after an accepted step
+    /// and multiplied by `up` after a rejected one; `None`, the default, is Nielsen's update
+    /// (down by up to 3 as the model predicted well, up by 2, 4, 8, ... in a row).
+    pub damping_factors: Option<[f64; 2]>,
+    /// What the damping `λ` scales. Default [`DampingScale::Jacobian`].
+    pub damping_scale: DampingScale,
     /// The method. Default [`LsqMethod::Joint`].
     pub method: LsqMethod,
+}
+
+/// Marquardt's scaling of the damping term `λ D` of the design step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DampingScale {
+    /// `D` is the diagonal of `Jxᵀ W Jx`, the design points' own weight in the data (the same
+    /// for every coordinate of a point). The default.
+    #[default]
+    Jacobian,
+    /// `D` is the diagonal of the reduced normal matrix (after the parameters are eliminated),
+    /// one per unknown: a direction that the data pin only along the shape is damped less.
+    /// The adaptive search's short, warm-started fits converge on it as its own engine did.
+    Reduced,
 }
 
 impl Default for LsqOptions {
@@ -87,6 +109,9 @@ impl Default for LsqOptions {
             initial_damping: 10.0,
             global_checks: 3,
             window: 10,
+            accept_ratio: 1e-4,
+            damping_factors: None,
+            damping_scale: DampingScale::Jacobian,
             method: LsqMethod::Joint,
         }
     }
@@ -249,13 +274,13 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
 /// in `b`.
 fn model_at<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    design: &[S::Point],
+    (prepared, design): (&S::Prepared<'_>, &[S::Point]),
     j: usize,
     t: &[f64; K],
     lambda: f64,
     b: &mut Basis<K>,
 ) -> PointModel<S::Point, K> {
-    let res = problem.residual(design, j, *t, b);
+    let res = problem.residual_at(prepared, design, j, *t, b);
     PointModel::new(
         res.r,
         res.tangents,
@@ -270,39 +295,99 @@ fn model_at<S: Shape<K>, const K: usize>(
 ///
 /// The cell's block of `S` is `Σ_j (a_j a_jᵀ) ⊗ P_j`; it is kept as one `s x s` matrix
 /// `G_c1c2 = Σ_j P_j[c1][c2] a_j a_jᵀ` per coordinate pair `c1 ≤ c2` (`s` the support size),
-/// so each point adds `D (D + 1) / 2` contiguous rank-one updates.
+/// so each point adds `D (D + 1) / 2` rank-one updates, of their lower triangles only (every
+/// `G` is symmetric, and the lower triangle of `S` is all its factorisation reads).
 struct Normal {
     /// Per cell, the `D (D + 1) / 2` matrices `G_c1c2`, each row-major `s x s`, pairs in the
-    /// order of [`pair`].
-    blocks: Vec<Vec<f64>>,
-    /// Per cell, `s D`.
-    rhs: Vec<Vec<f64>>,
-    /// Per cell, `Σ a_i²` per support point (the undamped diagonal of `Jxᵀ Jx`).
-    diag: Vec<Vec<f64>>,
+    /// order of [`pair`]: cell `c` at `blocks[at[c].0..]`.
+    blocks: Vec<f64>,
+    /// Per cell, `s D`, at `rhs[at[c].1..]`.
+    rhs: Vec<f64>,
+    /// Per cell, `Σ a_i²` per support point (the undamped diagonal of `Jxᵀ Jx`), at
+    /// `diag[at[c].2..]`.
+    diag: Vec<f64>,
+    /// Per cell, its support size and the starts of its parts in the three buffers.
+    at: Vec<(usize, usize, usize, usize)>,
 }
 
 impl Normal {
     fn new<S: Shape<K>, const K: usize>(shape: &S) -> Self {
         let dim = S::Point::DIM;
-        let sizes: Vec<usize> = (0..shape.cell_count()).map(|c| shape.support(c).len()).collect();
         let pairs = dim * (dim + 1) / 2;
+        let mut at = Vec::with_capacity(shape.cell_count());
+        let (mut b, mut r, mut d) = (0, 0, 0);
+        for c in 0..shape.cell_count() {
+            let s = shape.support(c).len();
+            at.push((s, b, r, d));
+            b += pairs * s * s;
+            r += s * dim;
+            d += s;
+        }
         Normal {
-            blocks: sizes.iter().map(|&s| vec![0.0; pairs * s * s]).collect(),
-            rhs: sizes.iter().map(|&s| vec![0.0; s * dim]).collect(),
-            diag: sizes.iter().map(|&s| vec![0.0; s]).collect(),
+            blocks: vec![0.0; b],
+            rhs: vec![0.0; r],
+            diag: vec![0.0; d],
+            at,
         }
     }
 
+    /// Cell `c`'s blocks, right-hand side and diagonal.
+    fn cell(&self, c: usize, dim: usize) -> (&[f64], &[f64], &[f64]) {
+        let (s, b, r, d) = self.at[c];
+        let pairs = dim * (dim + 1) / 2;
+        (
+            &self.blocks[b..b + pairs * s * s],
+            &self.rhs[r..r + s * dim],
+            &self.diag[d..d + s],
+        )
+    }
+
+    /// [`Normal::cell`], to fill.
+    fn cell_mut(&mut self, c: usize, dim: usize) -> (&mut [f64], &mut [f64], &mut [f64]) {
+        let (s, b, r, d) = self.at[c];
+        let pairs = dim * (dim + 1) / 2;
+        (
+            &mut self.blocks[b..b + pairs * s * s],
+            &mut self.rhs[r..r + s * dim],
+            &mut self.diag[d..d + s],
+        )
+    }
+
     fn merge(mut self, other: Normal) -> Normal {
-        let add = |a: &mut Vec<Vec<f64>>, b: Vec<Vec<f64>>| {
-            for (x, y) in a.iter_mut().zip(b) {
-                x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
-            }
-        };
+        let add = |a: &mut Vec<f64>, b: Vec<f64>| a.iter_mut().zip(b).for_each(|(p, q)| *p += q);
         add(&mut self.blocks, other.blocks);
         add(&mut self.rhs, other.rhs);
         add(&mut self.diag, other.diag);
         self
+    }
+}
+
+/// Calls `add(row, col, value)` for every entry of the cells' blocks (flat design indices).
+#[inline]
+fn each_entry<S: Shape<K>, const K: usize, F: FnMut(usize, usize, f64) + ?Sized>(
+    shape: &S,
+    normal: &Normal,
+    add: &mut F,
+) {
+    let dim = S::Point::DIM;
+    for cell in 0..shape.cell_count() {
+        let support = shape.support(cell);
+        let n = support.len();
+        let block = normal.cell(cell, dim).0;
+        for (a, &ia) in support.iter().enumerate() {
+            for c1 in 0..dim {
+                let row = ia as usize * dim + c1;
+                for (bb, &ib) in support.iter().enumerate() {
+                    for c2 in 0..dim {
+                        // G_c1c2 is symmetric in the support indices (its lower triangle is
+                        // kept), and P in the coordinates.
+                        let g = pair(c1.min(c2), c1.max(c2), dim);
+                        let (hi, lo) = (a.max(bb), a.min(bb));
+                        add(row, ib as usize * dim + c2, block[g * n * n + hi * n + lo]);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -320,15 +405,20 @@ fn assemble<S: Shape<K>, const K: usize>(
     design: &[S::Point],
     params: &[[f64; K]],
     lambda: f64,
-) -> Normal {
+) -> (Normal, Option<Models<S::Point, K>>) {
     let shape = problem.shape();
     let dim = S::Point::DIM;
-    chunked_sum(
+    let keep = params.len() < PARALLEL_MIN;
+    let prepared = shape.prepare(design);
+    let (normal, _, models) = chunked_sum(
         params.len(),
-        || (Normal::new(shape), Basis::new()),
-        |(acc, b), range| {
+        || {
+            let models = keep.then(|| Models::with_capacity(params.len(), shape.support(0).len()));
+            (Normal::new(shape), Basis::new(), models)
+        },
+        |(acc, b, models), range| {
             for j in range {
-                let pm = model_at(problem, design, j, &params[j], lambda, b);
+                let pm = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
                 let mut proj = pm.projector();
                 let w = problem.weight(j);
                 if w != 1.0 {
@@ -339,7 +429,7 @@ fn assemble<S: Shape<K>, const K: usize>(
                     *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
                 }
                 let (cell, s) = (b.cell, b.value.len());
-                let (block, rhs, diag) = (&mut acc.blocks[cell], &mut acc.rhs[cell], &mut acc.diag[cell]);
+                let (block, rhs, diag) = acc.cell_mut(cell, dim);
                 for (a, &wa) in b.value.iter().enumerate() {
                     diag[a] += w * wa * wa;
                     for c1 in 0..dim {
@@ -353,19 +443,48 @@ fn assemble<S: Shape<K>, const K: usize>(
                             continue;
                         }
                         let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
-                        for (row, &wa) in g.chunks_exact_mut(s).zip(&b.value) {
+                        // G is symmetric in the support indices: its lower triangle is kept.
+                        for (a, (row, &wa)) in g.chunks_exact_mut(s).zip(&b.value).enumerate() {
                             let wa = w * wa;
-                            for (x, &wb) in row.iter_mut().zip(&b.value) {
+                            for (x, &wb) in row[..=a].iter_mut().zip(&b.value) {
                                 *x += wa * wb;
                             }
                         }
                     }
                 }
+                if let Some(m) = models {
+                    m.cells.push(cell as u32);
+                    m.values.extend_from_slice(&b.value);
+                    m.offsets.push(m.values.len() as u32);
+                    m.models.push(pm);
+                }
             }
         },
-        |a, b| (a.0.merge(b.0), a.1),
-    )
-    .0
+        |a, b| (a.0.merge(b.0), a.1, None),
+    );
+    (normal, models)
+}
+
+/// The per-point models of one assembly, kept for the trial step of small point sets (the
+/// same numbers [`trial_starts`] would compute again).
+struct Models<P, const K: usize> {
+    models: Vec<PointModel<P, K>>,
+    cells: Vec<u32>,
+    /// Basis values of point `j`: `values[offsets[j - 1]..offsets[j]]` (from 0 for `j = 0`).
+    values: Vec<f64>,
+    offsets: Vec<u32>,
+}
+
+impl<P, const K: usize> Models<P, K> {
+    /// Room for `n` points of `s` basis values each.
+    fn with_capacity(n: usize, s: usize) -> Self {
+        Models {
+            models: Vec::with_capacity(n),
+            cells: Vec::with_capacity(n),
+            values: Vec::with_capacity(n * s),
+            offsets: Vec::with_capacity(n),
+        }
+    }
 }
 
 /// Systems with at least this many unknowns are solved in band form (see [`BandMatrix`]);
@@ -381,7 +500,8 @@ fn solve_step<S: Shape<K>, const K: usize>(
     normal: &Normal,
     lambda: f64,
     constraint: Option<&Constraint>,
-) -> Option<(Vec<S::Point>, Vec<f64>)> {
+    scale: DampingScale,
+) -> Option<(Vec<S::Point>, f64)> {
     let dim = S::Point::DIM;
     let m = shape.design_count();
     let nn = m * dim;
@@ -395,9 +515,9 @@ fn solve_step<S: Shape<K>, const K: usize>(
             reach = reach.max((hi - lo) as usize);
         }
         for (a, &ia) in support.iter().enumerate() {
-            dx[ia as usize] += normal.diag[cell][a];
+            dx[ia as usize] += normal.cell(cell, dim).2[a];
             for c1 in 0..dim {
-                b[ia as usize * dim + c1] += normal.rhs[cell][a * dim + c1];
+                b[ia as usize * dim + c1] += normal.cell(cell, dim).1[a * dim + c1];
             }
         }
     }
@@ -407,53 +527,59 @@ fn solve_step<S: Shape<K>, const K: usize>(
     for v in &mut dx {
         *v = v.max(floor);
     }
-    // Calls `add(row, col, value)` for every entry of the cells' blocks.
-    let for_entries = |add: &mut dyn FnMut(usize, usize, f64)| {
-        for cell in 0..shape.cell_count() {
-            let support = shape.support(cell);
-            let n = support.len();
-            let block = &normal.blocks[cell];
-            for (a, &ia) in support.iter().enumerate() {
-                for c1 in 0..dim {
-                    let row = ia as usize * dim + c1;
-                    for (bb, &ib) in support.iter().enumerate() {
-                        for c2 in 0..dim {
-                            // G_c1c2 is symmetric in the support indices, and P in the coordinates.
-                            let g = pair(c1.min(c2), c1.max(c2), dim);
-                            add(row, ib as usize * dim + c2, block[g * n * n + a * n + bb]);
-                        }
-                    }
-                }
+    // With the reduced scaling: the matrix's own diagonal (zeros get the mean), per unknown.
+    let scaled = |diag: &mut dyn FnMut(usize) -> f64, n: usize| -> Vec<f64> {
+        let d: Vec<f64> = (0..n).map(&mut *diag).collect();
+        let mean = d.iter().sum::<f64>() / n.max(1) as f64;
+        d.into_iter().map(|x| if x > 0.0 { x } else { mean }).collect()
+    };
+    let mut sdiag = vec![0.0; nn];
+    if scale == DampingScale::Reduced && constraint.is_none() {
+        each_entry(shape, normal, &mut |r, c, v| {
+            if r == c {
+                sdiag[r] += v;
             }
-        }
+        });
+        sdiag = scaled(&mut |k| sdiag[k], nn);
+    }
+    // The damping of flat design variable k.
+    let damp = |k: usize| match scale {
+        DampingScale::Jacobian => dx[k / dim],
+        DampingScale::Reduced => sdiag[k],
     };
     let band = (reach + 1) * dim - 1;
+    let mut damping_term = None;
     let x: Vec<f64> = if let Some(con) = constraint {
         // Within the constraint the step is `A dz`: (Aᵀ S A + λ Dz) dz = -Aᵀ b, with `Dz` the
         // design damping carried over to the unknowns.
-        let mut full = DMatrix::<f64>::zeros(nn, nn);
-        for_entries(&mut |r, c, v| full[(r, c)] += v);
         let nz = con.unknowns();
-        let rows: Vec<Vec<(usize, f64)>> = (0..nn)
-            .map(|r| con.flat_row(r / dim, r % dim).0.collect())
-            .collect();
+        let rows = con.flat_rows();
         let mut sz = DMatrix::<f64>::zeros(nz, nz);
         let mut bz = DVector::<f64>::zeros(nz);
+        let mut dz_scale = vec![0.0; nz];
         for r in 0..nn {
             for &(a, wa) in &rows[r] {
                 bz[a] -= wa * b[r];
-                sz[(a, a)] += lambda * wa * wa * dx[r / dim];
-                for c in 0..nn {
-                    let v = full[(r, c)];
-                    if v != 0.0 {
-                        for &(z, wz) in &rows[c] {
-                            sz[(a, z)] += wa * v * wz;
-                        }
+                dz_scale[a] += wa * wa * dx[r / dim];
+            }
+        }
+        each_entry(shape, normal, &mut |r, c, v| {
+            if v != 0.0 {
+                for &(a, wa) in &rows[r] {
+                    for &(z, wz) in &rows[c] {
+                        sz[(a, z)] += wa * v * wz;
                     }
                 }
             }
+        });
+        if scale == DampingScale::Reduced {
+            dz_scale = scaled(&mut |a| sz[(a, a)], nz);
+        }
+        for (a, &d) in dz_scale.iter().enumerate() {
+            sz[(a, a)] += lambda * d;
         }
         let dz = sz.cholesky()?.solve(&bz);
+        damping_term = Some(lambda * dz.iter().zip(&dz_scale).map(|(x, d)| d * x * x).sum::<f64>());
         (0..nn)
             .map(|r| rows[r].iter().map(|&(a, w)| w * dz[a]).sum())
             .collect()
@@ -480,7 +606,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
         let band = (reach.min(reach_rcm) + 1) * dim - 1;
         let at = |row: usize| pos[row / dim] * dim + row % dim;
         let mut s = BandMatrix::zeros(nn, band);
-        for_entries(&mut |r, c, v| {
+        each_entry(shape, normal, &mut |r, c, v| {
             let (r, c) = (at(r), at(c));
             if c <= r {
                 s.add_lower(r, c, v);
@@ -489,7 +615,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
         for i in 0..m {
             for c in 0..dim {
                 let k = pos[i] * dim + c;
-                s.add_lower(k, k, lambda * dx[i]);
+                s.add_lower(k, k, lambda * damp(i * dim + c));
             }
         }
         let mut y = vec![0.0; nn];
@@ -500,10 +626,10 @@ fn solve_step<S: Shape<K>, const K: usize>(
         (0..nn).map(|row| y[at(row)]).collect()
     } else {
         let mut s = DMatrix::<f64>::zeros(nn, nn);
-        for_entries(&mut |r, c, v| s[(r, c)] += v);
+        each_entry(shape, normal, &mut |r, c, v| s[(r, c)] += v);
         for i in 0..m {
             for c in 0..dim {
-                s[(i * dim + c, i * dim + c)] += lambda * dx[i];
+                s[(i * dim + c, i * dim + c)] += lambda * damp(i * dim + c);
             }
         }
         let x = s.cholesky()?.solve(&(-DVector::from_vec(b)));
@@ -512,24 +638,51 @@ fn solve_step<S: Shape<K>, const K: usize>(
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    Some((x.chunks_exact(dim).map(S::Point::from_coords).collect(), dx))
+    let step: Vec<S::Point> = x.chunks_exact(dim).map(S::Point::from_coords).collect();
+    // The damping term `λ δᵀ D δ` of the predicted decrease.
+    let damping_term = damping_term.unwrap_or_else(|| match scale {
+        DampingScale::Jacobian => step
+            .iter()
+            .zip(&dx)
+            .map(|(d, w)| lambda * w * d.length_squared())
+            .sum(),
+        DampingScale::Reduced => lambda * x.iter().zip(&sdiag).map(|(v, d)| d * v * v).sum::<f64>(),
+    });
+    Some((step, damping_term))
 }
 
 /// The trial of a design step: every parameter's start `t + dt` and the predicted decrease of
 /// the linear model, `-gᵀδ + λ δᵀ D δ` over design points and parameters.
+#[allow(clippy::too_many_arguments)]
 fn trial_starts<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: &[S::Point],
     params: &[[f64; K]],
     step: &[S::Point],
-    dx: &[f64],
+    damping_term: f64,
     lambda: f64,
+    models: Option<&Models<S::Point, K>>,
 ) -> (Vec<[f64; K]>, f64) {
     let shape = problem.shape();
+    let prepared = shape.prepare(design);
     let per_point = |b: &mut Basis<K>, j: usize| -> ([f64; K], f64) {
-        let pm = model_at(problem, design, j, &params[j], lambda, b);
+        let computed;
+        let (pm, cell, values) = match models {
+            Some(m) => {
+                let from = if j == 0 { 0 } else { m.offsets[j - 1] as usize };
+                (
+                    &m.models[j],
+                    m.cells[j] as usize,
+                    &m.values[from..m.offsets[j] as usize],
+                )
+            }
+            None => {
+                computed = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
+                (&computed, b.cell, &b.value[..])
+            }
+        };
         let mut jx = S::Point::ZERO;
-        for (&i, &w) in shape.support(b.cell).iter().zip(&b.value) {
+        for (&i, &w) in shape.support(cell).iter().zip(values) {
             jx += step[i as usize] * w;
         }
         let dt = pm.param_step(jx);
@@ -548,11 +701,7 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     } else {
         (0..n).into_par_iter().map_init(Basis::new, per_point).collect()
     };
-    let mut pred: f64 = step
-        .iter()
-        .zip(dx)
-        .map(|(d, w)| lambda * w * d.length_squared())
-        .sum();
+    let mut pred = damping_term;
     let starts = out
         .into_iter()
         .map(|(t, p)| {
@@ -567,8 +716,9 @@ fn trial_starts<S: Shape<K>, const K: usize>(
 /// [`LsqHooks::guard`]).
 pub type Guard<'g, P, const K: usize> = &'g (dyn Fn(&[P], &[[f64; K]]) -> bool + Sync);
 
-/// An observer of every iteration (the iterate, the current design and parameters); returning
-/// false stops the fit (reason [`StopReason::MaxIterations`]).
+/// An observer of every iteration (the iterate, the current design and parameters), and of
+/// the start (iteration 0); returning false stops the fit (reason
+/// [`StopReason::MaxIterations`]).
 pub type Observer<'o, P, const K: usize> = &'o mut dyn FnMut(&LsqIterate, &[P], &[[f64; K]]) -> bool;
 
 /// What a caller may hook into [`lsq`].
@@ -615,6 +765,9 @@ pub enum Start<P, const K: usize> {
     /// A design, with one parameter per data point from which the local foot points are
     /// found.
     Design(Vec<P>, Vec<[f64; K]>),
+    /// A design with its local foot points already found (the result of an earlier fit):
+    /// taken as they are.
+    Feet(Vec<P>, Vec<[f64; K]>),
 }
 
 /// The least-squares fit of `problem` from each of `starts`, one fit per start, in order
@@ -675,9 +828,10 @@ pub fn lsq<S: Shape<K>, const K: usize>(
     let guard = hooks.guard;
     let run =
         |start: &Start<S::Point, K>, observe: Observer<'_, S::Point, K>| -> Result<LsqFit<S::Point, K>> {
-            let (design, params) = match start {
-                Start::Params(t) => (None, own(t)?),
-                Start::Design(x, t) => (Some(x.clone()), own(t)?),
+            let (design, params, projected) = match start {
+                Start::Params(t) => (None, own(t)?, false),
+                Start::Design(x, t) => (Some(x.clone()), own(t)?, false),
+                Start::Feet(x, t) => (Some(x.clone()), own(t)?, true),
             };
             match opts.method {
                 LsqMethod::Joint => {
@@ -685,7 +839,7 @@ pub fn lsq<S: Shape<K>, const K: usize>(
                         Some(x) => x,
                         None => problem.linear_fit(&params)?,
                     };
-                    levenberg_marquardt(problem, design, params, opts, guard, observe)
+                    levenberg_marquardt(problem, design, params, projected, opts, guard, observe)
                 }
                 LsqMethod::Alternate => alternate(problem, design, params, opts, observe),
             }
@@ -709,10 +863,12 @@ impl<P, const K: usize> LsqFit<P, K> {
 /// Levenberg-Marquardt on the design points and the data points' parameters together, from
 /// `design` and `params` (see the module docs), under `guard`, calling `observe` after every
 /// iteration.
+#[allow(clippy::too_many_arguments)]
 fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: Vec<S::Point>,
     params: Vec<[f64; K]>,
+    projected: bool,
     opts: &LsqOptions,
     guard: Option<Guard<'_, S::Point, K>>,
     observe: Observer<'_, S::Point, K>,
@@ -732,7 +888,13 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     let tiny = (f64::EPSILON * problem.extent()).powi(2) * problem.points().len() as f64;
     let mut evaluations = 1;
     let mut iterations = 0;
-    let (mut phi, mut max) = problem.project_max(&design, &mut params);
+    let (mut phi, mut max) = if projected {
+        let d = problem.distances(&design, &params);
+        let phi = d.iter().enumerate().map(|(j, e)| problem.weight(j) * e * e).sum();
+        (phi, d.iter().fold(0.0_f64, |m, &e| m.max(e)))
+    } else {
+        problem.project_max(&design, &mut params)
+    };
     let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
     let mut feasible = admits(&design, &params);
     let mut lambda = opts.initial_damping;
@@ -741,7 +903,17 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     let window = opts.window.max(1);
     let mut history = vec![phi];
     let mut checks = 0;
+    let start = LsqIterate {
+        iteration: 0,
+        sum_sq: phi,
+        max,
+        lambda,
+        accepted: false,
+    };
     let stop = loop {
+        if iterations == 0 && !observe(&start, &design, &params) {
+            break StopReason::MaxIterations;
+        }
         let mut done = None;
         if phi <= tiny {
             done = Some(StopReason::Converged);
@@ -749,24 +921,46 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
             break StopReason::MaxIterations;
         } else {
             iterations += 1;
-            let normal = assemble(problem, &design, &params, lambda);
+            let (normal, models) = assemble(problem, &design, &params, lambda);
             let mut accepted = false;
-            if let Some((step, dx)) = solve_step(problem.shape(), &normal, lambda, problem.constraint()) {
-                let (starts, pred) = trial_starts(problem, &design, &params, &step, &dx, lambda);
+            let solved = solve_step(
+                problem.shape(),
+                &normal,
+                lambda,
+                problem.constraint(),
+                opts.damping_scale,
+            );
+            if let Some((step, damping_term)) = solved {
+                let (starts, pred) = trial_starts(
+                    problem,
+                    &design,
+                    &params,
+                    &step,
+                    damping_term,
+                    lambda,
+                    models.as_ref(),
+                );
                 let trial: Vec<S::Point> = design.iter().zip(&step).map(|(&x, &d)| x + d).collect();
                 let mut trial_params = starts;
                 let (phi_trial, max_trial) = problem.project_max(&trial, &mut trial_params);
                 evaluations += 1;
                 let rho = (phi - phi_trial) / pred;
                 let trial_feasible = || admits(&trial, &trial_params);
-                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 && (!feasible || trial_feasible()) {
+                if pred > 0.0
+                    && phi_trial.is_finite()
+                    && rho > opts.accept_ratio
+                    && (!feasible || trial_feasible())
+                {
                     feasible = feasible || trial_feasible();
                     accepted = true;
                     let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
                     design = trial;
                     params = trial_params;
                     // Nielsen's update: shrink the damping by up to 3 when the model was good.
-                    lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0);
+                    match opts.damping_factors {
+                        Some([down, _]) => lambda = (lambda / down).max(1e-12),
+                        None => lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0),
+                    }
                     nu = 2.0;
                     phi = phi_trial;
                     max = max_trial;
@@ -776,8 +970,13 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
                 }
             }
             if !accepted {
-                lambda *= nu;
-                nu *= 2.0;
+                match opts.damping_factors {
+                    Some([_, up]) => lambda *= up,
+                    None => {
+                        lambda *= nu;
+                        nu *= 2.0;
+                    }
+                }
                 if lambda > 1e16 {
                     done = Some(StopReason::NoProgress);
                 }
@@ -902,7 +1101,7 @@ fn alternate<S: Shape<K>, const K: usize>(
             lambda: 0.0,
             accepted: true,
         };
-        if iterations > 0 && !observe(&state, &design, &params) {
+        if !observe(&state, &design, &params) {
             break;
         }
         if iterations >= rounds {

@@ -44,7 +44,9 @@ pub use crate::chain::shape::{self, Basis, CurveShape, GridShape, Jet, Shape};
 pub use crate::closest::{Foot, FootOptions};
 pub use bfgs::{bfgs, BfgsOptions};
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
-pub use lsq::{lsq, Guard, LsqFit, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Observer, Start};
+pub use lsq::{
+    lsq, DampingScale, Guard, LsqFit, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Observer, Start,
+};
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use objective::{Objective, SolveReport, StopReason};
 pub use offset::{

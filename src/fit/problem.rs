@@ -18,6 +18,7 @@ use crate::closest::{closest_all, refine_held, Foot, FootOptions, SampleGrid, CH
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// A fitting problem: data points `q_j`, a shape (chain or grid layout) and a metric.
 ///
@@ -52,7 +53,8 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     bounds: Vec<[f64; 2]>,
     box_extent: f64,
     foot: FootOptions,
-    grid: SampleGrid<K>,
+    /// The foot-point search's samples, built at the first global search.
+    grid: OnceLock<SampleGrid<K>>,
     extent: f64,
 }
 
@@ -145,6 +147,8 @@ pub struct Constraint {
     coords: Vec<CoordRule>,
     /// Index of each coordinate's first unknown in `z`.
     first: Vec<usize>,
+    /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
+    flat: Vec<Vec<(usize, f64)>>,
 }
 
 impl Constraint {
@@ -157,7 +161,15 @@ impl Constraint {
             first.push(at);
             at += c.unknowns;
         }
-        Constraint { coords, first }
+        let m = coords.first().map_or(0, |c| c.rows.len());
+        let flat = (0..m)
+            .flat_map(|i| (0..coords.len()).map(move |c| (i, c)))
+            .map(|(i, c)| {
+                let rows = coords[c].rows.get(i).map_or(&[][..], Vec::as_slice);
+                rows.iter().map(|&(k, w)| (first[c] + k, w)).collect()
+            })
+            .collect();
+        Constraint { coords, first, flat }
     }
 
     /// The rule of coordinate `c`.
@@ -172,11 +184,9 @@ impl Constraint {
         self.coords.iter().map(|c| c.unknowns).sum()
     }
 
-    /// The entries `(unknown, weight)` of flat design variable `i * DIM + c` and its offset.
-    pub(crate) fn flat_row(&self, i: usize, c: usize) -> (impl Iterator<Item = (usize, f64)> + '_, f64) {
-        let f = self.first[c];
-        let rule = &self.coords[c];
-        (rule.rows[i].iter().map(move |&(k, w)| (f + k, w)), rule.offset[i])
+    /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
+    pub(crate) fn flat_rows(&self) -> &[Vec<(usize, f64)>] {
+        &self.flat
     }
 
     /// The design points for unknowns `z`.
@@ -344,7 +354,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             });
             extent = extent.max(hi - lo);
         }
-        let grid = SampleGrid::new(&shape, foot.samples);
+        let grid = OnceLock::new();
         let anchored = vec![false; points.len()];
         let extent = if extent > 0.0 { extent } else { 1.0 };
         Ok(FitProblem {
@@ -615,8 +625,20 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         t: [f64; K],
         basis: &mut Basis<K>,
     ) -> Residual<S::Point, K> {
-        self.shape.basis(t, 1, basis);
-        let jet = self.shape.jet(basis, design, 1);
+        let prepared = self.shape.prepare(design);
+        self.residual_at(&prepared, design, j, t, basis)
+    }
+
+    /// [`FitProblem::residual`] with the design also prepared ([`Shape::prepare`]).
+    pub fn residual_at(
+        &self,
+        prepared: &S::Prepared<'_>,
+        design: &[S::Point],
+        j: usize,
+        t: [f64; K],
+        basis: &mut Basis<K>,
+    ) -> Residual<S::Point, K> {
+        let jet = self.shape.basis_and_jet(prepared, design, t, basis);
         Residual {
             r: jet.point - self.points[j],
             tangents: jet.d1,
@@ -651,7 +673,8 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         ];
         closest_all(
             &self.shape,
-            &self.grid,
+            self.grid
+                .get_or_init(|| SampleGrid::new(&self.shape, self.foot.samples)),
             design,
             self.points,
             warm,
@@ -675,6 +698,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             self.points.len(),
             "project: one parameter per point"
         );
+        let prepared = self.shape.prepare(design);
         let run = |offset: usize, ts: &mut [[f64; K]]| {
             let mut b = Basis::new();
             let (mut sum, mut max) = (0.0, 0.0_f64);
@@ -684,15 +708,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     self.shape.basis(*t, 0, &mut b);
                     (self.shape.jet(&b, design, 0).point - q).length_squared()
                 } else {
-                    let f = refine_held(
-                        &self.shape,
-                        design,
-                        q,
-                        *t,
-                        self.held,
-                        self.foot.max_newton,
-                        &mut b,
-                    );
+                    let f = refine_held(&self.shape, &prepared, q, *t, self.held, &self.foot, &mut b);
                     *t = f.t;
                     f.dist_sq
                 };
@@ -721,13 +737,11 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     #[must_use]
     pub fn distances(&self, design: &[S::Point], params: &[[f64; K]]) -> Vec<f64> {
         let mut b = Basis::new();
+        let prepared = self.shape.prepare(design);
         params
             .iter()
             .zip(self.points)
-            .map(|(&t, &q)| {
-                self.shape.basis(t, 0, &mut b);
-                (self.shape.jet(&b, design, 0).point - q).length()
-            })
+            .map(|(&t, &q)| (self.shape.jet_at(&prepared, t, 0, &mut b).point - q).length())
             .collect()
     }
 
