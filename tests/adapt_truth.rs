@@ -11,7 +11,8 @@ use bezchain::adaptive::{
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::error::Error;
 use bezchain::export::InputInfo;
-use common::{independent_offsets, naca4413};
+use common::check::independent_offsets;
+use common::naca4413;
 use glam::DVec2;
 
 /// Independent largest offset of `points` from the result's expanded control points.

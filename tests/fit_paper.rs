@@ -7,7 +7,8 @@ use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::fit::{
     fit_curve, lsq, CurveProblem, FitOptions, LsqHooks, LsqMethod, LsqOptions, Method, Metric, Start,
 };
-use common::{independent_offsets, naca4413};
+use common::check::independent_offsets;
+use common::naca4413;
 
 /// (degree, segments, design points, expanded points, the paper's total offset).
 const CASES: [(usize, usize, usize, usize, f64); 3] = [

@@ -5,7 +5,8 @@
 //!   counted, and the control points regenerated from them.
 //! - `engine`: the fast warm-started closest-point fit the search runs on every candidate.
 //! - `search`: growth by splitting, reduction, break tuning, the parallel outer search.
-//! - [`report`]: the JSON reports, DESIGN.md §4's curve and surface reports with an `adapt` block.
+//! - [`report`]: the JSON reports: the curve and surface reports with an `adapt` block
+//!   (`docs/ARCHITECTURE.md` §5.6, §5.7).
 //! - [`surface`]: [`adapt_surface`], the same search for patch grids fitted to sectioned clouds.
 //!
 //! The search runs *families* in parallel (Fig. 8): a degree, a continuity of the joins

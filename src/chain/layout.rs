@@ -3,7 +3,7 @@
 //!
 //! A chain of degree `d` whose join at break `t_i` has continuity `C(k_i)` is a B-spline whose
 //! interior knot `t_i` has multiplicity `d - k_i`; its B-spline coefficients are the design
-//! points (DESIGN.md §2). The paper's chains have `k_i = 1` at every join ([`Continuity::C1`]);
+//! points (`docs/ARCHITECTURE.md` §2.2). The paper's chains have `k_i = 1` at every join ([`Continuity::C1`]);
 //! a join with a larger `k_i` generates more of its neighbouring control points and so stores
 //! fewer. Raising every interior knot to multiplicity `d` (Boehm's insertion) gives the
 //! expanded Bezier control points: the sparse map `expanded = E · design`

@@ -1,7 +1,7 @@
 //! Chains of Bezier curves and grids of Bezier patches whose joins are generated from their
-//! neighbours (DESIGN.md §2): the one spline kernel [`ChainLayout`] (degree, breaks, the
-//! continuity of every join, knot insertion, the basis), the sparse extraction map
-//! `expanded = E · design`, `CurveChain` and `PatchGrid`.
+//! neighbours (`docs/ARCHITECTURE.md` §2.2, §2.3): the one spline kernel [`ChainLayout`]
+//! (degree, breaks, the continuity of every join, knot insertion, the basis), the sparse
+//! extraction map `expanded = E · design`, `CurveChain` and `PatchGrid`.
 
 mod curve_chain;
 mod layout;

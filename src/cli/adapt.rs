@@ -92,7 +92,8 @@ pub enum ModeArg {
 /// Arguments of `bezchain adapt`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Contour: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y`, ordered along the curve.
+    /// Contour: Selig or Lednicer `.dat`, CSV/XYZ rows of `x y`, or CSV whose header names `x`
+    /// and `y` columns; ordered along the curve (or by an `index` or `point` column).
     pub input: PathBuf,
     /// Tolerance in the data's units (a fraction of the data's extent with `--relative`).
     #[arg(long, required_unless_present = "sweep")]
@@ -120,13 +121,16 @@ pub struct Args {
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
-    /// Write the JSON report (DESIGN.md §4 with an `adapt` block; an array for a sweep);
-    /// `-` for standard output (the table then goes to standard error).
+    /// Write the JSON report (the curve report with an `adapt` block, `docs/ARCHITECTURE.md`
+    /// §5.6; an array for a sweep); `-` for standard output (the table then goes to standard
+    /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write an SVG plot of the chain and its offsets.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
 }
 
 fn parse_degrees(text: &str) -> Result<(usize, usize)> {
@@ -245,6 +249,7 @@ pub(crate) fn held_out_and_search(
 
 /// Run the search(es), print the table, write the outputs.
 pub fn run(args: Args) -> Result<()> {
+    args.cad.check()?;
     let loaded = read_curve(&args.input)?;
     warn_all(&args.input, &loaded.warnings);
     let points = &loaded.points;
@@ -312,6 +317,13 @@ pub fn run(args: Args) -> Result<()> {
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
     write_reports(json_target.as_ref(), &reports)?;
+    if args.cad.wanted() {
+        let shapes = reports
+            .iter()
+            .map(bezchain::export::CadShape::from_adapt_report)
+            .collect::<bezchain::Result<Vec<_>>>()?;
+        args.cad.write(&shapes, &super::export::stem(&args.input))?;
+    }
     if let (Some(path), Some((opts, r))) = (&args.svg, results.last()) {
         let offsets = bezchain::fit::shape_offsets(
             &bezchain::fit::CurveShape::new(r.chain.layout().clone()),

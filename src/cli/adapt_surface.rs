@@ -16,7 +16,9 @@ use std::path::PathBuf;
 /// Arguments of `bezchain adapt-surface`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Cloud: a CSV with complete `section,index` columns (e.g. from `bezchain blade`).
+    /// Cloud: a CSV whose header names `x`, `y`, `z` and `section` (or `station`) columns, the
+    /// points of a section ordered by `index` (or `point`), every section alike (e.g. from
+    /// `bezchain blade`).
     pub cloud: PathBuf,
     /// Tolerance in the data's units (a fraction of the largest section's chord with
     /// `--relative`).
@@ -45,10 +47,13 @@ pub struct Args {
     /// Never report more stored scalars than this.
     #[arg(long)]
     pub max_scalars: Option<usize>,
-    /// Write the JSON report (DESIGN.md §4's surface report with an `adapt` block; an array
-    /// for a sweep); `-` for standard output (the summary then goes to standard error).
+    /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
+    /// §5.7; an array for a sweep); `-` for standard output (the summary then goes to standard
+    /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
 }
 
 fn parse_degrees(flag: &str, text: &str) -> Result<[usize; 2]> {
@@ -132,7 +137,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
     );
     let _ = writeln!(
         s,
-        "  checker        max {:.3e}, rms {:.3e} (verify.py's sampled search, step for step)",
+        "  checker        max {:.3e}, rms {:.3e} (the coarse sampled search of outside checkers: 7 x 7 seeds a patch)",
         r.checked.max, r.checked.rms
     );
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
@@ -142,6 +147,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
 
 /// Run the search(es), print the summary, write the report.
 pub fn run(args: Args) -> Result<()> {
+    args.cad.check()?;
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let Some(grid) = loaded.grid else {
@@ -216,6 +222,13 @@ pub fn run(args: Args) -> Result<()> {
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
     write_reports(json_target.as_ref(), &reports)?;
+    if args.cad.wanted() {
+        let shapes = reports
+            .iter()
+            .map(bezchain::export::CadShape::from_surface_adapt_report)
+            .collect::<bezchain::Result<Vec<_>>>()?;
+        args.cad.write(&shapes, &super::export::stem(&args.cloud))?;
+    }
     if !failures.is_empty() {
         return Err(anyhow!("{}", failures.join("; ")));
     }

@@ -1,4 +1,4 @@
-//! Offset metrics (DESIGN.md §2): the distance of every data point to a chain or grid, and the
+//! Offset metrics (`docs/ARCHITECTURE.md` §2.4): the distance of every data point to a chain or grid, and the
 //! summary figures reports carry (`sum_sq`, `sum`, `rms`, `max`, `max_at`).
 
 use super::shape::{Basis, CurveShape, GridShape, Shape};
