@@ -302,18 +302,6 @@ impl Var {
     }
 }
 
-impl crate::fit::evo::SearchSpace for DesignSpace {
-    fn dim(&self) -> usize {
-        self.free.len()
-    }
-    fn bounds(&self) -> &[[f64; 2]] {
-        &self.bounds
-    }
-    fn start(&self) -> &[f64] {
-        &self.zero
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,6 +37,6 @@ pub use batch::{
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
 pub use design::{DesignSpace, Hold};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
-pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons, Stop};
+pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
 pub use plot::{CpCurve, CpPlot, Outline};

@@ -1,39 +1,32 @@
-//! Aerodynamic shape optimisation: the GA and CMA-ES of [`crate::fit::evo`] over a
-//! [`DesignSpace`] (an adapted encoding's stored numbers as bounded offsets), every generation
-//! scored in one call of the panel-method evaluator ([`AeroBatch`] on the GPU or the CPU).
-//!
-//! This is a driver of its own beside [`crate::fit::evo::Evolution`], which is built around a
-//! distance-to-data problem: it reuses the operators (`Ga`, `Cmaes` through
-//! [`SearchSpace`]), the random streams, the scores, the progress lines and the checkpoint
-//! format, and replaces only the objective. It is meant to move onto the project's general
-//! problem type once there is one.
+//! Aerodynamic shape optimisation: the GA and CMA-ES of [`crate::fit::evo`] on an
+//! [`AeroProblem`] (an adapted encoding's stored numbers as bounded offsets, [`DesignSpace`]),
+//! a [`PopulationObjective`] whose every generation is one call of the panel-method evaluator
+//! ([`AeroBatch`] on the GPU or the CPU). The run is the project's one evolutionary driver,
+//! [`Evolution`]; [`Optimisation`] adds the `ga+cmaes` handover and the per-reason counts.
 //!
 //! **Constraints and bad shapes** (see [`super::batch`]): the optimisers rank the kernel's
 //! score, which is the objective for a valid shape meeting the constraints, `1e3 + shortfall`
 //! for a valid shape breaking them, and `1e6 + violation` for an unusable one; so every
 //! feasible shape ranks before every infeasible one, and infeasible ones by how far they are
-//! from feasible (Deb's rules, as a penalty). Every individual flagged is counted per reason.
+//! from feasible (Deb's rules, as a penalty). Every individual flagged is counted per reason;
+//! the generation means of the progress lines are over the feasible ones.
 //!
-//! **Checkpoints** are [`Checkpoint`]s: the population (GA) or the strategy (CMA-ES), the best,
-//! the counters and the history; the per-reason counts travel in its `params` field, one
-//! `(count, 0)` pair per reason of [`flags::NAMES`] then the individuals evaluated. A run
-//! resumed from one continues bit-identically on the same backend.
+//! **Checkpoints** are the evolutionary [`Checkpoint`]s; the scorer's state (its `params`
+//! field) holds the per-reason counts, one `(count, 0)` pair per reason of [`flags::NAMES`]
+//! then the individuals evaluated, and then the best individual's kernel result, one pair per
+//! field. A run resumed from one continues bit-identically on the same backend.
 
 use super::batch::{build_aero_evaluator, flags, AeroBatch, AeroEval, AeroEvaluator, AeroResult, Objective};
 use super::design::DesignSpace;
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo, GpuOptions};
-use crate::fit::evo::cmaes::{default_lambda, flat_window, Cmaes};
-use crate::fit::evo::ga::{initial_population, Ga};
-use crate::fit::evo::problem::Fnv;
-use crate::fit::evo::rng::Streams;
 use crate::fit::evo::{
-    Algorithm, Checkpoint, CmaesOptions, CmaesState, GaOptions, Progress, Score, SearchSpace,
+    default_lambda, Algorithm, Checkpoint, CmaesOptions, EvoOptions, EvoStop, Evolution, Fnv, GaOptions,
+    PopulationObjective, Progress, Score, Scorer,
 };
 use serde::Serialize;
 use std::fmt;
 use std::str::FromStr;
-use std::time::Instant;
 
 /// An optimisation method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -176,6 +169,25 @@ impl OptimiseOptions {
             Method::Cmaes | Method::GaCmaes => 1000,
         })
     }
+
+    /// The evolutionary driver's options for the `stage` of a `method` run on `n` variables
+    /// (the fitting problem's options keep their defaults: this objective has no data).
+    #[must_use]
+    pub fn evo(&self, method: Method, stage: Algorithm, n: usize) -> EvoOptions {
+        EvoOptions {
+            population: Some(self.size(stage, n)),
+            generations: Some(self.generation_limit(method)),
+            seed: self.seed,
+            backend: self.backend,
+            stall_generations: self.stall,
+            stall_tolerance: self.stall_tolerance,
+            spread: self.spread,
+            ga: self.ga.clone(),
+            cmaes: self.cmaes.clone(),
+            gpu: self.gpu.clone(),
+            ..EvoOptions::default()
+        }
+    }
 }
 
 /// An optimisation problem: the design space, and the population problem on its node map.
@@ -220,15 +232,96 @@ impl AeroProblem {
     }
 }
 
-impl SearchSpace for AeroProblem {
+impl PopulationObjective for AeroProblem {
     fn dim(&self) -> usize {
         self.space.dim()
+    }
+    fn start(&self) -> &[f64] {
+        self.space.start()
     }
     fn bounds(&self) -> &[[f64; 2]] {
         self.space.bounds()
     }
-    fn start(&self) -> &[f64] {
-        self.space.start()
+    /// The chord: the spread and CMA-ES's step tolerance are fractions of it.
+    fn extent(&self) -> f64 {
+        self.space.chord()
+    }
+    fn fingerprint(&self) -> u64 {
+        AeroProblem::fingerprint(self)
+    }
+    fn scorer<'s>(
+        &'s self,
+        state: Option<Vec<[f64; 2]>>,
+        options: &EvoOptions,
+    ) -> Result<Box<dyn Scorer + 's>> {
+        let (reasons, best) = match state {
+            Some(p) => decode_state(&p)?,
+            None => (Reasons::default(), None),
+        };
+        Ok(Box::new(AeroScorer {
+            evaluator: build_aero_evaluator(&self.batch.kernel(), options.backend, &options.gpu)?,
+            results: Vec::new(),
+            reasons,
+            best,
+        }))
+    }
+    /// The f64 reference's score.
+    fn measure(&self, design: &[f64], _options: &EvoOptions) -> Result<f64> {
+        Ok(self.batch.reference(design).score)
+    }
+    /// A shape without a penalty: valid and within the constraints.
+    fn feasible(&self, score: &Score) -> bool {
+        score.sum_sq.is_finite() && score.sum_sq < super::batch::PENALTY_CONSTRAINT
+    }
+}
+
+/// Scores populations on the panel-method evaluator, counting the flagged shapes and keeping
+/// the best individual's kernel result.
+struct AeroScorer {
+    evaluator: Box<dyn AeroEvaluator>,
+    results: Vec<AeroResult>,
+    reasons: Reasons,
+    best: Option<AeroResult>,
+}
+
+/// The score the optimisers rank by: the kernel's, `+∞` when it is not finite.
+fn score_of(r: &AeroResult) -> f64 {
+    if r.score.is_finite() {
+        f64::from(r.score)
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl Scorer for AeroScorer {
+    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
+        self.results.resize(scores.len(), AeroResult::default());
+        self.evaluator.evaluate(population, &mut self.results)?;
+        self.reasons.count(&self.results);
+        for (s, r) in scores.iter_mut().zip(&self.results) {
+            *s = Score {
+                sum_sq: score_of(r),
+                max: 0.0,
+            };
+            // The driver keeps the first strictly better individual, in the same order.
+            if self.best.is_none_or(|b| s.sum_sq < score_of(&b)) {
+                self.best = Some(*r);
+            }
+        }
+        Ok(())
+    }
+    fn recentre(&mut self, _generation: u64, _best: &[f64]) -> Result<()> {
+        Ok(())
+    }
+    fn state(&self) -> Vec<[f64; 2]> {
+        encode_state(self.reasons, self.best)
+    }
+    fn info(&self) -> &BackendInfo {
+        self.evaluator.info()
+    }
+    /// One shape per individual: the throughput figure is in shapes.
+    fn work(&self) -> usize {
+        1
     }
 }
 
@@ -264,146 +357,75 @@ impl Reasons {
             self.cm += u64::from(f & flags::CM != 0);
         }
     }
+}
 
-    fn to_params(self) -> Vec<[f64; 2]> {
-        [
-            self.non_finite,
-            self.fold,
-            self.crossing,
-            self.singular,
-            self.thin,
-            self.cm,
-            self.evaluated,
-        ]
-        .iter()
-        .map(|&c| [c as f64, 0.0])
-        .collect()
+/// The scorer's checkpoint state: the counts, then the best kernel result's fields.
+fn encode_state(r: Reasons, best: Option<AeroResult>) -> Vec<[f64; 2]> {
+    let mut p: Vec<[f64; 2]> = [
+        r.non_finite,
+        r.fold,
+        r.crossing,
+        r.singular,
+        r.thin,
+        r.cm,
+        r.evaluated,
+    ]
+    .iter()
+    .map(|&c| [c as f64, 0.0])
+    .collect();
+    if let Some(b) = best {
+        let fields = [b.cl, b.cm, b.thickness, b.objective, b.score];
+        p.extend(fields.iter().map(|&x| [f64::from(x), 0.0]));
+        p.push([f64::from(b.flags), 0.0]);
+        p.push([f64::from(b.violation), 0.0]);
     }
+    p
+}
 
-    fn from_params(p: &[[f64; 2]]) -> Result<Reasons> {
-        let ok = p.len() == 7
-            && p.iter()
-                .all(|c| c[0] >= 0.0 && c[0].fract() == 0.0 && c[1] == 0.0);
-        if !ok {
-            return Err(Error::invalid(
-                "the checkpoint's reason counts are not those of an aerodynamic run",
-            ));
+/// The inverse of [`encode_state`].
+fn decode_state(p: &[[f64; 2]]) -> Result<(Reasons, Option<AeroResult>)> {
+    let counts_ok = p.len() >= 7
+        && p[..7]
+            .iter()
+            .all(|c| c[0] >= 0.0 && c[0].fract() == 0.0 && c[1] == 0.0);
+    if !counts_ok || !(p.len() == 7 || p.len() == 14) {
+        return Err(Error::invalid(
+            "the checkpoint's scorer state is not that of an aerodynamic run",
+        ));
+    }
+    let c = |k: usize| p[k][0] as u64;
+    let reasons = Reasons {
+        non_finite: c(0),
+        fold: c(1),
+        crossing: c(2),
+        singular: c(3),
+        thin: c(4),
+        cm: c(5),
+        evaluated: c(6),
+    };
+    let best = (p.len() == 14).then(|| {
+        let f = |k: usize| p[7 + k][0] as f32;
+        AeroResult {
+            cl: f(0),
+            cm: f(1),
+            thickness: f(2),
+            objective: f(3),
+            score: f(4),
+            flags: p[12][0] as u32,
+            violation: f(6),
+            ..AeroResult::default()
         }
-        let c = |k: usize| p[k][0] as u64;
-        Ok(Reasons {
-            non_finite: c(0),
-            fold: c(1),
-            crossing: c(2),
-            singular: c(3),
-            thin: c(4),
-            cm: c(5),
-            evaluated: c(6),
-        })
-    }
+    });
+    Ok((reasons, best))
 }
 
-/// Why a run stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum Stop {
-    /// The generation limit.
-    Generations,
-    /// No improvement for the stall limit.
-    Stall,
-    /// CMA-ES: the sampling spread fell below the tolerance.
-    StepSize,
-    /// CMA-ES: the covariance became too ill-conditioned.
-    Condition,
-    /// CMA-ES: the generation bests have been flat for the flatness window.
-    Flat,
-}
-
-impl fmt::Display for Stop {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Stop::Generations => "generation limit",
-            Stop::Stall => "stalled",
-            Stop::StepSize => "step size below tolerance",
-            Stop::Condition => "covariance ill-conditioned",
-            Stop::Flat => "objective flat",
-        })
-    }
-}
-
-// One per run: the size difference does not matter.
-#[allow(clippy::large_enum_variant)]
-enum Engine {
-    Ga(Ga),
-    Cmaes(Cmaes),
-}
-
-/// One optimisation run, a generation at a time.
+/// One optimisation run, a generation at a time: the evolutionary driver on the problem, and
+/// for `ga+cmaes` the handover to CMA-ES halfway.
 pub struct Optimisation<'p> {
     problem: &'p AeroProblem,
     method: Method,
     options: OptimiseOptions,
-    fingerprint: u64,
-    streams: Streams,
-    evaluator: Box<dyn AeroEvaluator>,
-    results: Vec<AeroResult>,
-    engine: Engine,
-    generation: u64,
-    evaluations: u64,
-    eval_seconds: f64,
-    seconds_before: f64,
-    clock: Instant,
-    best: Vec<f32>,
-    best_score: Score,
-    best_result: AeroResult,
-    stall_reference: f64,
-    stall_since: u64,
-    history: Vec<Progress>,
-    reasons: Reasons,
-}
-
-/// The fingerprint of a run: the problem's, the method, the seed and the options that shape
-/// it (not the generation limit or the stall options).
-fn run_fingerprint(problem: &AeroProblem, method: Method, options: &OptimiseOptions) -> u64 {
-    let n = problem.dim();
-    let mut h = Fnv::new();
-    h.bytes(&problem.fingerprint().to_le_bytes());
-    h.bytes(method.name().as_bytes());
-    h.usize(options.size(Algorithm::Ga, n));
-    h.usize(options.size(Algorithm::Cmaes, n));
-    h.bytes(&options.seed.to_le_bytes());
-    h.f64s(&[options.spread]);
-    let g = &options.ga;
-    h.usize(g.tournament);
-    h.f64s(&[
-        g.crossover_rate,
-        g.crossover_eta,
-        g.mutation_rate.unwrap_or(-1.0),
-        g.mutation_eta,
-        g.elite_fraction,
-    ]);
-    h.usize(options.cmaes.resample);
-    if method == Method::GaCmaes {
-        h.usize(options.generation_limit(method));
-    }
-    h.finish()
-}
-
-/// The mean of the finite scores of valid individuals (`+∞` when there are none).
-fn mean_valid(scores: &[Score]) -> f64 {
-    let (sum, count) = scores
-        .iter()
-        .filter(|s| s.sum_sq.is_finite() && s.sum_sq < super::batch::PENALTY_CONSTRAINT)
-        .fold((0.0, 0usize), |(s, c), x| (s + x.sum_sq, c + 1));
-    if count == 0 {
-        f64::INFINITY
-    } else {
-        sum / count as f64
-    }
-}
-
-fn best_index(scores: &[Score]) -> usize {
-    (0..scores.len())
-        .min_by(|&a, &b| scores[a].before(a, &scores[b], b))
-        .unwrap_or(0)
+    run: Evolution<'p>,
 }
 
 impl<'p> Optimisation<'p> {
@@ -411,65 +433,22 @@ impl<'p> Optimisation<'p> {
     /// initial population; CMA-ES's start).
     pub fn new(problem: &'p AeroProblem, method: Method, options: &OptimiseOptions) -> Result<Self> {
         options.check()?;
-        let evaluator = build_aero_evaluator(&problem.batch.kernel(), options.backend, &options.gpu)?;
-        let mut run = Optimisation {
+        let stage = match method {
+            Method::Ga | Method::GaCmaes => Algorithm::Ga,
+            Method::Cmaes => Algorithm::Cmaes,
+        };
+        let run = Evolution::new(problem, stage, &options.evo(method, stage, problem.dim()))?;
+        Ok(Optimisation {
             problem,
             method,
-            fingerprint: run_fingerprint(problem, method, options),
             options: options.clone(),
-            streams: Streams::new(options.seed),
-            evaluator,
-            results: Vec::new(),
-            engine: Engine::Ga(Ga::new(Vec::new(), Vec::new())),
-            generation: 0,
-            evaluations: 0,
-            eval_seconds: 0.0,
-            seconds_before: 0.0,
-            clock: Instant::now(),
-            best: vec![0.0; problem.dim()],
-            best_score: Score::WORST,
-            best_result: AeroResult::default(),
-            stall_reference: f64::INFINITY,
-            stall_since: 0,
-            history: Vec::new(),
-            reasons: Reasons::default(),
-        };
-        let n = problem.dim();
-        let spread = options.spread * problem.space.chord();
-        let mean = match method {
-            Method::Ga | Method::GaCmaes => {
-                let size = options.size(Algorithm::Ga, n);
-                let pop = initial_population(problem, size, spread, &run.streams);
-                let mut scores = vec![Score::WORST; size];
-                run.evaluate(&pop, &mut scores)?;
-                run.note_best(&pop, &scores);
-                let mean = mean_valid(&scores);
-                run.engine = Engine::Ga(Ga::new(pop, scores));
-                mean
-            }
-            Method::Cmaes => {
-                let start: Vec<f32> = vec![0.0; n];
-                let mut s = [Score::WORST];
-                run.evaluate(&start, &mut s)?;
-                run.note_best(&start, &s);
-                let size = options.size(Algorithm::Cmaes, n);
-                run.engine = Engine::Cmaes(Cmaes::new(CmaesState::new(problem.start(), spread), size));
-                s[0].sum_sq
-            }
-        };
-        run.stall_reference = run.best_score.sum_sq;
-        run.history.push(Progress {
-            generation: 0,
-            best: run.best_score.sum_sq,
-            mean,
-            evaluations: run.evaluations,
-            seconds: run.seconds(),
-        });
-        Ok(run)
+            run,
+        })
     }
 
     /// Continue a run from a checkpoint written by the same problem, method and options (the
-    /// generation limit and stall options may differ).
+    /// generation limit and stall options may differ). A `ga+cmaes` run resumes in either
+    /// stage; its GA stage is a GA run's, its CMA-ES stage continues as a CMA-ES run's.
     pub fn resume(
         problem: &'p AeroProblem,
         method: Method,
@@ -477,121 +456,29 @@ impl<'p> Optimisation<'p> {
         checkpoint: &Checkpoint,
     ) -> Result<Self> {
         options.check()?;
-        let n = problem.dim();
-        let fingerprint = run_fingerprint(problem, method, options);
-        if checkpoint.fingerprint != fingerprint || checkpoint.dim != n {
-            return Err(Error::invalid(format!(
-                "the checkpoint was written for another problem or other settings (fingerprint {:016x}, \
-                 this run {fingerprint:016x}): the start, tolerance, target, angle, constraints, method, \
-                 population, seed and optimiser options must be those of the interrupted run",
-                checkpoint.fingerprint
-            )));
-        }
         let stage = checkpoint.algorithm;
         let allowed = match method {
             Method::Ga => stage == Algorithm::Ga,
             Method::Cmaes => stage == Algorithm::Cmaes,
             Method::GaCmaes => true,
         };
-        if !allowed || checkpoint.size != options.size(stage, n) {
+        if !allowed {
             return Err(Error::invalid(format!(
-                "the checkpoint holds a {stage} stage of {} individuals, which a {method} run of this \
-                 population does not have",
-                checkpoint.size
+                "the checkpoint holds a {stage} run, which a {method} run does not have"
             )));
         }
-        let engine = match (&checkpoint.cmaes, stage) {
-            (None, Algorithm::Ga) if checkpoint.population.len() == checkpoint.size * n => {
-                Engine::Ga(Ga::new(checkpoint.population.clone(), checkpoint.scores.clone()))
-            }
-            (Some(state), Algorithm::Cmaes) => {
-                state.check(n)?;
-                Engine::Cmaes(Cmaes::new(state.clone(), checkpoint.size))
-            }
-            _ => {
-                return Err(Error::invalid(
-                    "the checkpoint's strategy does not match its method",
-                ))
-            }
-        };
-        if checkpoint.best.len() != n || checkpoint.best.iter().any(|x| !x.is_finite()) {
-            return Err(Error::invalid(
-                "the checkpoint's best individual is not a finite design",
-            ));
-        }
-        let evaluator = build_aero_evaluator(&problem.batch.kernel(), options.backend, &options.gpu)?;
-        let mut run = Optimisation {
+        let run = Evolution::resume(
+            problem,
+            stage,
+            &options.evo(method, stage, problem.dim()),
+            checkpoint,
+        )?;
+        Ok(Optimisation {
             problem,
             method,
             options: options.clone(),
-            fingerprint,
-            streams: Streams::new(options.seed),
-            evaluator,
-            results: Vec::new(),
-            engine,
-            generation: checkpoint.generation,
-            evaluations: checkpoint.evaluations,
-            eval_seconds: checkpoint.eval_seconds,
-            seconds_before: checkpoint.seconds,
-            clock: Instant::now(),
-            best: checkpoint.best.clone(),
-            best_score: checkpoint.best_score,
-            best_result: AeroResult::default(),
-            stall_reference: checkpoint.stall_reference,
-            stall_since: checkpoint.stall_since,
-            history: checkpoint.history.clone(),
-            reasons: Reasons::from_params(&checkpoint.params)?,
-        };
-        // The best individual's kernel result again (a checkpoint keeps only its score).
-        let best = run.best.clone();
-        let mut s = [Score::WORST];
-        run.results.resize(1, AeroResult::default());
-        run.evaluator.evaluate(&best, &mut run.results)?;
-        run.best_result = run.results[0];
-        s[0] = Score {
-            sum_sq: f64::from(run.results[0].score),
-            max: 0.0,
-        };
-        if s[0].sum_sq.to_bits() != run.best_score.sum_sq.to_bits() {
-            return Err(Error::invalid(format!(
-                "the checkpoint's best individual scores {} here, {} when it was written: another \
-                 backend or build",
-                s[0].sum_sq, run.best_score.sum_sq
-            )));
-        }
-        Ok(run)
-    }
-
-    /// Score every row of `population` into `scores` (one evaluator call), counting reasons.
-    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
-        self.results.resize(scores.len(), AeroResult::default());
-        let clock = Instant::now();
-        self.evaluator.evaluate(population, &mut self.results)?;
-        self.eval_seconds += clock.elapsed().as_secs_f64();
-        self.evaluations += scores.len() as u64;
-        self.reasons.count(&self.results);
-        for (s, r) in scores.iter_mut().zip(&self.results) {
-            *s = if r.score.is_finite() {
-                Score {
-                    sum_sq: f64::from(r.score),
-                    max: 0.0,
-                }
-            } else {
-                Score::WORST
-            };
-        }
-        Ok(())
-    }
-
-    /// Keep the best of `scores` if it beats the best so far.
-    fn note_best(&mut self, population: &[f32], scores: &[Score]) {
-        let n = self.problem.dim();
-        let k = best_index(scores);
-        if scores[k].sum_sq < self.best_score.sum_sq {
-            self.best_score = scores[k];
-            self.best.copy_from_slice(&population[k * n..(k + 1) * n]);
-            self.best_result = self.results[k];
-        }
+            run,
+        })
     }
 
     /// The generation at which `ga+cmaes` hands over from the GA to CMA-ES.
@@ -599,129 +486,39 @@ impl<'p> Optimisation<'p> {
         (self.options.generation_limit(self.method) / 2).max(1) as u64
     }
 
-    /// Run one generation.
+    /// Run one generation (for `ga+cmaes`, CMA-ES from the GA's best once half the
+    /// generations are done).
     pub fn step(&mut self) -> Result<&Progress> {
-        let g = self.generation + 1;
-        let problem = self.problem;
-        let n = problem.dim();
         if self.method == Method::GaCmaes
-            && matches!(self.engine, Engine::Ga(_))
-            && self.generation >= self.handover()
+            && self.run.algorithm() == Algorithm::Ga
+            && self.run.generation() >= self.handover()
         {
-            // CMA-ES from the GA's best, its step the initial spread.
-            let start: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
-            let sigma = self.options.spread * problem.space.chord();
-            let size = self.options.size(Algorithm::Cmaes, n);
-            self.engine = Engine::Cmaes(Cmaes::new(CmaesState::new(&start, sigma), size));
+            self.run.switch_to_cmaes();
         }
-        let mut engine = std::mem::replace(&mut self.engine, Engine::Ga(Ga::new(Vec::new(), Vec::new())));
-        let mean = match &mut engine {
-            Engine::Ga(ga) => {
-                ga.breed(problem, &self.options.ga, &self.streams, g);
-                let mut scores = std::mem::take(&mut ga.next_scores);
-                self.evaluate(&ga.next, &mut scores)?;
-                ga.next_scores = scores;
-                ga.advance();
-                self.note_best(&ga.population, &ga.scores);
-                mean_valid(&ga.scores)
-            }
-            Engine::Cmaes(es) => {
-                es.sample(problem, &self.options.cmaes, &self.streams, g);
-                let mut scores = std::mem::take(&mut es.scores);
-                self.evaluate(&es.samples, &mut scores)?;
-                es.scores = scores;
-                es.update();
-                self.note_best(&es.samples, &es.scores);
-                mean_valid(&es.scores)
-            }
-        };
-        self.engine = engine;
-        let reference = self.stall_reference;
-        if self.best_score.sum_sq < reference - self.options.stall_tolerance * reference.abs() {
-            self.stall_reference = self.best_score.sum_sq;
-            self.stall_since = g;
-        }
-        self.generation = g;
-        self.history.push(Progress {
-            generation: g,
-            best: self.best_score.sum_sq,
-            mean,
-            evaluations: self.evaluations,
-            seconds: self.seconds(),
-        });
-        Ok(&self.history[self.history.len() - 1])
+        self.run.step()
     }
 
     /// Why the run should stop now, if it should.
     #[must_use]
-    pub fn stop(&self) -> Option<Stop> {
-        let o = &self.options;
-        if self.generation >= o.generation_limit(self.method) as u64 {
-            return Some(Stop::Generations);
-        }
-        if o.stall > 0 && self.generation - self.stall_since >= o.stall as u64 {
-            return Some(Stop::Stall);
-        }
-        if let Engine::Cmaes(es) = &self.engine {
-            let st = &es.state;
-            if st.spread() < o.cmaes.tol_x * self.problem.space.chord() {
-                return Some(Stop::StepSize);
+    pub fn stop(&self) -> Option<EvoStop> {
+        self.run.stop()
+    }
+
+    /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step.
+    pub fn run(&mut self, mut on_generation: impl FnMut(&Optimisation<'_>) -> Result<()>) -> Result<EvoStop> {
+        loop {
+            if let Some(why) = self.stop() {
+                return Ok(why);
             }
-            if st.condition() > o.cmaes.max_condition {
-                return Some(Stop::Condition);
-            }
-            let window = flat_window(self.problem.dim(), es.scores.len());
-            if st.recent.len() >= window {
-                let lo = st.recent.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-                let hi = st.recent.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-                if lo.is_finite() && hi - lo <= o.cmaes.tol_fun * lo.abs().max(1e-12) {
-                    return Some(Stop::Flat);
-                }
-            }
+            self.step()?;
+            on_generation(self)?;
         }
-        None
     }
 
     /// Everything needed to continue bit-identically.
     #[must_use]
     pub fn checkpoint(&self) -> Checkpoint {
-        let (algorithm, size, population, scores, cmaes) = match &self.engine {
-            Engine::Ga(ga) => (
-                Algorithm::Ga,
-                ga.scores.len(),
-                ga.population.clone(),
-                ga.scores.clone(),
-                None,
-            ),
-            Engine::Cmaes(es) => (
-                Algorithm::Cmaes,
-                es.scores.len(),
-                Vec::new(),
-                Vec::new(),
-                Some(es.state.clone()),
-            ),
-        };
-        Checkpoint {
-            fingerprint: self.fingerprint,
-            algorithm,
-            backend: self.evaluator.info().to_string(),
-            dim: self.problem.dim(),
-            size,
-            generation: self.generation,
-            evaluations: self.evaluations,
-            seconds: self.seconds(),
-            eval_seconds: self.eval_seconds,
-            point_evals: self.evaluations,
-            params: self.reasons.to_params(),
-            best: self.best.clone(),
-            best_score: self.best_score,
-            stall_reference: self.stall_reference,
-            stall_since: self.stall_since,
-            history: self.history.clone(),
-            population,
-            scores,
-            cmaes,
-        }
+        self.run.checkpoint()
     }
 
     /// The method.
@@ -733,16 +530,13 @@ impl<'p> Optimisation<'p> {
     /// The running stage: the GA or CMA-ES.
     #[must_use]
     pub fn stage(&self) -> Algorithm {
-        match self.engine {
-            Engine::Ga(_) => Algorithm::Ga,
-            Engine::Cmaes(_) => Algorithm::Cmaes,
-        }
+        self.run.algorithm()
     }
 
     /// Generations completed.
     #[must_use]
     pub fn generation(&self) -> u64 {
-        self.generation
+        self.run.generation()
     }
 
     /// The generation limit.
@@ -754,75 +548,58 @@ impl<'p> Optimisation<'p> {
     /// The best individual so far (f32 offsets) and its kernel result.
     #[must_use]
     pub fn best(&self) -> (&[f32], AeroResult) {
-        (&self.best, self.best_result)
+        let (_, best) = self.scorer_state();
+        (self.run.best().0, best.unwrap_or_default())
     }
 
     /// One line per generation.
     #[must_use]
     pub fn history(&self) -> &[Progress] {
-        &self.history
+        self.run.history()
     }
 
     /// The individuals flagged so far, per reason.
     #[must_use]
     pub fn reasons(&self) -> Reasons {
-        self.reasons
+        self.scorer_state().0
+    }
+
+    fn scorer_state(&self) -> (Reasons, Option<AeroResult>) {
+        // The state is this module's own encoding: it always decodes.
+        decode_state(&self.run.scorer_state()).unwrap_or_default()
     }
 
     /// The backend that runs the evaluations.
     #[must_use]
     pub fn info(&self) -> &BackendInfo {
-        self.evaluator.info()
+        self.run.info()
     }
 
     /// Wall-clock seconds so far, including those before a checkpoint.
     #[must_use]
     pub fn seconds(&self) -> f64 {
-        self.seconds_before + self.clock.elapsed().as_secs_f64()
+        self.run.seconds()
     }
 
-    /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step.
-    pub fn run(&mut self, mut on_generation: impl FnMut(&Optimisation<'_>) -> Result<()>) -> Result<Stop> {
-        loop {
-            if let Some(why) = self.stop() {
-                return Ok(why);
-            }
-            self.step()?;
-            on_generation(self)?;
-        }
-    }
-
-    /// End the run: re-measure the candidates in f64 (the best individual; for CMA-ES also
-    /// its mean) and return the better.
-    pub fn finish(self, stop: Stop) -> Result<OptimiseResult> {
-        let mut candidates = vec![self.best.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>()];
-        if let Engine::Cmaes(es) = &self.engine {
-            candidates.push(es.state.mean.clone());
-        }
-        let mut chosen: Option<(Vec<f64>, AeroEval)> = None;
-        for c in candidates {
-            if c.iter().any(|x| !x.is_finite()) {
-                continue;
-            }
-            let e = self.problem.batch.reference(&c);
-            if chosen.as_ref().is_none_or(|(_, b)| e.score < b.score) {
-                chosen = Some((c, e));
-            }
-        }
-        let (design, eval) = chosen.ok_or_else(|| Error::Numerical("no finite design to report".into()))?;
+    /// End the run: the driver re-measures its candidates in f64 (the best individual; for
+    /// CMA-ES also its mean) and keeps the better; its coefficients and flags in f64.
+    pub fn finish(self, stop: EvoStop) -> Result<OptimiseResult> {
+        let (reasons, kernel) = self.scorer_state();
+        let r = self.run.finish(stop)?;
+        let eval = self.problem.batch.reference(&r.design);
         Ok(OptimiseResult {
-            seconds: self.seconds(),
-            design,
+            seconds: r.report.seconds,
             eval,
-            kernel: self.best_result,
+            kernel: kernel.unwrap_or_default(),
             stop,
             method: self.method,
-            generations: self.generation,
-            evaluations: self.evaluations,
-            eval_seconds: self.eval_seconds,
-            backend: self.evaluator.info().clone(),
-            reasons: self.reasons,
-            history: self.history,
+            generations: r.report.iterations as u64,
+            evaluations: r.report.evaluations as u64,
+            eval_seconds: r.eval_seconds,
+            backend: r.backend,
+            reasons,
+            history: r.history,
+            design: r.design,
         })
     }
 }
@@ -837,7 +614,7 @@ pub struct OptimiseResult {
     /// The best individual's kernel result (f32).
     pub kernel: AeroResult,
     /// Why the run stopped.
-    pub stop: Stop,
+    pub stop: EvoStop,
     /// The method.
     pub method: Method,
     /// Generations run.

@@ -902,7 +902,8 @@ impl CpuAero {
         Self::with_simd(kernel, Simd::detect())
     }
 
-    /// The same, on the portable kernels (for tests and comparisons).
+    /// The same, on the portable kernels (for the tests that compare them).
+    #[cfg(test)]
     #[must_use]
     pub fn new_portable(kernel: AeroKernel) -> Self {
         Self::with_simd(kernel, Simd::Portable)
@@ -970,15 +971,27 @@ mod tests {
         let k = a.solution.chord().le_node;
         // One variable lifting the upper surface.
         let col = (0..base.len())
-            .map(|i| if i < k { glam::DVec2::new(0.0, base[i].x * (1.0 - base[i].x)) } else { glam::DVec2::ZERO })
+            .map(|i| {
+                if i < k {
+                    glam::DVec2::new(0.0, base[i].x * (1.0 - base[i].x))
+                } else {
+                    glam::DVec2::ZERO
+                }
+            })
             .collect();
-        let map = crate::aero::NodeMap { base, columns: vec![col] };
-        let b = crate::aero::AeroBatch::new(map, 3.0, crate::aero::Objective::MaxCl, Default::default()).unwrap();
+        let map = crate::aero::NodeMap {
+            base,
+            columns: vec![col],
+        };
+        let b =
+            crate::aero::AeroBatch::new(map, 3.0, crate::aero::Objective::MaxCl, Default::default()).unwrap();
         let pop: Vec<f32> = (0..20).map(|i| 0.002 * i as f32 - 0.02).collect();
         let mut fast = vec![AeroResult::default(); 20];
         let mut portable = fast.clone();
         CpuAero::new(b.kernel()).evaluate(&pop, &mut fast).unwrap();
-        CpuAero::new_portable(b.kernel()).evaluate(&pop, &mut portable).unwrap();
+        CpuAero::new_portable(b.kernel())
+            .evaluate(&pop, &mut portable)
+            .unwrap();
         assert_eq!(fast, portable);
         assert!(fast.iter().all(|r| r.flags == 0 && r.cl > 0.5));
     }

@@ -11,7 +11,7 @@
 //! result does not depend on the number of threads.
 
 use super::ga::to_f32;
-use super::problem::{Score, SearchSpace};
+use super::objective::{PopulationObjective, Score};
 use super::rng::{normal, Streams};
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
@@ -78,7 +78,7 @@ pub fn default_lambda(n: usize) -> usize {
 }
 
 /// Generations of the flatness test: `10 + ⌈30 n / λ⌉`.
-pub(crate) fn flat_window(n: usize, lambda: usize) -> usize {
+fn flat_window(n: usize, lambda: usize) -> usize {
     10 + (30 * n).div_ceil(lambda.max(1))
 }
 
@@ -191,7 +191,8 @@ impl CmaesState {
         (max / min).powi(2)
     }
 
-    /// True when the flatness window is full and its bests lie within `tol` of their least.
+    /// True when the flatness window is full and its bests lie within `tol` of their least
+    /// (relative to its size: objectives may be negative).
     #[must_use]
     pub fn flat(&self, n: usize, lambda: usize, tol: f64) -> bool {
         let window = flat_window(n, lambda);
@@ -200,7 +201,7 @@ impl CmaesState {
         }
         let lo = self.recent.iter().fold(f64::INFINITY, |a, &b| a.min(b));
         let hi = self.recent.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-        lo.is_finite() && hi - lo <= tol * lo
+        lo.is_finite() && hi - lo <= tol * lo.abs()
     }
 
     /// Check the shapes against `n` variables (a checkpoint read from disk).
@@ -255,7 +256,7 @@ impl Cmaes {
     /// Draw the samples of generation `generation` into `samples`.
     pub(crate) fn sample(
         &mut self,
-        problem: &(impl SearchSpace + Sync),
+        problem: &dyn PopulationObjective,
         opts: &CmaesOptions,
         streams: &Streams,
         generation: u64,
