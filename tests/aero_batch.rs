@@ -241,7 +241,5 @@ fn bad_individuals_get_a_reason_and_a_finite_score() {
     let mut empty: Vec<AeroResult> = Vec::new();
     let mut ev = build_aero_evaluator(&b.kernel(), Backend::Cpu, &GpuOptions::default()).unwrap();
     ev.evaluate(&[], &mut empty).unwrap();
-    assert!(ev
-        .evaluate(&pop[1..], &mut vec![AeroResult::default(); 4])
-        .is_err());
+    assert!(ev.evaluate(&pop[1..], &mut [AeroResult::default(); 4]).is_err());
 }

@@ -19,6 +19,8 @@
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod analysis;
 pub mod batch;
 pub mod bench;

@@ -182,8 +182,8 @@ impl OptimiseOptions {
             stall_generations: self.stall,
             stall_tolerance: self.stall_tolerance,
             spread: self.spread,
-            ga: self.ga.clone(),
-            cmaes: self.cmaes.clone(),
+            ga: self.ga,
+            cmaes: self.cmaes,
             gpu: self.gpu.clone(),
             ..EvoOptions::default()
         }

@@ -263,7 +263,7 @@ impl Monitor {
             self.last_line = Instant::now();
         }
         if let Some(path) = &self.checkpoint {
-            if run.generation() % self.every == 0 || run.stop().is_some() {
+            if run.generation().is_multiple_of(self.every) || run.stop().is_some() {
                 run.checkpoint().write(path)?;
             }
         }
@@ -388,7 +388,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.cm_min.is_some_and(|m| !m.is_finite()) {
         return Err(usage("--cm-min must be a finite number"));
     }
-    if !(args.tol > 0.0) || !args.tol.is_finite() {
+    if !args.tol.is_finite() || args.tol <= 0.0 {
         return Err(usage("--tol must be a positive length"));
     }
     let resume = match &args.resume {

@@ -8,6 +8,8 @@
 //! invocation runs them. The f32 arithmetic is the shader's, operation for operation, including
 //! its own `ln` and `atan2` (so that the two paths do not depend on two vendors' libraries).
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::Simd;
 use crate::aero::batch::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult};
 use crate::error::Result;
@@ -77,6 +79,8 @@ fn finite(x: f32) -> bool {
 }
 
 /// The shader's `ln`: `x = m 2^e`, `m ∈ [√½, √2)`, `ln m = 2 atanh s`; 0 for `x ≤ 0`.
+// The shader's literals, so that both round them to the same f32.
+#[allow(clippy::approx_constant)]
 #[inline(always)]
 pub(crate) fn ln(x: f32) -> f32 {
     let bits = x.to_bits();
@@ -97,6 +101,8 @@ pub(crate) fn ln(x: f32) -> f32 {
 }
 
 /// The shader's `atan2r`: `atan2(y, x)` in `(−π, π]`, 0 at `(0, 0)`.
+// The shader's literals, so that both round them to the same f32.
+#[allow(clippy::approx_constant, clippy::excessive_precision)]
 #[inline(always)]
 pub(crate) fn atan2r(y: f32, x: f32) -> f32 {
     let ax = x.abs();
@@ -306,14 +312,14 @@ fn eliminate_step(work: &mut [Lanes], lay: Layout, k: usize) {
         let lf: Lanes = std::array::from_fn(|l| tail[base + k][l] * inv[l]);
         for (t, p) in tail[base + k + 1..=base + n].iter_mut().zip(pivot_row) {
             for l in 0..LANES {
-                t[l] = t[l] - lf[l] * p[l];
+                t[l] -= lf[l] * p[l];
             }
         }
         let r0 = lay.rhs(0, i) - lay.mat(k + 1, 0);
         let r1 = lay.rhs(1, i) - lay.mat(k + 1, 0);
         for l in 0..LANES {
-            tail[r0][l] = tail[r0][l] - lf[l] * b0[l];
-            tail[r1][l] = tail[r1][l] - lf[l] * b1[l];
+            tail[r0][l] -= lf[l] * b0[l];
+            tail[r1][l] -= lf[l] * b1[l];
         }
     }
 }
@@ -336,14 +342,14 @@ fn eliminate_block(work: &mut [Lanes], lay: Layout, k0: usize) {
                 let p = work[lay.mat(k, j)];
                 let t = &mut work[lay.mat(i, j)];
                 for l in 0..LANES {
-                    t[l] = t[l] - lf[l] * p[l];
+                    t[l] -= lf[l] * p[l];
                 }
             }
             for c in 0..2 {
                 let b = work[lay.rhs(c, k)];
                 let t = &mut work[lay.rhs(c, i)];
                 for l in 0..LANES {
-                    t[l] = t[l] - lf[l] * b[l];
+                    t[l] -= lf[l] * b[l];
                 }
             }
         }
@@ -365,7 +371,7 @@ fn eliminate_block(work: &mut [Lanes], lay: Layout, k0: usize) {
             }
             for c in s + 1..BLOCK {
                 for l in 0..LANES {
-                    row[c][l] = row[c][l] - lf[s][l] * rows[s][c][l];
+                    row[c][l] -= lf[s][l] * rows[s][c][l];
                 }
             }
         }
@@ -374,7 +380,7 @@ fn eliminate_block(work: &mut [Lanes], lay: Layout, k0: usize) {
             for s in 0..BLOCK {
                 let p = rows[s][j];
                 for l in 0..LANES {
-                    t[l] = t[l] - lf[s][l] * p[l];
+                    t[l] -= lf[s][l] * p[l];
                 }
             }
             row[j] = t;
@@ -384,7 +390,7 @@ fn eliminate_block(work: &mut [Lanes], lay: Layout, k0: usize) {
             let mut t = tail[at];
             for s in 0..BLOCK {
                 for l in 0..LANES {
-                    t[l] = t[l] - lf[s][l] * rb[c][s][l];
+                    t[l] -= lf[s][l] * rb[c][s][l];
                 }
             }
             tail[at] = t;
@@ -528,7 +534,7 @@ fn aero_block(
         for i in 0..nv {
             let m = kernel.node_map[e * nv + i];
             for l in 0..rows {
-                v[l] = v[l] + m * row(l)[i];
+                v[l] += m * row(l)[i];
             }
         }
         for l in 0..LANES {
@@ -657,7 +663,7 @@ fn aero_block(
     // the trailing rows: each row takes its four updates in the shader's order, so the values
     // are the shader's, with a quarter of its memory traffic.
     let mut k = 0;
-    while k + BLOCK <= n - 1 {
+    while k + BLOCK < n {
         eliminate_block(work, lay, k);
         k += BLOCK;
     }
@@ -683,7 +689,7 @@ fn aero_block(
             for j in k + 1..=n {
                 let (m, x) = (work[lay.mat(k, j)], work[lay.rhs(c, j)]);
                 for l in 0..LANES {
-                    acc[l] = acc[l] - m[l] * x[l];
+                    acc[l] -= m[l] * x[l];
                 }
             }
             let d = work[lay.mat(k, k)];
@@ -742,12 +748,12 @@ fn finish_lane(
         let ay = mid[1] * ca - mid[0] * sa;
         let ag = 0.5 * (cpi + cpj);
         let dg = cpj - cpi;
-        cl = cl + dx * ag;
-        cm = cm - (dx * (ag * ax + dg * dx / 12.0) + dy * (ag * ay + dg * dy / 12.0));
+        cl += dx * ag;
+        cm -= dx * (ag * ax + dg * dx / 12.0) + dy * (ag * ay + dg * dy / 12.0);
         cpi = cpj;
     }
-    cl = cl / chord;
-    cm = cm / (chord * chord);
+    cl /= chord;
+    cm /= chord * chord;
 
     let cdir = scale(sub(te, le), 1.0 / chord);
     let xof = |p: V2| dot(sub(p, le), cdir) / chord;
@@ -825,8 +831,8 @@ fn finish_lane(
             let ct = t[side + lo] + fr * (t[side + lo + 1] - t[side + lo]);
             let g = ca * gamma(0, k) + sa * gamma(1, k);
             let dc = (1.0 - g * g) - ct;
-            sum = sum + w * dc * dc;
-            wsum = wsum + w;
+            sum += w * dc * dc;
+            wsum += w;
         }
         objective = sum / wsum;
     }
@@ -834,11 +840,11 @@ fn finish_lane(
     let mut cviol = 0.0f32;
     if config.constraints & CONSTRAIN_THICKNESS != 0 && thick < config.min_thickness {
         flags |= FLAG_THIN;
-        cviol = cviol + (config.min_thickness - thick);
+        cviol += config.min_thickness - thick;
     }
     if config.constraints & CONSTRAIN_CM != 0 && cm < config.cm_min {
         flags |= FLAG_CM;
-        cviol = cviol + (config.cm_min - cm);
+        cviol += config.cm_min - cm;
     }
     if cviol > 0.0 {
         score = PENALTY_CONSTRAINT + cviol;
