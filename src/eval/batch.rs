@@ -142,11 +142,7 @@ fn run(
 /// numbers each (the design points flattened `x0,y0,x1,y1,…`). Blank lines and lines starting
 /// with `#` are skipped, and so is a first line that is not numeric (a header).
 pub fn read_population(path: &std::path::Path, n_vars: usize) -> Result<Vec<f32>> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_population(&text, path, n_vars)
+    parse_population(&crate::geometry::read_text(path)?, path, n_vars)
 }
 
 /// [`read_population`] on text in memory; `path` names the source in errors.

@@ -144,7 +144,11 @@ pub fn write_cloud_csv(path: &Path, cloud: &Cloud) -> Result<()> {
 
 /// Write points as CSV to any writer: a header naming the columns, then one row per point
 /// (`section,index` appended when `grid` is given; the caller checks it fits the points).
-pub fn write_csv_to<W: Write, P: Vector>(w: &mut W, points: &[P], grid: Option<Grid>) -> std::io::Result<()> {
+pub fn write_csv_to<W: Write + ?Sized, P: Vector>(
+    w: &mut W,
+    points: &[P],
+    grid: Option<Grid>,
+) -> std::io::Result<()> {
     const NAMES: [&str; 3] = ["x", "y", "z"];
     let header = NAMES[..P::DIM].join(",");
     match grid {

@@ -467,6 +467,10 @@ impl<'p> Evolution<'p> {
                 checkpoint.fingerprint
             )));
         }
+        checkpoint
+            .check_values()
+            .and_then(|()| checkpoint.check_bounds(problem.bounds()))
+            .map_err(|e| Error::invalid(format!("the checkpoint cannot be resumed: {e}")))?;
         let mut session = Session::new(problem, checkpoint.params.clone(), &session_options(options))?;
         session.eval_seconds = checkpoint.eval_seconds;
         session.point_evals = checkpoint.point_evals;
