@@ -10,6 +10,7 @@ pub mod export;
 pub mod fit;
 pub mod fit_surface;
 pub mod naca;
+pub mod output;
 
 use anyhow::Result;
 use std::io::Write;

@@ -9,6 +9,7 @@ mod io;
 mod loft;
 mod naca;
 mod points;
+mod scale;
 mod windio;
 
 pub use blade::{
@@ -23,3 +24,4 @@ pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
     write_csv_to, write_curve_csv, Cloud, Format, Grid, Loaded, Loaded2, Loaded3, LoadedPoints,
 };
+pub use scale::{check_design_scale, check_scale, Precision, MIN_EXTENT_F32, MIN_EXTENT_F64};
