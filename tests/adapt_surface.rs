@@ -51,7 +51,7 @@ fn check_met(r: &AdaptedSurface, points: &[DVec3], grid: Grid, tol: f64) {
     assert!(r.offset.max <= max * (1.0 + 1e-6) + 1e-12);
     let (lu, lv) = r.encoding.layouts().unwrap();
     let per = if r.encoding.span_rule.is_some() { 2 } else { 3 };
-    assert_eq!(r.count.coords, lu.coeff_count() * lv.coeff_count() * per);
+    assert_eq!(r.count.coords, lu.design_count() * lv.design_count() * per);
     assert_eq!(r.count.total, r.count.coords + r.count.rule + r.count.breaks);
     assert_eq!(r.encoding.grid().unwrap().net(), r.grid.net());
     let rule = r
@@ -110,7 +110,7 @@ fn an_unmeetable_tolerance_ends_with_the_closest_layout_and_a_message() {
     assert!(r.offset.max > 1e-12 && r.offset.max.is_finite());
     // The limits hold: at most half a section's points around, a column per section.
     let (lu, lv) = r.encoding.layouts().unwrap();
-    assert!(lu.coeff_count() <= 6 && lv.coeff_count() <= 12);
+    assert!(lu.design_count() <= 6 && lv.design_count() <= 12);
 }
 
 #[test]

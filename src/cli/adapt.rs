@@ -105,7 +105,7 @@ pub struct Args {
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
     pub norm: NormArg,
-    /// Degrees searched, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-7")]
     pub degrees: String,
     /// How x may be stored.

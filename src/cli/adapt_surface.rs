@@ -31,10 +31,10 @@ pub struct Args {
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
     pub norm: NormArg,
-    /// Degrees searched around the sections, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched around the sections, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "3-6")]
     pub degrees_u: String,
-    /// Degrees searched along the span, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched along the span, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-3")]
     pub degrees_v: String,
     /// Store all three coordinates of every design point even where the sections are planar.
@@ -101,7 +101,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
     let (nu, nv) = r
         .encoding
         .layouts()
-        .map(|(u, v)| (u.coeff_count(), v.coeff_count()))
+        .map(|(u, v)| (u.design_count(), v.design_count()))
         .unwrap_or((0, 0));
     let mut s = String::new();
     let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");

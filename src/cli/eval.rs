@@ -3,10 +3,10 @@
 
 use super::{parse_backend, Target};
 use anyhow::Result;
-use bezchain::eval::batch::{eval_curve_population, eval_grid_population, read_population, BatchOptions};
 use bezchain::eval::Backend;
 use bezchain::export::Report;
-use bezchain::geometry::{read_cloud, read_curve};
+use bezchain::fit::population::{eval_curve_population, eval_grid_population, BatchOptions};
+use bezchain::geometry::{read_cloud, read_curve, read_population};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -8,8 +8,9 @@ use bezchain::chain::Continuity;
 use bezchain::export::{
     render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
 };
+use bezchain::fit::checker::projection_check;
 use bezchain::fit::evo::{Checkpoint, EvoHooks, Evolution};
-use bezchain::fit::surface_breaks::{projection_check, search_breaks_v, BreakSearch};
+use bezchain::fit::surface_breaks::{search_breaks_v, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,

@@ -125,8 +125,7 @@ pub struct Vertex {
 /// Sentinel for "no patch held".
 pub(crate) const NONE: u32 = u32::MAX;
 
-/// Largest degree the kernels accept in either direction (the GPU holds a patch in registers).
-pub const MAX_DEGREE: usize = 7;
+pub use crate::chain::MAX_DEGREE;
 
 /// Below this many target points per group, splitting the points no longer pays.
 const MIN_GROUP_POINTS: usize = 256;

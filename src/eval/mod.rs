@@ -15,13 +15,11 @@
 //! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
 //! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
 
-pub mod batch;
 pub mod bench;
 pub mod cpu;
 pub mod dense;
 pub mod gpu;
 mod kernel;
-pub mod nearest;
 
 pub use cpu::CpuEvaluator;
 pub use gpu::{GpuContext, GpuEvaluator, GpuOptions};
