@@ -107,23 +107,27 @@ impl Outputs {
     /// output goes to standard output (so that it stays parseable). Flushed at once, so long
     /// runs show each piece as it is made.
     pub fn say(&self, text: &str) {
-        if self.uses_stdout() {
-            eprint!("{text}");
-        } else {
-            print!("{text}");
-            let _ = std::io::stdout().flush();
-        }
+        say(self.uses_stdout(), text);
     }
 
     /// The writer of `o`'s content (its temporary file, or memory for standard output and
     /// special files), for outputs written piece by piece (a history file).
-    pub fn writer(&mut self, o: Output) -> Result<&mut dyn Write> {
+    pub fn writer(&mut self, o: Output) -> bezchain::Result<&mut dyn Write> {
         let item = &mut self.items[o.0];
         item.filled = true;
         match &mut item.staged {
             Some(staged) => Ok(staged.writer()),
-            None => anyhow::bail!("{} is written during the run, not piece by piece", item.flag),
+            None => Err(bezchain::Error::invalid(format!(
+                "{} is written during the run, not piece by piece",
+                item.flag
+            ))),
         }
+    }
+
+    /// The path given for `o`, for messages.
+    #[must_use]
+    pub fn path(&self, o: Output) -> &Path {
+        &self.items[o.0].path
     }
 
     /// Set `o`'s whole content.
@@ -155,10 +159,13 @@ impl Outputs {
     /// later run can resume). A regular file is replaced atomically; what it held before the
     /// run's first write is kept in memory and put back if the run fails, so a failed run
     /// leaves the old file (or no file) as it found it.
-    pub fn interim(&mut self, o: Output, bytes: &[u8]) -> Result<()> {
+    pub fn interim(&mut self, o: Output, bytes: &[u8]) -> bezchain::Result<()> {
         let item = &mut self.items[o.0];
         if !item.is_interim {
-            anyhow::bail!("{} is written at the end of the run", item.flag);
+            return Err(bezchain::Error::invalid(format!(
+                "{} is written at the end of the run",
+                item.flag
+            )));
         }
         if let (Destination::File(target), None) = (&item.dest, &item.before) {
             item.before = Some(match std::fs::read(target) {
@@ -168,8 +175,7 @@ impl Outputs {
                     return Err(bezchain::Error::Io {
                         path: item.path.clone(),
                         source,
-                    }
-                    .into())
+                    })
                 }
             });
         }
@@ -181,8 +187,8 @@ impl Outputs {
     /// Put every output in place: the temporary files are flushed and synced (where a full
     /// disk shows), then standard output and special files are written, then the temporary
     /// files renamed over their targets. An error before the renames leaves every file as it
-    /// was.
-    pub fn commit(mut self) -> Result<()> {
+    /// was. [`say`](Self::say) still works afterwards.
+    pub fn commit(&mut self) -> Result<()> {
         for item in &mut self.items {
             if !item.filled {
                 anyhow::bail!(
@@ -207,6 +213,17 @@ impl Outputs {
             item.before = None;
         }
         Ok(())
+    }
+}
+
+/// Print readable text on standard output, or on standard error when `to_stderr` (an output
+/// goes to standard output); flushed at once.
+pub fn say(to_stderr: bool, text: &str) {
+    if to_stderr {
+        eprint!("{text}");
+    } else {
+        print!("{text}");
+        let _ = std::io::stdout().flush();
     }
 }
 

@@ -43,6 +43,10 @@ pub struct FitInfo {
     /// Population evaluations per second (individual × point), for population methods.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evals_per_second: Option<f64>,
+    /// The cap that cut the method short (`"evaluation cap"`, `"iteration cap"`); absent when
+    /// it stopped on its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<String>,
 }
 
 /// Where the data came from.
@@ -302,6 +306,7 @@ mod tests {
             backend: "cpu".into(),
             stages: vec![],
             evals_per_second: None,
+            stopped: None,
         }
     }
 

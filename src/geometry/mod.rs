@@ -21,7 +21,7 @@ pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
 pub(crate) use io::{from_json_value, parse_json, read_bytes, read_text};
 pub use io::{write_atomic, Destination, Staged, MAX_INPUT_BYTES, MAX_LINE_BYTES};
 pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};
-pub use naca::{Naca, NacaOptions, Spacing};
+pub use naca::{Naca, NacaOptions, Spacing, MAX_NACA_POINTS};
 pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
     write_csv_to, write_curve_csv, Cloud, Format, Grid, Loaded, Loaded2, Loaded3, LoadedPoints,
