@@ -1,10 +1,11 @@
 //! `bezchain blade`: loft a blade definition into a point cloud.
 
 use super::output::Outputs;
-use super::warn_all;
+use super::{usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::geometry::{
-    write_csv_to, Axes, Blade, Blend, LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS,
+    check_scale, write_csv_to, Axes, Blade, Blend, LoftOptions, Precision, MAX_CLOUD_POINTS,
+    MIN_SECTION_POINTS,
 };
 use std::path::PathBuf;
 
@@ -71,6 +72,15 @@ pub fn run(args: Args) -> Result<()> {
     let cloud = blade
         .loft(&opts)
         .with_context(|| format!("{}: lofting", args.blade.display()))?;
+    // The cloud must be data the readers take back (its squares inside f64).
+    if let Err((at, message)) = check_scale(&cloud.points, Precision::F64) {
+        let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
+        return Err(usage(format!(
+            "{}: the lofted cloud{at}: {message} (with --noise {})",
+            args.blade.display(),
+            args.noise
+        )));
+    }
     let mut text = Vec::with_capacity(cloud.points.len() * 64);
     write_csv_to(&mut text, &cloud.points, cloud.grid)?;
     outs.put(out, &text)?;

@@ -293,7 +293,7 @@ pub fn fit_info(fit: &CurveFit<DVec2>) -> FitInfo {
         backend: "cpu".to_string(),
         stages: Vec::new(),
         evals_per_second: None,
-        stopped: fit.report.cap().map(String::from),
+        stopped: curve_cap(fit).map(String::from),
     };
     if let Some(evo) = &fit.evolution {
         info.backend = backend_name(&evo.run.backend);
@@ -315,12 +315,26 @@ pub fn fit_info(fit: &CurveFit<DVec2>) -> FitInfo {
                     },
                     stages: Vec::new(),
                     evals_per_second: (k == 0).then_some(evo.run.evals_per_second),
-                    stopped: s.report.cap().map(String::from),
+                    // A generation limit is the evolutionary stage's own end, not a cap.
+                    stopped: if k == 0 {
+                        None
+                    } else {
+                        s.report.cap().map(String::from)
+                    },
                 })
                 .collect();
         }
     }
     info
+}
+
+/// The cap that cut a curve fit short: the solver's, or an evolutionary method's polish's (a
+/// generation limit is the evolutionary stage's own end, not a cap).
+fn curve_cap(fit: &CurveFit<DVec2>) -> Option<&'static str> {
+    match &fit.evolution {
+        Some(evo) => evo.stages[1..].iter().find_map(|s| s.report.cap()),
+        None => fit.report.cap(),
+    }
 }
 
 /// The report of a finished curve fit.
@@ -455,33 +469,37 @@ impl Monitor {
 
 /// Say on the terminal that a method stopped at its evaluation or iteration cap (the report
 /// says so too, as `"stopped"`).
-pub fn warn_cap(input: &Path, method: &str, report: &SolveReport) {
-    if let Some(cap) = report.cap() {
-        eprintln!(
-            "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
-             before converging: the result is the best found so far",
-            input.display(),
-            report.iterations,
-            report.evaluations,
-            report.seconds
-        );
-    }
+pub fn warn_cap(input: &Path, method: &str, cap: &str, report: &SolveReport) {
+    eprintln!(
+        "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
+         before converging: the result is the best found so far",
+        input.display(),
+        report.iterations,
+        report.evaluations,
+        report.seconds
+    );
 }
 
 /// Refuse, before the fit, a layout with more design points than the data can determine; the
-/// message gives the most segments that fit. `segments` is bounded by the data before the
-/// layout is built (every segment adds at least one design point).
+/// message gives the most segments that fit.
 fn check_segments(args: &Args, points: usize) -> Result<ChainLayout> {
+    let fits = |s: usize| {
+        ChainLayout::uniform(args.degree, s, args.continuity).is_ok_and(|l| l.design_count() <= points)
+    };
     let too_many = |design: String| {
-        let most = (1..points)
-            .take_while(|&s| {
-                ChainLayout::uniform(args.degree, s, args.continuity)
-                    .is_ok_and(|l| l.design_count() <= points)
-            })
-            .last();
-        let hint = match most {
-            Some(s) => format!("use at most --segments {s} at degree {}", args.degree),
-            None => "use a lower --degree or more data points".to_string(),
+        // Design points grow with the segments: the most that fit, by bisection.
+        let (mut lo, mut hi) = (0, points.min(args.segments));
+        while lo < hi {
+            let mid = (lo + hi).div_ceil(2);
+            if fits(mid) {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        let hint = match lo {
+            0 => "use a lower --degree or more data points".to_string(),
+            s => format!("use at most --segments {s} at degree {}", args.degree),
         };
         usage(format!(
             "--segments {}: {design}, more than the {points} data points of {} can determine; {hint}",
@@ -489,13 +507,20 @@ fn check_segments(args: &Args, points: usize) -> Result<ChainLayout> {
             args.input.display()
         ))
     };
-    if args.segments >= points {
+    // Each segment adds at least one design point: far too many are refused before the layout
+    // is built.
+    if args.segments > 4 * points.max(64) {
         return Err(too_many(format!(
             "{} segments need more than {} design points",
             args.segments, args.segments
         )));
     }
-    let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity)?;
+    let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity).map_err(|e| {
+        usage(format!(
+            "--degree {} --segments {}: {e}",
+            args.degree, args.segments
+        ))
+    })?;
     if layout.design_count() > points {
         return Err(too_many(format!(
             "degree {} with {} segments has {} design points",
@@ -555,7 +580,9 @@ pub fn run(args: Args) -> Result<()> {
         None => format!("{}: fitting {} points", args.input.display(), loaded.points.len()),
     })?;
     monitor.close(&mut outs)?;
-    warn_cap(&args.input, &fit.method.to_string(), &fit.report);
+    if let Some(cap) = curve_cap(&fit) {
+        warn_cap(&args.input, &fit.method.to_string(), cap, &fit.report);
+    }
     if fit.span_ratio > FitOptions::default().max_span_ratio {
         eprintln!(
             "warning: {}: the fitted chain doubles back on itself (span ratio {:.1}): its closest-point \

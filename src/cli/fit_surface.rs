@@ -181,6 +181,13 @@ fn offset_report(fit: &SurfaceFit) -> OffsetReport {
     }
 }
 
+/// The cap that cut a surface fit short: that of a least-squares stage (a generation limit is
+/// the evolutionary stage's own end, not a cap).
+fn surface_cap(fit: &SurfaceFit) -> Option<&'static str> {
+    let skip = usize::from(fit.evolution.is_some());
+    fit.stages[skip..].iter().find_map(|s| s.report.cap())
+}
+
 /// The JSON report of a finished fit: the stages with the evolutionary run's backend and
 /// throughput.
 fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) -> SurfaceReport {
@@ -204,7 +211,11 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
                 },
                 stages: Vec::new(),
                 evals_per_second: if evolutionary { rate } else { None },
-                stopped: s.report.cap().map(String::from),
+                stopped: if evolutionary {
+                    None
+                } else {
+                    s.report.cap().map(String::from)
+                },
             }
         })
         .collect();
@@ -216,7 +227,7 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
         backend: evo_backend.unwrap_or_else(|| "cpu".into()),
         stages,
         evals_per_second: rate,
-        stopped: fit.report.cap().map(String::from),
+        stopped: surface_cap(fit).map(String::from),
     };
     SurfaceReport::new(
         &fit.grid,
@@ -352,7 +363,9 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    super::fit::warn_cap(&args.cloud, args.method.name(), &fit.report);
+    if let Some(cap) = surface_cap(&fit) {
+        super::fit::warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
+    }
     let rep = report(&fit, args.method, &args.cloud, n);
     let name = args
         .cloud
@@ -441,10 +454,10 @@ fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
         return Ok(());
     }
     Err(usage(format!(
-        "--patches {pu}x{pv}: a {nu} x {nv} design net ({} design points) is more than the {n} points \
-         of {} can determine; ask for fewer patches",
-        nu * nv,
-        args.cloud.display()
+        "--patches {pu}x{pv}: a {nu} x {nv} design net is more than the {n} points of {} can \
+         determine (at least {} are needed); ask for fewer patches",
+        args.cloud.display(),
+        nu * nv
     )))
 }
 
