@@ -54,8 +54,8 @@ pub fn run(args: Args) -> Result<()> {
         args.sections.unwrap_or(0) as u64,
         (MAX_CLOUD_POINTS / per) as u64,
         &format!(
-            "a cloud has at most {MAX_CLOUD_POINTS} points ({per} a section here); a few hundred sections \
-             resolve a blade"
+            "a cloud has at most {MAX_CLOUD_POINTS} points (at least {per} a section); a few hundred \
+             sections resolve a blade"
         ),
     )?;
     let mut outs = Outputs::new();

@@ -282,7 +282,7 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
     /// Project the data onto the best design in f64 (every `reproject_every` generations)
     /// and start every later evaluation there.
     fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()> {
-        if generation % self.reproject_every != 0 {
+        if !generation.is_multiple_of(self.reproject_every) {
             return Ok(());
         }
         let (params, _) = self.problem.project_free(best, self.samples);

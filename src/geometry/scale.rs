@@ -69,7 +69,7 @@ pub fn check_scale<P: Vector>(points: &[P], precision: Precision) -> Result<(), 
             .map(|i| (p.coord(i) - centre[i]).abs())
             .fold(0.0, f64::max)
     };
-    if let Some(k) = points.iter().position(|p| !(reach(p) <= limit)) {
+    if let Some(k) = points.iter().position(|p| reach(p).is_nan() || reach(p) > limit) {
         return Err((
             Some(k),
             format!(
@@ -110,7 +110,7 @@ pub fn check_design_scale<P: Vector>(values: &[f64], data: &[P]) -> Result<(), (
     let (lo, hi) = bounds(data);
     let limit = Precision::F32.max_coordinate(data.len());
     let reach = |k: usize| (values[k] - (0.5 * lo[k % P::DIM] + 0.5 * hi[k % P::DIM])).abs();
-    match (0..values.len()).find(|&k| !(reach(k) <= limit)) {
+    match (0..values.len()).find(|&k| reach(k).is_nan() || reach(k) > limit) {
         Some(k) => Err((
             k,
             format!(

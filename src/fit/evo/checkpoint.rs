@@ -579,7 +579,8 @@ mod tests {
 
     #[test]
     fn values_a_run_cannot_hold_are_refused_despite_a_valid_checksum() {
-        let cases: Vec<(Box<dyn Fn(&mut Checkpoint)>, &str)> = vec![
+        type Damage = Box<dyn Fn(&mut Checkpoint)>;
+        let cases: Vec<(Damage, &str)> = vec![
             (Box::new(|c| c.best[0] = f32::INFINITY), "best[0] is inf"),
             (Box::new(|c| c.best[1] = f32::NAN), "best[1] is NaN"),
             (Box::new(|c| c.population[4] = f32::NEG_INFINITY), "population[4]"),
