@@ -838,7 +838,11 @@ impl Table {
                     n as f64 / block as f64
                 ));
                 // A closed contour keeps its closing point (the first point again).
-                let keep = if (n - 1).is_multiple_of(block) { block + 1 } else { block };
+                let keep = if (n - 1).is_multiple_of(block) {
+                    block + 1
+                } else {
+                    block
+                };
                 points.truncate(keep);
                 self.lines.truncate(keep);
             }
