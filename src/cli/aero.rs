@@ -1,7 +1,8 @@
 //! `bezchain aero`: the inviscid panel method on an aerofoil file or a curve report: a table of
 //! CL and CM, a JSON report with the pressures, an SVG of Cp above the shape.
 
-use super::{say, usage, warn_all, write_json, Target};
+use super::output::Outputs;
+use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
 use bezchain::export::Report;
@@ -49,28 +50,11 @@ fn is_report(path: &Path) -> Result<bool> {
     Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
 }
 
-/// Refuse an output path whose folder does not exist, before any work or any other output.
-pub fn check_output(path: Option<&Path>, flag: &str) -> Result<()> {
-    if let Some(p) = path.filter(|p| p.as_os_str() != "-") {
-        let dir = p
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if !dir.is_dir() {
-            return Err(usage(format!(
-                "{flag} {}: folder {} does not exist",
-                p.display(),
-                dir.display()
-            )));
-        }
-    }
-    Ok(())
-}
-
 /// Analyse and write the outputs.
 pub fn run(args: Args) -> Result<()> {
-    check_output(args.json.as_deref(), "--json")?;
-    check_output(args.svg.as_deref(), "--svg")?;
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let svg_out = outs.add_opt("--svg", args.svg.as_deref())?;
     if args.alpha.is_empty() || args.alpha.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
         return Err(usage("--alpha takes angles in degrees between -90 and 90"));
     }
@@ -123,7 +107,6 @@ pub fn run(args: Args) -> Result<()> {
         ),
         None => None,
     };
-    let json = args.json.as_deref().map(Target::parse);
     let mut text = format!(
         "{path_text}: {what}, {} panel nodes, {} trailing edge (gap {:.3e}), chord {:.6}\n",
         report.nodes, report.trailing_edge, report.te_gap, report.chord.length
@@ -132,12 +115,13 @@ pub fn run(args: Args) -> Result<()> {
     for c in &report.polar {
         let _ = writeln!(text, "{:8.3} {:11.5} {:11.5}", c.alpha, c.cl, c.cm);
     }
-    say(json.as_ref(), &text);
-    if let Some(target) = &json {
-        write_json(target, &report)?;
+    if let Some(o) = json {
+        outs.put_json(o, &report)?;
     }
-    if let (Some(path), Some(svg)) = (&args.svg, svg) {
-        Target::parse(path).write(svg.as_bytes())?;
+    if let (Some(o), Some(svg)) = (svg_out, svg) {
+        outs.put(o, svg.as_bytes())?;
     }
+    outs.commit()?;
+    outs.say(&text);
     Ok(())
 }

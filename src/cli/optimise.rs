@@ -2,9 +2,9 @@
 //! stored numbers for an aerodynamic objective with the GA or CMA-ES on the panel-method
 //! evaluator; a curve report, a Selig file and a picture of the result.
 
-use super::aero::check_output;
-use super::{say, usage, warn_all, write_json, Target};
-use anyhow::{Context, Result};
+use super::output::{Output, Outputs};
+use super::{usage, warn_all};
+use anyhow::Result;
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Encoding};
 use bezchain::aero::batch::flags;
 use bezchain::aero::{
@@ -17,7 +17,7 @@ use bezchain::eval::Backend;
 use bezchain::export::{CurveReport, FitInfo, InputInfo, Report};
 use bezchain::fit::evo::Checkpoint;
 use bezchain::fit::offset_stats;
-use bezchain::geometry::{read_curve, write_selig};
+use bezchain::geometry::{read_curve, write_selig_to};
 use glam::DVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -207,12 +207,13 @@ struct Monitor {
     bar: Option<ProgressBar>,
     plain: bool,
     last_line: Instant,
-    checkpoint: Option<PathBuf>,
+    /// The checkpoint, replaced during the run (and put back as it was if the run fails).
+    checkpoint: Option<Output>,
     every: u64,
 }
 
 impl Monitor {
-    fn new(args: &Args, run: &Optimisation<'_>) -> Monitor {
+    fn new(args: &Args, run: &Optimisation<'_>, checkpoint: Option<Output>) -> Monitor {
         let terminal = std::io::stderr().is_terminal();
         let bar = (!args.quiet && terminal).then(|| {
             let bar = ProgressBar::new(run.generations() as u64);
@@ -229,12 +230,12 @@ impl Monitor {
             bar,
             plain: !args.quiet && !terminal,
             last_line: Instant::now(),
-            checkpoint: args.checkpoint.clone(),
+            checkpoint,
             every: args.checkpoint_every.max(1),
         }
     }
 
-    fn generation(&mut self, run: &Optimisation<'_>) -> bezchain::Result<()> {
+    fn generation(&mut self, run: &Optimisation<'_>, outs: &mut Outputs) -> bezchain::Result<()> {
         let (_, best) = run.best();
         let Some(last) = run.history().last() else {
             return Ok(());
@@ -262,9 +263,9 @@ impl Monitor {
             );
             self.last_line = Instant::now();
         }
-        if let Some(path) = &self.checkpoint {
+        if let Some(o) = self.checkpoint {
             if run.generation().is_multiple_of(self.every) || run.stop().is_some() {
-                run.checkpoint().write(path)?;
+                outs.interim(o, &run.checkpoint().to_bytes())?;
             }
         }
         Ok(())
@@ -362,14 +363,15 @@ singular system) 1e6 + how far it is from valid; so every feasible shape ranks b
 
 /// Optimise, report and write the outputs.
 pub fn run(args: Args) -> Result<()> {
-    for (p, flag) in [
-        (&args.json, "--json"),
-        (&args.svg, "--svg"),
-        (&args.dat, "--dat"),
-        (&args.checkpoint, "--checkpoint"),
-    ] {
-        check_output(p.as_deref(), flag)?;
-    }
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let svg_out = outs.add_opt("--svg", args.svg.as_deref())?;
+    let dat = outs.add_opt("--dat", args.dat.as_deref())?;
+    let checkpoint = args
+        .checkpoint
+        .as_deref()
+        .map(|p| outs.add_interim("--checkpoint", p))
+        .transpose()?;
     let goal = parse_goal(&args.objective)?;
     if !args.alpha.is_finite() || args.alpha.abs() > 30.0 {
         return Err(usage("--alpha takes an angle in degrees between -30 and 30"));
@@ -427,32 +429,25 @@ pub fn run(args: Args) -> Result<()> {
         stall: args.stall,
         ..OptimiseOptions::default()
     };
-    let json_target = args.json.as_deref().map(Target::parse);
-    say(
-        json_target.as_ref(),
-        &format!(
-            "{}: {start_what}; {} design variables, box ±{} chord, {} panel nodes\n",
-            args.start.display(),
-            problem.space.dim(),
-            args.margin,
-            args.panels
-        ),
-    );
+    outs.say(&format!(
+        "{}: {start_what}; {} design variables, box ±{} chord, {} panel nodes\n",
+        args.start.display(),
+        problem.space.dim(),
+        args.margin,
+        args.panels
+    ));
     let start_eval = problem.batch.reference(problem.space.start());
     let mut run = match &resume {
         Some(c) => Optimisation::resume(&problem, args.method, &options, c)?,
         None => Optimisation::new(&problem, args.method, &options)?,
     };
-    say(
-        json_target.as_ref(),
-        &format!("{} on {}\n", args.method, run.info()),
-    );
-    let mut monitor = Monitor::new(&args, &run);
-    let stop = run.run(|r| monitor.generation(r));
+    outs.say(&format!("{} on {}\n", args.method, run.info()));
+    let mut monitor = Monitor::new(&args, &run, checkpoint);
+    let stop = run.run(|r| monitor.generation(r, &mut outs));
     monitor.finish();
     let stop = stop?;
-    if let Some(path) = &args.checkpoint {
-        run.checkpoint().write(path)?;
+    if let Some(o) = checkpoint {
+        outs.interim(o, &run.checkpoint().to_bytes())?;
     }
     let result = run.finish(stop)?;
     let chain = problem.space.chain(&result.design)?;
@@ -481,20 +476,27 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     let elapsed = clock.elapsed().as_secs_f64();
-    say(
-        json_target.as_ref(),
-        &summary(&args, &start_eval, &result, &offsets, &offsets_from, elapsed),
-    );
-    if let Some(t) = &json_target {
-        write_json(t, &report)?;
+    if let Some(o) = json {
+        outs.put_json(o, &report)?;
     }
-    if let (Some(path), Some(svg)) = (&args.svg, svg) {
-        Target::parse(path).write(svg.as_bytes())?;
+    if let (Some(o), Some(svg)) = (svg_out, svg) {
+        outs.put(o, svg.as_bytes())?;
     }
-    if let Some(path) = &args.dat {
+    if let Some(o) = dat {
         let name = format!("bezchain optimise {} {}", args.objective, args.start.display());
-        write_selig(path, &name, &dat_points).with_context(|| format!("writing {}", path.display()))?;
+        let mut text = Vec::new();
+        write_selig_to(&mut text, &name, &dat_points)?;
+        outs.put(o, &text)?;
     }
+    outs.commit()?;
+    outs.say(&summary(
+        &args,
+        &start_eval,
+        &result,
+        &offsets,
+        &offsets_from,
+        elapsed,
+    ));
     Ok(())
 }
 
@@ -517,6 +519,8 @@ fn build_report(
         backend: super::fit::backend_name(&result.backend),
         stages: Vec::new(),
         evals_per_second: Some(result.evaluations as f64 / result.eval_seconds.max(1e-12)),
+        // A generation limit is the evolutionary run's own end, not a cap.
+        stopped: None,
     };
     let input = InputInfo {
         path: args.start.display().to_string(),

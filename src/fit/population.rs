@@ -196,7 +196,17 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
         self.check_population()?;
         let free = self.free_points();
         let params = match state {
-            Some(p) => p,
+            Some(p) => {
+                if let Some(i) = p.iter().flatten().position(|t| !(0.0..=1.0).contains(t)) {
+                    return Err(Error::invalid(format!(
+                        "the checkpoint's params[{}][{}] is {} (a parameter lies in [0, 1])",
+                        i / 2,
+                        i % 2,
+                        p[i / 2][i % 2]
+                    )));
+                }
+                p
+            }
             None => self.project_free(self.start_flat(), options.samples).0,
         };
         if params.len() != free.len() {
