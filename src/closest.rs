@@ -61,6 +61,14 @@ pub struct FootOptions {
     /// along the shape, model units: the foot is found to within it, and the distance to
     /// within its square over the curvature radius. 0 (the default): to rounding.
     pub tolerance: f64,
+    /// Backtrack (halve a Newton step until the distance does not grow). Default true. With
+    /// false, every refinement ([`refine_held`]) takes only full (clamped) Newton steps that
+    /// lower the distance and stops at the first that does not, or once a step moves the
+    /// parameter by less than `1e-12`: a conservative parameter correction that keeps each
+    /// parameter near its start (still a point of the shape, so never below the true
+    /// distance). The adaptive surface search's alternation uses it (see
+    /// [`crate::adaptive::adapt_surface`]).
+    pub backtrack: bool,
 }
 
 impl Default for FootOptions {
@@ -69,6 +77,7 @@ impl Default for FootOptions {
             samples: 32,
             max_newton: 40,
             tolerance: 0.0,
+            backtrack: true,
         }
     }
 }
@@ -271,6 +280,27 @@ pub fn refine_held<S: Shape<K>, const K: usize>(
         }
         let mut alpha = 1.0;
         let mut moved = 0.0;
+        if !opts.backtrack {
+            let mut tn = t;
+            for k in 0..K {
+                tn[k] = (t[k] + step[k]).clamp(0.0, 1.0);
+            }
+            let jn = shape.jet_at(design, tn, 2, scratch);
+            let rn = jn.point - q;
+            let fn_ = rn.length_squared();
+            if !(fn_ < f) {
+                break;
+            }
+            moved = (0..K).fold(0.0_f64, |m, k| m.max((tn[k] - t[k]).abs()));
+            t = tn;
+            jet = jn;
+            r = rn;
+            f = fn_;
+            if moved < 1e-12 {
+                break;
+            }
+            continue;
+        }
         while alpha * size > PARAM_TOL {
             let mut tn = t;
             for k in 0..K {

@@ -64,15 +64,7 @@ impl AdaptReport {
     /// The report of `result` for the data described by `input`.
     #[must_use]
     pub fn new(result: &AdaptedCurve, opts: &AdaptOptions, input: InputInfo) -> Self {
-        let o = &result.offset;
-        let offset = OffsetReport {
-            metric: "closest".into(),
-            sum_sq: o.sum_sq,
-            sum: o.sum,
-            rms: o.rms,
-            max: o.max,
-            max_at: vec![o.max_at.x, o.max_at.y],
-        };
+        let offset = OffsetReport::from(&result.offset);
         let fit = FitInfo {
             method: "adapt".into(),
             iterations: result.trace.iter().map(|t| t.steps as u64).sum(),
@@ -156,15 +148,7 @@ impl SurfaceAdaptReport {
     /// The report of `result` for the cloud described by `input`.
     #[must_use]
     pub fn new(result: &AdaptedSurface, opts: &SurfaceAdaptOptions, input: InputInfo) -> Self {
-        let o = &result.offset;
-        let offset = OffsetReport {
-            metric: "closest".into(),
-            sum_sq: o.sum_sq,
-            sum: o.sum,
-            rms: o.rms,
-            max: o.max,
-            max_at: o.max_at.to_array().to_vec(),
-        };
+        let offset = OffsetReport::from(&result.offset);
         let fit = FitInfo {
             method: "adapt".into(),
             iterations: result.trace.len() as u64,

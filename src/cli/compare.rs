@@ -1,6 +1,6 @@
 //! `bezchain compare`: the paper's optimiser comparison on its three NACA 4413 cases, one table.
 
-use super::fit::{backend_name, load};
+use super::fit::load;
 use super::output::Outputs;
 use super::{bounded, usage};
 use anyhow::Result;
@@ -145,7 +145,7 @@ pub fn run(args: Args) -> Result<()> {
                 sum_sq: fit.closest.sum_sq,
                 max: fit.closest.max,
                 paper_total_offset: case.total_offset,
-                backend: backend.as_ref().map(backend_name),
+                backend: backend.as_ref().map(bezchain::export::backend_label),
             };
             if let Some(info) = &backend {
                 if !backends.contains(info) {

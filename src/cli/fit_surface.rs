@@ -1,17 +1,14 @@
 //! `bezchain fit-surface`: fit a grid of chained Bezier patches to a 3D point cloud and write
 //! the report, meshes and a picture.
 
-use super::fit::{backend_name, EvoArgs, Monitor};
+use super::evo::{warn_cap, EvoArgs, Monitor};
 use super::output::Outputs;
 use super::{parse_pair, usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{
-    render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
-};
-use bezchain::fit::checker::projection_check;
+use bezchain::export::{render, render_svg, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
 use bezchain::fit::evo::{Checkpoint, EvoHooks, Evolution};
-use bezchain::fit::surface_breaks::{search_breaks_v, BreakSearch};
+use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
@@ -168,78 +165,6 @@ fn parse_breaks(text: &str, flag: &str) -> Result<Breaks> {
     }
 }
 
-/// The report's `offset` block.
-fn offset_report(fit: &SurfaceFit) -> OffsetReport {
-    let s = &fit.stats;
-    OffsetReport {
-        metric: s.metric.to_string(),
-        sum_sq: s.sum_sq,
-        sum: s.sum,
-        rms: s.rms,
-        max: s.max,
-        max_at: s.max_at.to_array().to_vec(),
-    }
-}
-
-/// The cap that cut a surface fit short: that of a least-squares stage (a generation limit is
-/// the evolutionary stage's own end, not a cap).
-fn surface_cap(fit: &SurfaceFit) -> Option<&'static str> {
-    let skip = usize::from(fit.evolution.is_some());
-    fit.stages[skip..].iter().find_map(|s| s.report.cap())
-}
-
-/// The JSON report of a finished fit: the stages with the evolutionary run's backend and
-/// throughput.
-fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) -> SurfaceReport {
-    let evo_backend = fit.evolution.as_ref().map(|e| backend_name(&e.run.backend));
-    let rate = fit.evolution.as_ref().map(|e| e.run.evals_per_second);
-    let stages = fit
-        .stages
-        .iter()
-        .enumerate()
-        .map(|(k, s)| {
-            let evolutionary = k == 0 && evo_backend.is_some();
-            FitInfo {
-                method: s.name.to_string(),
-                iterations: s.report.iterations as u64,
-                evaluations: s.report.evaluations as u64,
-                seconds: s.report.seconds,
-                backend: if evolutionary {
-                    evo_backend.clone().unwrap_or_default()
-                } else {
-                    "cpu".into()
-                },
-                stages: Vec::new(),
-                evals_per_second: if evolutionary { rate } else { None },
-                stopped: if evolutionary {
-                    None
-                } else {
-                    s.report.cap().map(String::from)
-                },
-            }
-        })
-        .collect();
-    let info = FitInfo {
-        method: method.name().into(),
-        iterations: fit.report.iterations as u64,
-        evaluations: fit.report.evaluations as u64,
-        seconds: fit.report.seconds,
-        backend: evo_backend.unwrap_or_else(|| "cpu".into()),
-        stages,
-        evals_per_second: rate,
-        stopped: surface_cap(fit).map(String::from),
-    };
-    SurfaceReport::new(
-        &fit.grid,
-        offset_report(fit),
-        info,
-        InputInfo {
-            path: input.display().to_string(),
-            points,
-        },
-    )
-}
-
 /// Fit, report, mesh and draw.
 pub fn run(args: Args) -> Result<()> {
     let clock = Instant::now();
@@ -347,9 +272,7 @@ pub fn run(args: Args) -> Result<()> {
         ),
     };
 
-    if n <= CHECKED_POINTS {
-        let check = check
-            .unwrap_or_else(|| projection_check(&fit.grid, &loaded.points, fit.stats.rms, fit.stats.max));
+    if let Some(check) = check_fit(&fit, &loaded.points, check) {
         if !check.agrees {
             eprintln!(
                 "warning: {}: a coarse sampled search (7x7 seeds a patch, Gauss-Newton from the 4 nearest) \
@@ -363,10 +286,17 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    if let Some(cap) = surface_cap(&fit) {
-        super::fit::warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
+    if let Some(cap) = fit.stopped() {
+        warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
     }
-    let rep = report(&fit, args.method, &args.cloud, n);
+    let rep = SurfaceReport::from_fit(
+        &fit,
+        args.method,
+        InputInfo {
+            path: args.cloud.display().to_string(),
+            points: n,
+        },
+    );
     let name = args
         .cloud
         .file_stem()
@@ -461,12 +391,8 @@ fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
     )))
 }
 
-/// Clouds up to this size get the projection check after the fit (and the break search).
-const CHECKED_POINTS: usize = 20_000;
-
-/// `--breaks-v auto`: the least-squares fit with the smallest sum of squares whose closest
-/// points a coarse search also finds (see [`search_breaks_v`]); `None` (uniform breaks) for a
-/// single patch along v and for clouds larger than [`CHECKED_POINTS`] or the subsample size.
+/// `--breaks-v auto` ([`auto_breaks_v`]) with a progress bar; `None` (uniform breaks) when the
+/// library's policy skips the search.
 fn choose_breaks_v(
     args: &Args,
     points: &[DVec3],
@@ -474,24 +400,6 @@ fn choose_breaks_v(
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
 ) -> Result<Option<BreakSearch>> {
-    if layout.patches[1] < 2 {
-        return Ok(None);
-    }
-    let limit = match opts.subsample {
-        0 => CHECKED_POINTS,
-        s => s.min(CHECKED_POINTS),
-    };
-    if points.len() > limit {
-        eprintln!(
-            "breaks v: uniform (the automatic break search runs on clouds of up to {limit} points; \
-             give --breaks-v for this one, e.g. stations:BLADE.json)"
-        );
-        return Ok(None);
-    }
-    let search_opts = SurfaceOptions {
-        method: SurfaceMethod::Lsq,
-        ..opts.clone()
-    };
     let bar = if args.evo.quiet {
         ProgressBar::hidden()
     } else {
@@ -501,12 +409,23 @@ fn choose_breaks_v(
         ProgressStyle::with_template("{spinner} {elapsed:>4} breaks v: fit {pos}/{len}")
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
-    let search = search_breaks_v(points, grid, layout, &search_opts, &mut |done, total| {
+    let decided = auto_breaks_v(points, grid, layout, opts, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })
     .with_context(|| format!("{}: searching the span breaks", args.cloud.display()))?;
     bar.finish_and_clear();
+    let search = match decided {
+        AutoBreaks::Searched(search) => search,
+        AutoBreaks::SinglePatch => return Ok(None),
+        AutoBreaks::TooLarge { limit } => {
+            eprintln!(
+                "breaks v: uniform (the automatic break search runs on clouds of up to {limit} points; \
+                 give --breaks-v for this one, e.g. stations:BLADE.json)"
+            );
+            return Ok(None);
+        }
+    };
     let breaks = search.fit.grid.layout().v.breaks().to_vec();
     let passed = search.candidates.iter().filter(|c| c.check.agrees).count();
     eprintln!(

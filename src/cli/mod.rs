@@ -8,6 +8,7 @@ pub mod bench;
 pub mod blade;
 pub mod compare;
 pub mod eval;
+pub mod evo;
 pub mod export;
 pub mod fit;
 pub mod fit_surface;

@@ -516,7 +516,7 @@ fn build_report(
         iterations: result.generations,
         evaluations: result.evaluations,
         seconds: result.seconds,
-        backend: super::fit::backend_name(&result.backend),
+        backend: bezchain::export::backend_label(&result.backend),
         stages: Vec::new(),
         evals_per_second: Some(result.evaluations as f64 / result.eval_seconds.max(1e-12)),
         // A generation limit is the evolutionary run's own end, not a cap.
@@ -526,7 +526,7 @@ fn build_report(
         path: args.start.display().to_string(),
         points: offset_points.len(),
     };
-    let curve = CurveReport::new(chain, super::fit::offset_report(offsets), fit, input);
+    let curve = CurveReport::new(chain, bezchain::export::OffsetReport::from(offsets), fit, input);
     OptimiseReport {
         curve,
         optimise: OptimiseBlock {

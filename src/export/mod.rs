@@ -15,6 +15,6 @@ pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
     DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
-pub use report::{CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
+pub use report::{backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
 pub use svg::CurvePlot;

@@ -1,8 +1,11 @@
 //! The JSON fit reports of curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written by
 //! `fit` and `fit-surface` and read back by `eval`.
 
+use crate::bezier::Vector;
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
+use crate::eval::{Backend, BackendInfo};
+use crate::fit::{CurveFit, OffsetStats, SurfaceFit, SurfaceMethod};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -47,6 +50,122 @@ pub struct FitInfo {
     /// it stopped on its own.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stopped: Option<String>,
+}
+
+impl<P: Vector> From<&OffsetStats<P>> for OffsetReport {
+    /// The report's block of the library's offset statistics.
+    fn from(s: &OffsetStats<P>) -> Self {
+        OffsetReport {
+            metric: s.metric.to_string(),
+            sum_sq: s.sum_sq,
+            sum: s.sum,
+            rms: s.rms,
+            max: s.max,
+            max_at: (0..P::DIM).map(|c| s.max_at.coord(c)).collect(),
+        }
+    }
+}
+
+/// The name a report gives a backend: `cpu`, or the GPU adapter.
+#[must_use]
+pub fn backend_label(info: &BackendInfo) -> String {
+    match info.backend {
+        Backend::Gpu => info.adapter.clone(),
+        _ => "cpu".to_string(),
+    }
+}
+
+impl FitInfo {
+    /// The `fit` block of a curve fit: the method's effort, and for the evolutionary methods
+    /// the backend, the evaluator's throughput and the stages (of a hybrid).
+    #[must_use]
+    pub fn of_curve(fit: &CurveFit<DVec2>) -> Self {
+        let mut info = FitInfo {
+            method: fit.method.name().to_string(),
+            iterations: fit.report.iterations as u64,
+            evaluations: fit.report.evaluations as u64,
+            seconds: fit.report.seconds,
+            backend: "cpu".to_string(),
+            stages: Vec::new(),
+            evals_per_second: None,
+            stopped: fit.stopped().map(String::from),
+        };
+        if let Some(evo) = &fit.evolution {
+            info.backend = backend_label(&evo.run.backend);
+            info.evals_per_second = Some(evo.run.evals_per_second);
+            if evo.stages.len() > 1 {
+                info.stages = evo
+                    .stages
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| FitInfo {
+                        method: s.method.clone(),
+                        iterations: s.report.iterations as u64,
+                        evaluations: s.report.evaluations as u64,
+                        seconds: s.report.seconds,
+                        backend: if k == 0 {
+                            info.backend.clone()
+                        } else {
+                            "cpu".to_string()
+                        },
+                        stages: Vec::new(),
+                        evals_per_second: (k == 0).then_some(evo.run.evals_per_second),
+                        // A generation limit is the evolutionary stage's own end, not a cap.
+                        stopped: if k == 0 {
+                            None
+                        } else {
+                            s.report.cap().map(String::from)
+                        },
+                    })
+                    .collect();
+            }
+        }
+        info
+    }
+
+    /// The `fit` block of a surface fit by `method`: every stage, the evolutionary one (the
+    /// first, when there is one) with the backend and the evaluator's throughput.
+    #[must_use]
+    pub fn of_surface(fit: &SurfaceFit, method: SurfaceMethod) -> Self {
+        let evo_backend = fit.evolution.as_ref().map(|e| backend_label(&e.run.backend));
+        let rate = fit.evolution.as_ref().map(|e| e.run.evals_per_second);
+        let stages = fit
+            .stages
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let evolutionary = k == 0 && evo_backend.is_some();
+                FitInfo {
+                    method: s.name.to_string(),
+                    iterations: s.report.iterations as u64,
+                    evaluations: s.report.evaluations as u64,
+                    seconds: s.report.seconds,
+                    backend: if evolutionary {
+                        evo_backend.clone().unwrap_or_default()
+                    } else {
+                        "cpu".into()
+                    },
+                    stages: Vec::new(),
+                    evals_per_second: if evolutionary { rate } else { None },
+                    stopped: if evolutionary {
+                        None
+                    } else {
+                        s.report.cap().map(String::from)
+                    },
+                }
+            })
+            .collect();
+        FitInfo {
+            method: method.name().into(),
+            iterations: fit.report.iterations as u64,
+            evaluations: fit.report.evaluations as u64,
+            seconds: fit.report.seconds,
+            backend: evo_backend.unwrap_or_else(|| "cpu".into()),
+            stages,
+            evals_per_second: rate,
+            stopped: fit.stopped().map(String::from),
+        }
+    }
 }
 
 /// Where the data came from.
@@ -148,6 +267,17 @@ impl CurveReport {
         }
     }
 
+    /// The report of a finished curve fit of the data described by `input`.
+    #[must_use]
+    pub fn from_fit(fit: &CurveFit<DVec2>, input: InputInfo) -> Self {
+        CurveReport::new(
+            &fit.chain,
+            OffsetReport::from(&fit.offset),
+            FitInfo::of_curve(fit),
+            input,
+        )
+    }
+
     /// The chain layout the report describes.
     pub fn layout(&self) -> Result<ChainLayout> {
         let l = ChainLayout::with_breaks(self.degree, self.breaks.clone(), self.continuity)?;
@@ -198,6 +328,17 @@ impl SurfaceReport {
             fit,
             input,
         }
+    }
+
+    /// The report of a finished surface fit by `method` of the cloud described by `input`.
+    #[must_use]
+    pub fn from_fit(fit: &SurfaceFit, method: SurfaceMethod, input: InputInfo) -> Self {
+        SurfaceReport::new(
+            &fit.grid,
+            OffsetReport::from(&fit.stats),
+            FitInfo::of_surface(fit, method),
+            input,
+        )
     }
 
     /// The grid layout the report describes.

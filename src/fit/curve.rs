@@ -182,6 +182,19 @@ pub struct CurveFit<P: Vector> {
     pub evolution: Option<EvoSummary>,
 }
 
+impl<P: Vector> CurveFit<P> {
+    /// The cap that cut the fit short (`"evaluation cap"`, `"iteration cap"`): the solver's, or
+    /// an evolutionary method's polish's (a generation limit is the evolutionary stage's own
+    /// end, not a cap); `None` when it stopped on its own.
+    #[must_use]
+    pub fn stopped(&self) -> Option<&'static str> {
+        match &self.evolution {
+            Some(evo) => evo.stages[1..].iter().find_map(|s| s.report.cap()),
+            None => self.report.cap(),
+        }
+    }
+}
+
 /// Fit a chain with `layout` to `points` (ordered along the curve, e.g. a Selig contour).
 ///
 /// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the

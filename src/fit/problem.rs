@@ -583,6 +583,21 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         &self.foot
     }
 
+    /// Replace the foot-point search options (e.g. fewer Newton steps for a polish); the
+    /// global search's samples are rebuilt when their count changes.
+    pub fn set_foot_options(&mut self, foot: FootOptions) -> Result<()> {
+        if foot.samples == 0 {
+            return Err(Error::invalid(
+                "foot-point search needs at least one sample per cell",
+            ));
+        }
+        if foot.samples != self.foot.samples {
+            self.grid = OnceLock::new();
+        }
+        self.foot = foot;
+        Ok(())
+    }
+
     /// The largest side of the data's bounding box, in model units (1 for a single point).
     #[must_use]
     pub fn extent(&self) -> f64 {

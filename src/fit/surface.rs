@@ -363,6 +363,16 @@ pub struct SurfaceFit {
     pub evolution: Option<EvoSummary>,
 }
 
+impl SurfaceFit {
+    /// The cap that cut the fit short: that of a least-squares stage (a generation limit is the
+    /// evolutionary stage's own end, not a cap); `None` when every stage stopped on its own.
+    #[must_use]
+    pub fn stopped(&self) -> Option<&'static str> {
+        let skip = usize::from(self.evolution.is_some());
+        self.stages[skip..].iter().find_map(|s| s.report.cap())
+    }
+}
+
 /// Initial parameters of a cloud, and the name of the method that made them.
 pub fn initial_params(
     points: &[DVec3],

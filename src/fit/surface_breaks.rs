@@ -6,10 +6,13 @@
 //! time over a grid of candidate positions (every candidate fitted in full, in parallel) and
 //! keeps the fit with the smallest sum of squares among those that pass the
 //! [`projection_check`] (the emulation of a plain outside tool's closest-point search, see
-//! [`super::checker`]).
+//! [`super::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
+//! runs at all) and [`check_fit`] the one of the projection check after a fit.
 
 use super::checker::{projection_check, ProjectionCheck};
-use super::surface::{fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceOptions, SurfaceProgress};
+use super::surface::{
+    fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions, SurfaceProgress,
+};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use glam::DVec3;
@@ -118,4 +121,63 @@ pub fn search_breaks_v(
         check,
         candidates,
     })
+}
+
+/// Clouds up to this many points get the projection check after a fit ([`check_fit`]) and the
+/// automatic span-break search ([`auto_breaks_v`]): the check's sampled search costs about
+/// as much as a fit's closest points, so larger clouds skip it.
+pub const CHECKED_POINTS: usize = 20_000;
+
+/// What [`auto_breaks_v`] decided.
+#[derive(Debug)]
+pub enum AutoBreaks {
+    /// The search ran: its fit and candidates.
+    Searched(BreakSearch),
+    /// One patch along v: nothing to search, uniform breaks.
+    SinglePatch,
+    /// The cloud has more than `limit` points (the smaller of [`CHECKED_POINTS`] and the
+    /// subsample size): uniform breaks.
+    TooLarge {
+        /// The largest cloud searched.
+        limit: usize,
+    },
+}
+
+/// The span breaks of `--breaks-v auto`: the [`search_breaks_v`] of a least-squares fit
+/// (whatever `opts.method`) for two or more patches along v and clouds of up to
+/// [`CHECKED_POINTS`] points (and up to the subsample size); uniform breaks otherwise.
+pub fn auto_breaks_v(
+    points: &[DVec3],
+    grid: Option<Grid>,
+    layout: &SurfaceLayout,
+    opts: &SurfaceOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<AutoBreaks> {
+    if layout.patches[1] < 2 {
+        return Ok(AutoBreaks::SinglePatch);
+    }
+    let limit = match opts.subsample {
+        0 => CHECKED_POINTS,
+        s => s.min(CHECKED_POINTS),
+    };
+    if points.len() > limit {
+        return Ok(AutoBreaks::TooLarge { limit });
+    }
+    let lsq = SurfaceOptions {
+        method: SurfaceMethod::Lsq,
+        ..opts.clone()
+    };
+    search_breaks_v(points, grid, layout, &lsq, progress).map(AutoBreaks::Searched)
+}
+
+/// The projection check of a finished fit of `points` (`earlier`, the break search's check of
+/// the same fit, is reused); `None` for clouds of more than [`CHECKED_POINTS`] points.
+#[must_use]
+pub fn check_fit(
+    fit: &SurfaceFit,
+    points: &[DVec3],
+    earlier: Option<ProjectionCheck>,
+) -> Option<ProjectionCheck> {
+    (points.len() <= CHECKED_POINTS)
+        .then(|| earlier.unwrap_or_else(|| projection_check(&fit.grid, points, fit.stats.rms, fit.stats.max)))
 }

@@ -1,0 +1,338 @@
+//! The command line's shared pieces for the evolutionary methods: their options ([`EvoArgs`],
+//! flattened into `fit`, `fit-surface` and `compare`'s commands) and the [`Monitor`] that shows
+//! a run's progress and writes its history file and checkpoints.
+
+use super::output::{Output, Outputs};
+use super::usage;
+use anyhow::Result;
+use bezchain::eval::Backend;
+use bezchain::fit::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
+use bezchain::fit::SolveReport;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct EvoArgs {
+    /// Where populations are evaluated: auto (the GPU when one is found), gpu or cpu.
+    #[arg(long, value_parser = super::parse_backend)]
+    pub backend: Option<Backend>,
+    /// Seed of the random streams [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Individuals per generation, at least 4 [default: 1024 for ga, 4 + 3 ln n for cmaes].
+    #[arg(long, allow_negative_numbers = true)]
+    pub population: Option<i64>,
+    /// Generation limit [default: 500 for ga; 100 + 150 (n+3)²/√λ for cmaes].
+    #[arg(long, allow_negative_numbers = true)]
+    pub generations: Option<i64>,
+    /// Stop once the best sum of squares is at most this.
+    #[arg(long, allow_negative_numbers = true)]
+    pub target: Option<f64>,
+    /// Stop after this many generations without a relative improvement of 1e-6.
+    #[arg(long)]
+    pub stall: Option<usize>,
+    /// Foot-point Newton steps per point and individual [default: 3].
+    #[arg(long)]
+    pub newton: Option<u32>,
+    /// Initial spread (ga) or step size (cmaes), a fraction of the data extent [default: 0.02].
+    #[arg(long, allow_negative_numbers = true)]
+    pub spread: Option<f64>,
+    /// Box bounds: the data's bounding box grown by this fraction of its extent [default: 0.1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub margin: Option<f64>,
+    /// GA: probability that a pair is recombined by SBX [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub crossover_rate: Option<f64>,
+    /// GA: probability that a variable is mutated [default: 1/n].
+    #[arg(long, allow_negative_numbers = true)]
+    pub mutation_rate: Option<f64>,
+    /// GA: individuals per tournament [default: 4].
+    #[arg(long)]
+    pub tournament: Option<usize>,
+    /// Write one line per generation here: generation,best,mean,evaluations,seconds.
+    #[arg(long)]
+    pub history: Option<PathBuf>,
+    /// Write a checkpoint here every `--checkpoint-every` generations and at the end.
+    #[arg(long)]
+    pub checkpoint: Option<PathBuf>,
+    /// Generations between checkpoints [default: 10].
+    #[arg(long)]
+    pub checkpoint_every: Option<usize>,
+    /// Continue the run saved in this checkpoint (same input, layout, method and options).
+    #[arg(long)]
+    pub resume: Option<PathBuf>,
+    /// No progress bar or progress lines.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl EvoArgs {
+    /// The evolutionary options and the checkpoint to resume from, for `method`; the
+    /// evolutionary flags are refused (a usage error) for a method that is not evolutionary.
+    pub fn settings(
+        &self,
+        evolutionary: bool,
+        method: &dyn std::fmt::Display,
+    ) -> Result<(EvoOptions, Option<Checkpoint>)> {
+        let given = self.given();
+        if !evolutionary && !given.is_empty() {
+            return Err(usage(format!(
+                "{} {} only to the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq), not {method}",
+                given.join(", "),
+                if given.len() == 1 { "applies" } else { "apply" },
+            )));
+        }
+        let evo = if evolutionary {
+            self.options()?
+        } else {
+            EvoOptions::default()
+        };
+        let resume = match &self.resume {
+            Some(path) => Some(Checkpoint::read(path)?),
+            None => None,
+        };
+        Ok((evo, resume))
+    }
+
+    /// Refuse, before the run, a population whose generation would not fit in memory for
+    /// `n` design variables of `algorithm` (`None`: not evolutionary).
+    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Algorithm>, n: usize) -> Result<()> {
+        match algorithm {
+            Some(a) => opts.check_size(a, n).map_err(|e| {
+                usage(format!(
+                    "--population {}: {e}; ask for fewer individuals or a smaller layout",
+                    opts.size(a, n)
+                ))
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The flags given, by name (to refuse them for methods that do not use them).
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        let mut add = |on: bool, name| {
+            if on {
+                v.push(name);
+            }
+        };
+        add(self.backend.is_some(), "--backend");
+        add(self.seed.is_some(), "--seed");
+        add(self.population.is_some(), "--population");
+        add(self.generations.is_some(), "--generations");
+        add(self.target.is_some(), "--target");
+        add(self.stall.is_some(), "--stall");
+        add(self.newton.is_some(), "--newton");
+        add(self.spread.is_some(), "--spread");
+        add(self.margin.is_some(), "--margin");
+        add(self.crossover_rate.is_some(), "--crossover-rate");
+        add(self.mutation_rate.is_some(), "--mutation-rate");
+        add(self.tournament.is_some(), "--tournament");
+        add(self.history.is_some(), "--history");
+        add(self.checkpoint.is_some(), "--checkpoint");
+        add(self.checkpoint_every.is_some(), "--checkpoint-every");
+        add(self.resume.is_some(), "--resume");
+        v
+    }
+
+    /// The library's options (checked by the library when the run starts).
+    pub fn options(&self) -> Result<EvoOptions> {
+        let mut o = EvoOptions::default();
+        if let Some(p) = self.population {
+            if p < 4 {
+                return Err(usage(format!("--population must be at least 4, not {p}")));
+            }
+            super::bounded(
+                "--population",
+                p as u64,
+                MAX_POPULATION as u64,
+                "a few thousand individuals are plenty for these problems",
+            )?;
+            o.population = Some(p as usize);
+        }
+        if let Some(g) = self.generations {
+            if g < 1 {
+                return Err(usage(format!("--generations must be at least 1, not {g}")));
+            }
+            super::bounded(
+                "--generations",
+                g as u64,
+                MAX_GENERATIONS as u64,
+                "stop on --target or --stall instead, or continue with --resume",
+            )?;
+            o.generations = Some(g as usize);
+        }
+        if let Some(b) = self.backend {
+            o.backend = b;
+        }
+        if let Some(s) = self.seed {
+            o.seed = s;
+        }
+        if let Some(t) = self.target {
+            o.target = t;
+        }
+        if let Some(s) = self.stall {
+            o.stall_generations = s;
+        }
+        if let Some(k) = self.newton {
+            o.newton = k;
+        }
+        if let Some(s) = self.spread {
+            o.spread = s;
+        }
+        if let Some(m) = self.margin {
+            o.margin = m;
+        }
+        if let Some(r) = self.crossover_rate {
+            o.ga.crossover_rate = r;
+        }
+        if let Some(r) = self.mutation_rate {
+            o.ga.mutation_rate = Some(r);
+        }
+        if let Some(t) = self.tournament {
+            o.ga.tournament = t;
+        }
+        if self.checkpoint_every == Some(0) {
+            return Err(usage("--checkpoint-every must be at least 1"));
+        }
+        o.check()?;
+        Ok(o)
+    }
+}
+
+/// Progress display, history file and checkpoints of an evolutionary run.
+pub struct Monitor {
+    bar: Option<ProgressBar>,
+    plain: bool,
+    last_line: Instant,
+    /// The history file, written to its temporary file as the run goes and put in place with
+    /// the run's other outputs.
+    history: Option<Output>,
+    written: usize,
+    /// The checkpoint, replaced during the run (and put back as it was if the run fails).
+    checkpoint: Option<Output>,
+    every: u64,
+}
+
+impl Monitor {
+    /// A monitor for the runs that `args` ask for; their `--history` and `--checkpoint` paths
+    /// are checked now and join the run's outputs.
+    pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
+        Ok(Monitor {
+            bar: None,
+            plain: !args.quiet && !std::io::stderr().is_terminal(),
+            last_line: Instant::now(),
+            history: outs.add_opt("--history", args.history.as_deref())?,
+            written: 0,
+            checkpoint: args
+                .checkpoint
+                .as_deref()
+                .map(|p| outs.add_interim("--checkpoint", p))
+                .transpose()?,
+            every: args.checkpoint_every.unwrap_or(10) as u64,
+        })
+    }
+
+    /// Start the progress bar (unless quiet or not on a terminal).
+    pub fn start_bar(&mut self, run: &Evolution<'_>, quiet: bool) {
+        if quiet || self.plain {
+            return;
+        }
+        let bar = ProgressBar::new(run.generations() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} gen {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(run.algorithm().to_string());
+        bar.set_position(run.generation());
+        bar.enable_steady_tick(Duration::from_millis(250));
+        self.bar = Some(bar);
+    }
+
+    /// After a generation: the bar (or an occasional line), new history lines, a checkpoint
+    /// when due.
+    pub fn generation(&mut self, run: &Evolution<'_>, outs: &mut Outputs) -> bezchain::Result<()> {
+        let h = run.history();
+        let Some(last) = h.last() else { return Ok(()) };
+        let ips = last.evaluations as f64 / last.seconds.max(1e-9);
+        let msg = format!(
+            "best {:.4e} mean {:.3e} | {:.3e} individuals/s, {:.3e} point evals/s",
+            last.best,
+            last.mean,
+            ips,
+            run.evals_per_second()
+        );
+        if let Some(bar) = &self.bar {
+            if bar.length() != Some(run.generations() as u64) {
+                bar.set_length(run.generations() as u64);
+            }
+            bar.set_position(last.generation);
+            bar.set_message(msg);
+        } else if self.plain && (self.last_line.elapsed() >= Duration::from_secs(5) || last.generation == 1) {
+            eprintln!(
+                "{} generation {}/{}: {msg}",
+                run.algorithm(),
+                last.generation,
+                run.generations()
+            );
+            self.last_line = Instant::now();
+        }
+        if let Some(o) = self.history {
+            let path = outs.path(o).to_path_buf();
+            let io = |source| bezchain::Error::Io {
+                path: path.clone(),
+                source,
+            };
+            let w = outs.writer(o)?;
+            if self.written == 0 {
+                writeln!(w, "generation,best,mean,evaluations,seconds").map_err(io)?;
+            }
+            for p in &h[self.written..] {
+                writeln!(
+                    w,
+                    "{},{:e},{:e},{},{:.6}",
+                    p.generation, p.best, p.mean, p.evaluations, p.seconds
+                )
+                .map_err(io)?;
+            }
+            self.written = h.len();
+        }
+        if let Some(o) = self.checkpoint {
+            if run.generation() % self.every == 0 || run.stop().is_some() {
+                outs.interim(o, &run.checkpoint().to_bytes())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Clear the progress bar.
+    pub fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+
+    /// After a finished run: a history file with no generation in it still gets its header.
+    pub fn close(&mut self, outs: &mut Outputs) -> Result<()> {
+        if let (Some(o), 0) = (self.history, self.written) {
+            outs.put(o, b"generation,best,mean,evaluations,seconds\n")?;
+        }
+        Ok(())
+    }
+}
+
+/// Say on the terminal that a method stopped at its evaluation or iteration cap (the report
+/// says so too, as `"stopped"`).
+pub fn warn_cap(input: &Path, method: &str, cap: &str, report: &SolveReport) {
+    eprintln!(
+        "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
+         before converging: the result is the best found so far",
+        input.display(),
+        report.iterations,
+        report.evaluations,
+        report.seconds
+    );
+}
