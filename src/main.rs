@@ -36,6 +36,8 @@ enum Command {
     Eval(cli::eval::Args),
     /// Time the population evaluator (GA fitness kernel) on one backend.
     Bench(cli::bench::Args),
+    /// Sample a fitted patch grid densely (GPU when present) into a point cloud.
+    Sample(cli::sample::Args),
 }
 
 fn main() -> ExitCode {
@@ -51,6 +53,7 @@ fn main() -> ExitCode {
         Command::FitSurface(args) => cli::fit_surface::run(*args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),
+        Command::Sample(args) => cli::sample::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,9 +1,10 @@
-//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid.
+//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, with its real
+//! FLOPs against the machine's FP32 FMA peak.
 
 use super::{parse_backend, write_json, Target};
 use anyhow::Result;
 use bezchain::eval::bench::{run as run_bench, BenchOptions};
-use bezchain::eval::Backend;
+use bezchain::eval::{Backend, Simd};
 use std::path::PathBuf;
 
 /// Arguments of `bezchain bench`.
@@ -21,26 +22,57 @@ pub struct Args {
     /// Where to run: auto, gpu or cpu.
     #[arg(long, default_value = "auto", value_parser = parse_backend)]
     pub backend: Backend,
+    /// CPU kernels: avx512, avx2 or portable [default: the best this CPU runs].
+    #[arg(long, value_parser = parse_simd)]
+    pub kernels: Option<Simd>,
     /// Bicubic patches along u and v, `PUxPV`.
     #[arg(long, default_value = "2x2", value_parser = super::parse_pair)]
     pub patches: [usize; 2],
     /// Timed runs (the median is reported; at least 5).
     #[arg(long, default_value_t = 7)]
     pub runs: usize,
+    /// The FP32 peak to compare with, GFLOP/s [default: detected from the CPU].
+    #[arg(long)]
+    pub peak: Option<f64>,
+    /// Skip the FMA microbenchmark (about a second) that measures the peak in the same run.
+    #[arg(long)]
+    pub no_peak_measure: bool,
     /// Write the JSON here instead of standard output.
     #[arg(long, default_value = "-")]
     pub json: PathBuf,
 }
 
+/// clap parser for `avx512|avx2|portable`.
+fn parse_simd(s: &str) -> std::result::Result<Simd, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "avx512" | "avx-512" => Ok(Simd::Avx512),
+        "avx2" => Ok(Simd::Avx2),
+        "portable" => Ok(Simd::Portable),
+        _ => Err(format!(
+            "unknown kernels '{s}' (expected avx512, avx2 or portable)"
+        )),
+    }
+}
+
 /// Run the benchmark and print its JSON.
 pub fn run(args: Args) -> Result<()> {
+    if let Some(p) = args.peak {
+        if !(p > 0.0 && p.is_finite()) {
+            return Err(super::usage(format!(
+                "--peak must be a positive GFLOP/s figure, not {p}"
+            )));
+        }
+    }
     let opts = BenchOptions {
         population: args.population,
         points: args.points,
         newton: args.newton,
         backend: args.backend,
+        simd: args.kernels,
         patches: args.patches,
         runs: args.runs,
+        peak: args.peak,
+        measure_peak: !args.no_peak_measure,
         ..BenchOptions::default()
     };
     let report = run_bench(&opts)?;

@@ -9,6 +9,7 @@ pub mod eval;
 pub mod fit;
 pub mod fit_surface;
 pub mod naca;
+pub mod sample;
 
 use anyhow::Result;
 use std::io::Write;

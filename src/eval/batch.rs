@@ -6,12 +6,21 @@
 //! patch, then Newton, see [`nearest`](super::nearest)). Every individual then refines those
 //! parameters with [`BatchOptions::newton`] clamped Newton steps of its own in f32, free to
 //! cross segment and patch borders, and keeps the least distance met. For individuals in the
-//! basin of the first one (a GA or CMA-ES population around a current design) this is the
-//! true closest-point distance to f32 accuracy; for an unrelated shape it is an upper bound
-//! (a local, not global, foot point).
+//! basin of the first one (a GA or CMA-ES population around a current design) this is the true
+//! closest-point distance to f32 accuracy; for an unrelated shape it is an upper bound (a
+//! local, not global, foot point).
+//!
+//! The rows are read in f64 and the evaluator keeps its default reference, the centre of the
+//! data (see [`kernel`](super::kernel)): exact for any population, with offsets accurate to
+//! about `2⁻²⁴ ×` the data's extent wherever the data sit. (Anchoring at the first individual
+//! would sharpen individuals close to it, but its Taylor polynomial grows inexact for
+//! individuals whose foot points move far from the first's, across patch borders in
+//! particular, which an outside optimiser's population may well do.)
 
 use super::nearest::{curve_nearest, grid_nearest};
-use super::{build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
+use super::{
+    build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, Gene, GpuOptions, Targets,
+};
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
@@ -27,6 +36,9 @@ pub struct BatchOptions {
     /// Samples per segment (curves) or per patch direction (grids) of the f64 projection onto
     /// the first individual. Default: 16.
     pub samples: usize,
+    /// Evaluate the population this many more times after the first, timing each (for
+    /// comparisons with other tools on the same population). Default: 0.
+    pub repeat: usize,
     /// GPU settings. Default: [`GpuOptions::default`].
     pub gpu: GpuOptions,
 }
@@ -37,6 +49,7 @@ impl Default for BatchOptions {
             backend: Backend::Auto,
             newton: 8,
             samples: 16,
+            repeat: 0,
             gpu: GpuOptions::default(),
         }
     }
@@ -49,11 +62,14 @@ pub struct BatchResult {
     pub fitness: Vec<Fitness>,
     /// The backend and adapter that ran.
     pub info: BackendInfo,
+    /// The median seconds of one evaluation of the whole population over the
+    /// [`BatchOptions::repeat`] timed ones (`None` without).
+    pub seconds_median: Option<f64>,
 }
 
 /// The first row of `population`, checked to be a whole number of rows of `n_vars` finite
 /// leading values, in f64.
-fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
+fn first_row<T: Gene>(population: &[T], n_vars: usize) -> Result<Vec<f64>> {
     if population.is_empty() {
         return Err(Error::invalid("the population has no individuals"));
     }
@@ -63,7 +79,7 @@ fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
             population.len()
         )));
     }
-    let row: Vec<f64> = population[..n_vars].iter().map(|&x| f64::from(x)).collect();
+    let row: Vec<f64> = population[..n_vars].iter().map(|&x| x.to_f64()).collect();
     if row.iter().any(|x| !x.is_finite()) {
         return Err(Error::invalid(
             "the first individual has non-finite design variables",
@@ -73,11 +89,11 @@ fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
 }
 
 /// Evaluate a population of curve chains of `layout` against `points`: rows of
-/// `x0,y0,x1,y1,…` over the layout's design points.
-pub fn eval_curve_population(
+/// `x0,y0,x1,y1,…` over the layout's design points, in f32 or f64.
+pub fn eval_curve_population<T: Gene>(
     layout: &ChainLayout,
     points: &[DVec2],
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let row = first_row(population, layout.design_count() * 2)?;
@@ -92,11 +108,11 @@ pub fn eval_curve_population(
 }
 
 /// Evaluate a population of patch grids of `layout` against `points`: rows of `x,y,z` per
-/// design point of the row-major design net.
-pub fn eval_grid_population(
+/// design point of the row-major design net, in f32 or f64.
+pub fn eval_grid_population<T: Gene>(
     layout: &GridLayout,
     points: &[DVec3],
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let (nu, nv) = layout.design_shape();
@@ -114,10 +130,10 @@ pub fn eval_grid_population(
     run(EvalLayout::Grid(layout.clone()), &targets, population, options)
 }
 
-fn run(
+fn run<T: Gene>(
     layout: EvalLayout,
     targets: &Targets,
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let mut evaluator = build_evaluator(
@@ -131,10 +147,19 @@ fn run(
         },
     )?;
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
-    evaluator.evaluate(population, &mut fitness)?;
+    T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
+    let mut times: Vec<f64> = (0..options.repeat)
+        .map(|_| {
+            let clock = std::time::Instant::now();
+            T::evaluate_on(evaluator.as_mut(), population, &mut fitness)
+                .map(|()| clock.elapsed().as_secs_f64())
+        })
+        .collect::<Result<_>>()?;
+    times.sort_by(f64::total_cmp);
     Ok(BatchResult {
         fitness,
         info: evaluator.info().clone(),
+        seconds_median: times.get(times.len() / 2).copied(),
     })
 }
 
@@ -142,15 +167,32 @@ fn run(
 /// numbers each (the design points flattened `x0,y0,x1,y1,…`). Blank lines and lines starting
 /// with `#` are skipped, and so is a first line that is not numeric (a header).
 pub fn read_population(path: &std::path::Path, n_vars: usize) -> Result<Vec<f32>> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+    let text = read_text(path)?;
+    parse_population(&text, path, n_vars)
+}
+
+/// [`read_population`] in f64, for designs whose coordinates f32 cannot hold finely enough
+/// (data far from the origin).
+pub fn read_population_f64(path: &std::path::Path, n_vars: usize) -> Result<Vec<f64>> {
+    let text = read_text(path)?;
+    parse_rows(&text, path, n_vars, f64::MAX)
+}
+
+fn read_text(path: &std::path::Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    parse_population(&text, path, n_vars)
+    })
 }
 
 /// [`read_population`] on text in memory; `path` names the source in errors.
 pub fn parse_population(text: &str, path: &std::path::Path, n_vars: usize) -> Result<Vec<f32>> {
+    let rows = parse_rows(text, path, n_vars, f64::from(f32::MAX))?;
+    Ok(rows.iter().map(|&v| v as f32).collect())
+}
+
+/// The rows of a population file as f64, every value finite and at most `limit` in size.
+fn parse_rows(text: &str, path: &std::path::Path, n_vars: usize, limit: f64) -> Result<Vec<f64>> {
     let parse_error = |line: usize, message: String| Error::Parse {
         path: path.to_path_buf(),
         line,
@@ -187,13 +229,11 @@ pub fn parse_population(text: &str, path: &std::path::Path, n_vars: usize) -> Re
                 ),
             ));
         }
-        if let Some(bad) = values
-            .iter()
-            .find(|v| !v.is_finite() || v.abs() > f64::from(f32::MAX))
-        {
-            return Err(parse_error(i + 1, format!("{bad} is not a finite f32 number")));
+        if let Some(bad) = values.iter().find(|v| !v.is_finite() || v.abs() > limit) {
+            let kind = if limit < f64::MAX { "f32 " } else { "" };
+            return Err(parse_error(i + 1, format!("{bad} is not a finite {kind}number")));
         }
-        out.extend(values.iter().map(|&v| v as f32));
+        out.extend_from_slice(&values);
     }
     if out.is_empty() {
         return Err(Error::Input {
