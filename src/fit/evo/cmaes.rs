@@ -30,8 +30,10 @@ pub struct CmaesOptions {
     /// Stop when `C`'s condition number exceeds this. Default 1e14.
     pub max_condition: f64,
     /// Stop when the generation-best sums of squares of the last `10 + ⌈30 n / λ⌉`
-    /// generations lie within this fraction of their least (Hansen's TolHistFun, relative):
-    /// the objective is flat to the evaluator's f32 resolution. Default 1e-4.
+    /// generations, and the sums of the last generation, lie within this many times the
+    /// evaluator's resolution at their least (Hansen's TolFun, with the evaluator's f32
+    /// rounding at that level as the unit, see `PopulationEvaluator::resolution`): the
+    /// objective no longer changes by more than the evaluator can tell. Default 1.
     pub tol_fun: f64,
 }
 
@@ -41,7 +43,7 @@ impl Default for CmaesOptions {
             resample: 10,
             tol_x: 1e-8,
             max_condition: 1e14,
-            tol_fun: 1e-4,
+            tol_fun: 1.0,
         }
     }
 }
@@ -191,16 +193,19 @@ impl CmaesState {
         (max / min).powi(2)
     }
 
-    /// True when the flatness window is full and its bests lie within `tol` of their least.
+    /// True when the flatness window is full and its bests, and the sums `last` of the last
+    /// generation, lie within `tol(least)` of their least: `tol` gives the tolerance (model
+    /// units squared) at a level.
     #[must_use]
-    pub fn flat(&self, n: usize, lambda: usize, tol: f64) -> bool {
+    pub fn flat(&self, n: usize, lambda: usize, last: &[f64], tol: impl Fn(f64) -> f64) -> bool {
         let window = flat_window(n, lambda);
         if self.recent.len() < window {
             return false;
         }
-        let lo = self.recent.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-        let hi = self.recent.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-        lo.is_finite() && hi - lo <= tol * lo
+        let all = || self.recent.iter().chain(last);
+        let lo = all().fold(f64::INFINITY, |a, &b| a.min(b));
+        let hi = all().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        lo.is_finite() && hi.is_finite() && hi - lo <= tol(lo)
     }
 
     /// Check the shapes against `n` variables (a checkpoint read from disk).

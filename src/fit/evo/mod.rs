@@ -511,10 +511,12 @@ impl<'p> Evolution<'p> {
         let g = self.generation + 1;
         let problem = self.problem;
         let n = problem.dim();
+        let design: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
         if g.is_multiple_of(self.options.reproject_every as u64) {
-            let design: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
             self.session.reproject(problem, &design, self.options.samples)?;
         }
+        // Every generation (so that a resumed run re-anchors exactly as an uninterrupted one).
+        self.session.anchor(&design)?;
         let (pop, scores): (&[f32], &[Score]) = match &mut self.engine {
             Engine::Ga(ga) => {
                 ga.breed(problem, &self.options.ga, &self.streams, g);
@@ -570,7 +572,9 @@ impl<'p> Evolution<'p> {
             if es.state.condition() > o.cmaes.max_condition {
                 return Some(EvoStop::Condition);
             }
-            if es.state.flat(self.problem.dim(), self.size, o.cmaes.tol_fun) {
+            let last: Vec<f64> = es.scores.iter().map(|s| s.sum_sq).collect();
+            let tol = |level: f64| o.cmaes.tol_fun * self.session.resolution(level);
+            if es.state.flat(self.problem.dim(), self.size, &last, tol) {
                 return Some(EvoStop::Flat);
             }
         }
@@ -643,7 +647,8 @@ impl<'p> Evolution<'p> {
         self.size
     }
 
-    /// The best individual so far (f32, as evaluated) and its score.
+    /// The best individual so far (f32, as evaluated, relative to the problem's
+    /// [`origin`](EvoProblem::origin)) and its score.
     #[must_use]
     pub fn best(&self) -> (&[f32], Score) {
         (&self.best, self.best_score)
@@ -702,6 +707,7 @@ impl<'p> Evolution<'p> {
             }
         }
         let (design, sum_sq) = best.ok_or_else(|| Error::Numerical("no candidate design".into()))?;
+        let design = self.problem.absolute(&design);
         if design.iter().any(|x| !x.is_finite()) || !sum_sq.is_finite() {
             return Err(Error::Numerical(format!(
                 "{} produced a non-finite design",

@@ -38,9 +38,15 @@ struct Anchor {
 /// offsets: closest-point offsets for the free data points, computed by the population
 /// evaluator, plus the squared distances of the anchored points to the shape points they are
 /// tied to, computed here in f64.
+///
+/// The problem lives in a frame centred on its data: data, start, bounds and every design it
+/// takes or gives are relative to [`origin`](Self::origin) (the centre of the data's box), so
+/// the population's f32 rows resolve a shape as finely wherever its data sit;
+/// [`absolute`](Self::absolute) moves a design back.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvoProblem {
     layout: EvalLayout,
+    origin: Vec<f64>,
     data: Data,
     anchors: Vec<Anchor>,
     free: Vec<usize>,
@@ -138,14 +144,32 @@ impl EvoProblem {
         )
     }
 
+    /// The problem in the frame centred on the box `bounds` (one pair per coordinate, repeated
+    /// per design point).
     fn assemble(
         layout: EvalLayout,
-        data: Data,
+        mut data: Data,
         anchors: Vec<Anchor>,
-        start: Vec<f64>,
-        bounds: Vec<[f64; 2]>,
+        mut start: Vec<f64>,
+        mut bounds: Vec<[f64; 2]>,
         extent: f64,
     ) -> Result<Self> {
+        let dim = match &data {
+            Data::Curve(_) => 2,
+            Data::Grid(_) => 3,
+        };
+        let origin: Vec<f64> = bounds[..dim].iter().map(|[lo, hi]| 0.5 * (lo + hi)).collect();
+        match &mut data {
+            Data::Curve(p) => p.iter_mut().for_each(|q| *q -= DVec2::new(origin[0], origin[1])),
+            Data::Grid(p) => p
+                .iter_mut()
+                .for_each(|q| *q -= DVec3::new(origin[0], origin[1], origin[2])),
+        }
+        for (k, (x, b)) in start.iter_mut().zip(&mut bounds).enumerate() {
+            let o = origin[k % dim];
+            *x -= o;
+            *b = [b[0] - o, b[1] - o];
+        }
         let n = match &data {
             Data::Curve(p) => p.len(),
             Data::Grid(p) => p.len(),
@@ -173,6 +197,7 @@ impl EvoProblem {
         debug_assert_eq!(bounds.len(), start.len(), "one bound pair per variable");
         Ok(EvoProblem {
             layout,
+            origin,
             data,
             anchors,
             free,
@@ -218,13 +243,31 @@ impl EvoProblem {
         self.free.len()
     }
 
-    /// The start design, flat.
+    /// The point the problem's frame is centred on (the centre of the data's box): data,
+    /// start, bounds and designs here are relative to it.
+    #[must_use]
+    pub fn origin(&self) -> &[f64] {
+        &self.origin
+    }
+
+    /// `design` (relative to [`origin`](Self::origin)) in model coordinates.
+    #[must_use]
+    pub fn absolute(&self, design: &[f64]) -> Vec<f64> {
+        let dim = self.origin.len();
+        design
+            .iter()
+            .enumerate()
+            .map(|(k, &x)| x + self.origin[k % dim])
+            .collect()
+    }
+
+    /// The start design, flat, relative to [`origin`](Self::origin).
     #[must_use]
     pub fn start(&self) -> &[f64] {
         &self.start
     }
 
-    /// `[lower, upper]` of every design variable.
+    /// `[lower, upper]` of every design variable, relative to [`origin`](Self::origin).
     #[must_use]
     pub fn bounds(&self) -> &[[f64; 2]] {
         &self.bounds
@@ -433,7 +476,7 @@ impl Session {
                 Targets::grid(&pts, &uv)?
             }
         };
-        let evaluator = build_evaluator(
+        let mut evaluator = build_evaluator(
             &problem.layout,
             &targets,
             &EvalOptions {
@@ -443,6 +486,7 @@ impl Session {
                 gpu: options.gpu.clone(),
             },
         )?;
+        evaluator.set_reference(problem.start())?;
         Ok(Session {
             evaluator,
             params,
@@ -473,6 +517,17 @@ impl Session {
     pub(crate) fn reproject(&mut self, problem: &EvoProblem, design: &[f64], samples: usize) -> Result<()> {
         let (params, _) = problem.project(design, samples)?;
         self.set_params(params)
+    }
+
+    /// The evaluator's resolution at `sum_sq` (see [`PopulationEvaluator::resolution`]).
+    pub(crate) fn resolution(&self, sum_sq: f64) -> f64 {
+        self.evaluator.resolution(sum_sq)
+    }
+
+    /// Re-anchor the evaluator's reference design at `design` (the best so far): the kernels
+    /// then compute only each individual's small difference from it in f32.
+    pub(crate) fn anchor(&mut self, design: &[f64]) -> Result<()> {
+        self.evaluator.set_reference(design)
     }
 
     /// Score every row of `population` into `scores`.
@@ -532,8 +587,14 @@ mod tests {
         assert!((p.extent() - 2.0).abs() < 1e-12);
         let b = p.bounds()[0];
         assert!((b[0] + 1.2).abs() < 1e-12 && (b[1] - 1.2).abs() < 1e-12, "{b:?}");
+        // y spans [0, 0.5], grown to [-0.2, 0.7], centred on 0.25.
         let b = p.bounds()[1];
-        assert!((b[0] + 0.2).abs() < 1e-12 && (b[1] - 0.7).abs() < 1e-12, "{b:?}");
+        assert!(
+            (b[0] + 0.45).abs() < 1e-12 && (b[1] - 0.45).abs() < 1e-12,
+            "{b:?}"
+        );
+        assert!(p.origin()[0] == 0.0 && (p.origin()[1] - 0.25).abs() < 1e-15);
+        assert!((p.absolute(&[1.0, 1.0])[1] - 1.25).abs() < 1e-15);
         // The start takes both end points: the anchor terms vanish there.
         assert_eq!(p.anchor_sum(p.start()), 0.0);
         let mut moved = p.start().to_vec();
@@ -549,7 +610,11 @@ mod tests {
         let pts = arc(60);
         let layout = ChainLayout::uniform(3, 4, Continuity::C1).unwrap();
         let p = EvoProblem::curve(&pts, layout.clone(), false, 0.1).unwrap();
-        let design: Vec<DVec2> = p.start().chunks(2).map(|c| DVec2::new(c[0], c[1])).collect();
+        let design: Vec<DVec2> = p
+            .absolute(p.start())
+            .chunks(2)
+            .map(|c| DVec2::new(c[0], c[1]))
+            .collect();
         let chain = CurveChain::new(layout, design).unwrap();
         let truth = crate::fit::offset_stats(&chain, &pts).unwrap().sum_sq;
         let m = p.measure(p.start(), 48).unwrap();
