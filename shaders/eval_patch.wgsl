@@ -55,8 +55,10 @@ struct Target {
     // Start parameters, local to that patch, in [0, 1].
     u: f32,
     v: f32,
-    _pad0: u32,
-    _pad1: u32,
+    // How far Newton steps may move from them (local units) for the reference's Taylor
+    // polynomial to stay within its tolerance.
+    reach_u: f32,
+    reach_v: f32,
 }
 
 // Must be kept in sync with `RefJet` in src/eval/kernel.rs: the reference's partials at a
@@ -245,13 +247,14 @@ fn dot_n(x: array<f32, DIM>, y: array<f32, DIM>) -> f32 {
 // Squared closest-point offset of target p, from config.newton (>= 1) Newton steps on
 // |r(Δ)|², r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held difference
 // patch at the local parameters Δ reaches. Δ is clamped to the start patch, or with CROSS to
-// the domain (the steps then cross borders); the result is the least squared offset met on
-// the way, so it never exceeds the start's.
+// the domain (the steps then cross borders), and to the target's reach; the result is the
+// least squared offset met on the way, so it never exceeds the start's.
 fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
     let rj = jets[p];
     let i0 = t.patch_id / config.patches_v;
     let j0 = t.patch_id - i0 * config.patches_v;
-    // First v break; the start patch's lengths and the domain of Δ.
+    // First v break; the start patch's lengths and the domain of Δ: the start patch (or with
+    // CROSS the whole domain), within the target's reach.
     let fv = config.patches_u + 1u;
     var h0u = 1.0;
     var h0v = 1.0;
@@ -267,6 +270,10 @@ fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
         lo_v = -(t.v + breaks[fv + j0] / h0v);
         hi_v = (1.0 - breaks[fv + j0]) / h0v - t.v;
     }
+    lo_u = max(lo_u, -t.reach_u);
+    hi_u = min(hi_u, t.reach_u);
+    lo_v = max(lo_v, -t.reach_v);
+    hi_v = min(hi_v, t.reach_v);
     // Δ; the local parameters in the held patch; d(local) / dΔ there.
     var du = 0.0;
     var dv = 0.0;

@@ -202,7 +202,7 @@ fn rust_structs_match_their_wgsl_twins() {
     check(
         "Target",
         size_of::<Target>(),
-        &offsets!(Target; rx, ry, rz, patch_id, u, v, _pad0, _pad1),
+        &offsets!(Target; rx, ry, rz, patch_id, u, v, reach_u, reach_v),
         &["eval_patch.wgsl"],
     );
     check(

@@ -15,8 +15,14 @@
 //!   (the weights `w_k`, basis products in f32, err by a few units in their last place, which
 //!   only the small differences `Δ_k` see);
 //! - a Newton step's displacement `δ` (local patch units) from the start parameters uses the
-//!   reference's second-order Taylor polynomial, which adds at most `|∂³S_ref| |δ|³ / 6`
-//!   (a third partial of the reference in local units) to each offset.
+//!   reference's second-order Taylor polynomial, which errs by about `|∂³S_ref| |δ|³ / 6`
+//!   (a third partial of the reference in local units) and, past a patch border, by `J δ² / 2`
+//!   more (`J` the jump of the second derivative there). Each target carries how far its
+//!   steps may go (`reach_u`, `reach_v`) for that error to stay below `2⁻¹³ ×` the targets'
+//!   extent: a guard against extrapolating the polynomial where it could invent foot points
+//!   (a foot point beyond reach is not followed, the offset is then an upper bound). Near the
+//!   reference, where a population method converges, steps are short and the error `|∂³S|
+//!   |δ|³ / 6` far below rounding (1e-15 for a step of 1e-5).
 //!
 //! Without a reference the evaluator takes every design point at the centre of the targets'
 //! bounding box: the offsets are then exactly the old absolute ones, but measured from the
@@ -101,10 +107,11 @@ pub struct Target {
     pub u: f32,
     /// Local parameter along v in that patch, in `[0, 1]` (0 for a curve).
     pub v: f32,
-    /// Padding to 32 bytes.
-    pub _pad0: u32,
-    /// Padding to 32 bytes.
-    pub _pad1: u32,
+    /// Largest displacement along u from `u` (local units of this patch) over which the
+    /// reference's Taylor polynomial stays within its tolerance: Newton steps go no further.
+    pub reach_u: f32,
+    /// The same along v.
+    pub reach_v: f32,
 }
 
 /// The reference design's first and second partials at a target's start parameters, per
@@ -192,6 +199,10 @@ pub const MAX_DEGREE: usize = 7;
 /// Basis arrays hold up to this many values (degree [`MAX_DEGREE`]).
 pub(crate) const NB: usize = MAX_DEGREE + 1;
 
+/// The largest error Newton steps may let the reference's Taylor polynomial make, as a
+/// fraction of the targets' extent (see [`Problem::refresh`]).
+const REACH_TOLERANCE: f64 = 1.0 / 8192.0;
+
 /// Below this many target points per group, splitting the points no longer pays.
 const MIN_GROUP_POINTS: usize = 256;
 /// Work items (blocks of 64 individuals times point groups) wanted for parallel slack.
@@ -211,9 +222,10 @@ pub(crate) fn point_groups(population: usize, points: usize) -> (usize, usize) {
     (group_points, points.div_ceil(group_points).max(1))
 }
 
-/// The degree-`n` Bernstein values with first and second derivatives at `t`, in f64.
-fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 3] {
-    let mut out = [[0.0; NB]; 3];
+/// The degree-`n` Bernstein values with their first, second and third derivatives at `t`, in
+/// f64.
+fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 4] {
+    let mut out = [[0.0; NB]; 4];
     bernstein_f64(n, t, &mut out[0]);
     let nf = n as f64;
     if n >= 1 {
@@ -233,7 +245,25 @@ fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 3] {
             out[2][i] = nf * (nf - 1.0) * (a - 2.0 * b + low[i]);
         }
     }
+    if n >= 3 {
+        let mut low = [0.0; NB];
+        bernstein_f64(n - 3, t, &mut low);
+        let at = |k: usize, back: usize| if k >= back { low[k - back] } else { 0.0 };
+        for i in 0..=n {
+            out[3][i] =
+                nf * (nf - 1.0) * (nf - 2.0) * (at(i, 3) - 3.0 * at(i, 2) + 3.0 * at(i, 1) - at(i, 0));
+        }
+    }
     out
+}
+
+/// The end of `[0, 1]` nearer `t`.
+fn near_end(t: f64) -> f64 {
+    if t < 0.5 {
+        0.0
+    } else {
+        1.0
+    }
 }
 
 /// A target's start parameters, located in f64.
@@ -492,55 +522,143 @@ impl Problem {
         self.reference = design;
     }
 
-    /// Rebuild the kernels' per-target arrays from the located targets and the reference.
-    fn refresh(&mut self) {
+    /// The reference's partials at local `(u, v)` of patch `(i, j)`: `jet[ou][ov][c]`, orders
+    /// up to 3 together, in the patch's local units.
+    fn reference_jet(&self, i: usize, j: usize, u: f64, v: f64) -> [[[f64; 3]; 4]; 4] {
         let (du, dv, dim) = (self.du, self.dv, self.dim);
-        let ncp = (du + 1) * (dv + 1);
-        self.targets.clear();
-        self.jets.clear();
-        self.weights.clear();
-        for l in &self.located {
-            let bu = basis_f64(du, l.u);
-            let bv = basis_f64(dv, l.v);
-            // The reference's point and partials: jet[order_u][order_v][coordinate].
-            let mut jet = [[[0.0f64; 3]; 3]; 3];
-            let i = l.patch as usize / self.pv;
-            let j = l.patch as usize - i * self.pv;
-            for a in 0..=du {
-                for b in 0..=dv {
-                    let p = &self.ref_net[(i * du + a) * self.net_cols + j * dv + b];
-                    for (ou, bu) in bu.iter().enumerate() {
-                        for (ov, bv) in bv.iter().enumerate().take(3 - ou) {
-                            let w = bu[a] * bv[b];
-                            for c in 0..dim {
-                                jet[ou][ov][c] += w * p[c];
-                            }
+        let bu = basis_f64(du, u);
+        let bv = basis_f64(dv, v);
+        let mut jet = [[[0.0f64; 3]; 4]; 4];
+        for a in 0..=du {
+            for b in 0..=dv {
+                let p = &self.ref_net[(i * du + a) * self.net_cols + j * dv + b];
+                for (ou, bu) in bu.iter().enumerate() {
+                    for (ov, bv) in bv.iter().enumerate().take(4 - ou) {
+                        let w = bu[a] * bv[b];
+                        for c in 0..dim {
+                            jet[ou][ov][c] += w * p[c];
                         }
                     }
                 }
             }
+        }
+        jet
+    }
+
+    /// How far Newton steps may move from local `(u, v)` of patch `(i, j)` before the
+    /// reference's second-order Taylor polynomial errs by more than `tol` (see the module notes):
+    /// the cubic remainder within the patch, and the jump of the second derivative at a
+    /// border within reach (where the polynomial runs on past the patch).
+    fn reach(&self, i: usize, j: usize, u: f64, v: f64, jet: &[[[f64; 3]; 4]; 4], tol: f64) -> [f64; 2] {
+        let norm = |x: &[f64; 3]| x.iter().map(|c| c * c).sum::<f64>().sqrt();
+        // Third partials bound the remainder by m3 (|δu| + |δv|)³ / 6 ≤ (4/3) m3 δ³.
+        let m3 = [jet[3][0], jet[2][1], jet[1][2], jet[0][3]]
+            .iter()
+            .map(norm)
+            .fold(0.0, f64::max);
+        let inner = if m3 > 0.0 {
+            (0.75 * tol / m3).cbrt()
+        } else {
+            f64::INFINITY
+        };
+        let mut reach = [inner; 2];
+        // A border nearer than that: past it the neighbour's second derivative differs by the
+        // jump J, and the polynomial errs by up to J δ² / 2.
+        let jump = |dir: usize, near: f64, neighbour: Option<(usize, usize, f64, f64)>| -> f64 {
+            match neighbour {
+                Some((ni, nj, nu, nv)) if near < inner => {
+                    let here = self.reference_jet(
+                        i,
+                        j,
+                        if dir == 0 { near_end(u) } else { u },
+                        if dir == 1 { near_end(v) } else { v },
+                    );
+                    let there = self.reference_jet(ni, nj, nu, nv);
+                    // Second derivative along dir, in this patch's local units.
+                    let (h0, h1) = if dir == 0 {
+                        (self.u.segment_length(i), self.u.segment_length(ni))
+                    } else {
+                        let lv = self.v.as_ref().map_or(1.0, |l| l.segment_length(j));
+                        (lv, self.v.as_ref().map_or(1.0, |l| l.segment_length(nj)))
+                    };
+                    let k = (h0 / h1).powi(2);
+                    let (a, b) = if dir == 0 {
+                        (here[2][0], there[2][0])
+                    } else {
+                        (here[0][2], there[0][2])
+                    };
+                    let d = [a[0] - k * b[0], a[1] - k * b[1], a[2] - k * b[2]];
+                    let j2 = norm(&d);
+                    if j2 > 0.0 {
+                        (2.0 * tol / j2).sqrt()
+                    } else {
+                        f64::INFINITY
+                    }
+                }
+                _ => f64::INFINITY,
+            }
+        };
+        let pv = self.pv;
+        let below_u = (i > 0).then(|| (i - 1, j, 1.0, v));
+        let above_u = (i + 1 < self.pu).then(|| (i + 1, j, 0.0, v));
+        let below_v = (j > 0).then(|| (i, j - 1, u, 1.0));
+        let above_v = (j + 1 < pv).then(|| (i, j + 1, u, 0.0));
+        let near_u = if u < 0.5 { (u, below_u) } else { (1.0 - u, above_u) };
+        let near_v = if v < 0.5 { (v, below_v) } else { (1.0 - v, above_v) };
+        reach[0] = reach[0].min(jump(0, near_u.0, near_u.1));
+        reach[1] = reach[1].min(jump(1, near_v.0, near_v.1));
+        reach
+    }
+
+    /// Rebuild the kernels' per-target arrays from the located targets and the reference.
+    fn refresh(&mut self) {
+        let (du, dv) = (self.du, self.dv);
+        let ncp = (du + 1) * (dv + 1);
+        // A guard against extrapolating the Taylor polynomial far, where it can invent closest
+        // points that are not there: steps stop where it could err by 2⁻¹³ of the extent. (Near
+        // the reference, where population methods converge, steps are far shorter and the
+        // polynomial exact to rounding; tighter guards bias the offsets of individuals whose
+        // foot points move further, and cost the GA and CMA-ES their minima on case 1.)
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.points {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let extent = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        let tol = REACH_TOLERANCE * extent.max(f64::MIN_POSITIVE);
+        let mut targets = Vec::with_capacity(self.located.len());
+        let mut jets = Vec::with_capacity(self.located.len());
+        let mut weights = Vec::with_capacity(self.located.len() * ncp);
+        for l in &self.located {
+            let i = l.patch as usize / self.pv;
+            let j = l.patch as usize - i * self.pv;
+            let jet = self.reference_jet(i, j, l.u, l.v);
+            let reach = self.reach(i, j, l.u, l.v, &jet, tol);
             // The shader's weights: its f32 recurrence at the f32 parameters, multiply then add.
             let fu = bernstein::<Unfused>(du, l.u as f32);
             let fv = bernstein::<Unfused>(dv, l.v as f32);
             for a in 0..=du {
                 for b in 0..=dv {
-                    self.weights.push(fu[a] * fv[b]);
+                    weights.push(fu[a] * fv[b]);
                 }
             }
             let q = &self.points[l.point as usize];
-            let r: Vec<f32> = (0..3).map(|c| (jet[0][0][c] - q[c]) as f32).collect();
+            let r = [0, 1, 2].map(|c| (jet[0][0][c] - q[c]) as f32);
             let f = |x: [f64; 3]| x.map(|v| v as f32);
-            self.targets.push(Target {
+            targets.push(Target {
                 rx: r[0],
                 ry: r[1],
                 rz: r[2],
                 patch_id: l.patch,
                 u: l.u as f32,
                 v: l.v as f32,
-                _pad0: 0,
-                _pad1: 0,
+                reach_u: reach[0].min(f64::from(f32::MAX)) as f32,
+                reach_v: reach[1].min(f64::from(f32::MAX)) as f32,
             });
-            self.jets.push(RefJet {
+            jets.push(RefJet {
                 su: f(jet[1][0]),
                 sv: f(jet[0][1]),
                 suu: f(jet[2][0]),
@@ -549,11 +667,9 @@ impl Problem {
                 _pad: 0.0,
             });
         }
-        debug_assert_eq!(
-            self.weights.len(),
-            self.targets.len() * ncp,
-            "ncp weights a target"
-        );
+        self.targets = targets;
+        self.jets = jets;
+        self.weights = weights;
     }
 
     /// Number of target points.

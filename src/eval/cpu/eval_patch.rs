@@ -435,6 +435,10 @@ fn foot_point_sq<A: Arith, const DIM: usize>(
         lo_v = -(t.v + breaks[fv + j0] / h0v);
         hi_v = (1.0 - breaks[fv + j0]) / h0v - t.v;
     }
+    lo_u = lo_u.max(-t.reach_u);
+    hi_u = hi_u.min(t.reach_u);
+    lo_v = lo_v.max(-t.reach_v);
+    hi_v = hi_v.min(t.reach_v);
     let mut du = [0.0f32; LANES];
     let mut dv = [0.0f32; LANES];
     let mut u = [t.u; LANES];

@@ -2,7 +2,7 @@
 //! step-size adaptation, rank-one and rank-μ updates (Hansen, "The CMA Evolution Strategy: A
 //! Tutorial", 2016, the defaults of its Table 1 with positive weights only).
 //!
-//! Sample `k` of generation `g` is `x = m + σ B D z` with `z ~ N(0, I)` from its own random
+//! Sample `k` of generation `g` is `x = m + σ B D Bᵀ z` with `z ~ N(0, I)` from its own random
 //! stream `(seed, g, k)`; a sample outside the box bounds is drawn again from the same stream
 //! (up to [`CmaesOptions::resample`] times), then clamped. The strategy learns from the
 //! samples as evaluated (rounded to f32, clamped): `y = (x - m) / σ`. The eigendecomposition
@@ -268,8 +268,21 @@ impl Cmaes {
         let n = problem.dim();
         let st = &self.state;
         let bounds = problem.bounds();
-        // B D, row-major: sample rows are then plain dot products.
-        let bd: Vec<f64> = (0..n * n).map(|k| st.basis[k] * st.scales[k % n]).collect();
+        // C^½ = B D Bᵀ, row-major: sample rows are then plain dot products. The symmetric root
+        // (Hansen's tutorial writes B D z, the same distribution) does not depend on which
+        // eigenvectors the decomposition picks inside an eigenspace of repeated eigenvalues
+        // (C starts as I): two runs whose covariances differ by rounding draw nearly the same
+        // samples, instead of samples in unrelated directions.
+        let mut bd = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..=i {
+                let v: f64 = (0..n)
+                    .map(|k| st.basis[i * n + k] * st.scales[k] * st.basis[j * n + k])
+                    .sum();
+                bd[i * n + j] = v;
+                bd[j * n + i] = v;
+            }
+        }
         self.samples
             .par_chunks_mut(n)
             .enumerate()
