@@ -22,7 +22,7 @@ enum Command {
     Fit(Box<cli::fit::Args>),
     /// The paper's optimiser comparison on its three NACA 4413 cases, as one table.
     Compare(cli::compare::Args),
-    /// Loft a blade definition (JSON) into a 3D point cloud.
+    /// Loft a blade definition (JSON, windIO v1/v2 or AeroDyn 15) into a 3D point cloud.
     Blade(cli::blade::Args),
     /// Find the chain with the fewest stored scalars whose offsets meet a tolerance (exit
     /// status 1, reports still written, when no layout meets it).
@@ -36,6 +36,8 @@ enum Command {
     Eval(cli::eval::Args),
     /// Time the population evaluator (GA fitness kernel) on one backend.
     Bench(cli::bench::Args),
+    /// Write a saved report's chain or grid as a STEP and/or IGES B-spline.
+    Export(cli::export::Args),
     /// Sample a fitted patch grid densely (GPU when present) into a point cloud.
     Sample(cli::sample::Args),
 }
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         Command::FitSurface(args) => cli::fit_surface::run(*args),
         Command::Eval(args) => cli::eval::run(args),
         Command::Bench(args) => cli::bench::run(args),
+        Command::Export(args) => cli::export::run(args),
         Command::Sample(args) => cli::sample::run(args),
     };
     match result {

@@ -127,6 +127,8 @@ pub struct Args {
     /// Write an SVG plot of the chain and its offsets.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
 }
 
 fn parse_degrees(text: &str) -> Result<(usize, usize)> {
@@ -245,6 +247,7 @@ pub(crate) fn held_out_and_search(
 
 /// Run the search(es), print the table, write the outputs.
 pub fn run(args: Args) -> Result<()> {
+    args.cad.check()?;
     let loaded = read_curve(&args.input)?;
     warn_all(&args.input, &loaded.warnings);
     let points = &loaded.points;
@@ -312,6 +315,13 @@ pub fn run(args: Args) -> Result<()> {
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
     write_reports(json_target.as_ref(), &reports)?;
+    if args.cad.wanted() {
+        let shapes = reports
+            .iter()
+            .map(bezchain::export::CadShape::from_adapt_report)
+            .collect::<bezchain::Result<Vec<_>>>()?;
+        args.cad.write(&shapes, &super::export::stem(&args.input))?;
+    }
     if let (Some(path), Some((opts, r))) = (&args.svg, results.last()) {
         let offsets = bezchain::fit::shape_offsets(
             &bezchain::fit::CurveShape::new(r.chain.layout().clone()),

@@ -49,6 +49,8 @@ pub struct Args {
     /// for a sweep); `-` for standard output (the summary then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
 }
 
 fn parse_degrees(flag: &str, text: &str) -> Result<[usize; 2]> {
@@ -142,6 +144,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
 
 /// Run the search(es), print the summary, write the report.
 pub fn run(args: Args) -> Result<()> {
+    args.cad.check()?;
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let Some(grid) = loaded.grid else {
@@ -216,6 +219,13 @@ pub fn run(args: Args) -> Result<()> {
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
     write_reports(json_target.as_ref(), &reports)?;
+    if args.cad.wanted() {
+        let shapes = reports
+            .iter()
+            .map(bezchain::export::CadShape::from_surface_adapt_report)
+            .collect::<bezchain::Result<Vec<_>>>()?;
+        args.cad.write(&shapes, &super::export::stem(&args.cloud))?;
+    }
     if !failures.is_empty() {
         return Err(anyhow!("{}", failures.join("; ")));
     }

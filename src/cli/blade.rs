@@ -2,13 +2,14 @@
 
 use super::{warn_all, Target};
 use anyhow::Result;
-use bezchain::geometry::{write_csv_to, Blade, LoftOptions};
+use bezchain::geometry::{write_csv_to, Axes, Blade, Blend, LoftOptions};
 use std::path::PathBuf;
 
 /// Arguments of `bezchain blade`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Blade definition (JSON; schema in the README).
+    /// Blade definition: bezchain JSON, windIO v1/v2 YAML or an OpenFAST AeroDyn 15 primary
+    /// file (detected from the content; see the README).
     pub blade: PathBuf,
     /// Points per section (default: 82 for NACA sections, a file aerofoil's own count).
     #[arg(long)]
@@ -53,9 +54,19 @@ pub fn run(args: Args) -> Result<()> {
         Target::Stdout => "standard output".to_string(),
         Target::File(path) => path.display().to_string(),
     };
+    let blend = match blade.blend {
+        Blend::Radius => "each station its own aerofoil",
+        Blend::Thickness { .. } => "aerofoils blended by relative thickness",
+    };
+    let axes = match blade.axes {
+        Axes::Section => "section axes",
+        Axes::Turbine => "blade-root axes",
+    };
     eprintln!(
-        "{}: {} points ({shape}) → {to}",
+        "{}: {}, {} stations, {blend}, {axes}: {} points ({shape}) → {to}",
         args.blade.display(),
+        blade.format,
+        blade.stations.len(),
         cloud.points.len()
     );
     Ok(())

@@ -42,6 +42,8 @@ pub struct Args {
     #[arg(long)]
     pub svg: Option<PathBuf>,
     #[command(flatten)]
+    pub cad: super::export::CadArgs,
+    #[command(flatten)]
     pub evo: EvoArgs,
 }
 
@@ -411,6 +413,7 @@ impl Monitor {
 
 /// Fit, report and plot.
 pub fn run(args: Args) -> Result<()> {
+    args.cad.check()?;
     let loaded = load(&args.input)?;
     let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity)?;
     let evolutionary = args.method.evolutionary().is_some();
@@ -460,6 +463,10 @@ pub fn run(args: Args) -> Result<()> {
     let json_target = args.json.as_deref().map(Target::parse);
     if let Some(target) = &json_target {
         write_json(target, &rep)?;
+    }
+    if args.cad.wanted() {
+        let shape = bezchain::export::CadShape::from_curve_report(&rep)?;
+        args.cad.write(&[shape], &super::export::stem(&args.input))?;
     }
     if let Some(path) = &args.svg {
         let offsets = point_offsets(&fit.chain, &loaded.points)?;

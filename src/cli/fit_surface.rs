@@ -74,6 +74,8 @@ pub struct Args {
     /// Write the JSON report here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub cad: super::export::CadArgs,
     /// Write the fitted surface as a Wavefront OBJ mesh here.
     #[arg(long)]
     pub obj: Option<PathBuf>,
@@ -258,6 +260,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     // Outputs whose folder is missing are refused now, not after a long fit (and not after
     // some of the other outputs were written).
+    args.cad.check()?;
     for (flag, path) in [
         ("--json", &args.json),
         ("--obj", &args.obj),
@@ -372,9 +375,28 @@ pub fn run(args: Args) -> Result<()> {
         // The data as dots: every point of a cloud up to 20,000, an even sample of a larger one.
         let step = loaded.points.len().div_ceil(20_000).max(1);
         ropts.cloud = loaded.points.iter().step_by(step).copied().collect();
-        // The default views look at a blade along +z; turn them with the span axis.
+        // The surface coloured by the local offset: every point's closest point and offset.
+        ropts.offsets = fit
+            .params
+            .iter()
+            .zip(&loaded.points)
+            .map(|(&[u, v], p)| ([u, v], (fit.grid.eval(u, v) - *p).length()))
+            .collect();
+        // The default views look at a blade along +z, its thickness along y; turn them with
+        // the span axis, and to x when the cloud is thinnest along x (a windIO or AeroDyn
+        // blade in its blade-root axes).
+        let extent = |axis: DVec3| {
+            let (lo, hi) = loaded.points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+                (lo.min(p.dot(axis)), hi.max(p.dot(axis)))
+            });
+            hi - lo
+        };
+        let thin_x = fit.axis.dir.x.abs() < 0.5 && extent(DVec3::X) < extent(DVec3::Y);
         for v in ropts.views.iter_mut() {
             v.right = fit.axis.dir;
+            if thin_x {
+                v.eye = DVec3::new(v.eye.y, v.eye.x, v.eye.z);
+            }
         }
         if let Some(path) = &args.png {
             let image = render(&fit.grid, &ropts)?;
@@ -383,6 +405,10 @@ pub fn run(args: Args) -> Result<()> {
         if let Some(path) = &args.svg {
             outputs.push((Target::parse(path), render_svg(&fit.grid, &ropts)?.into_bytes()));
         }
+    }
+    if args.cad.wanted() {
+        let shape = bezchain::export::CadShape::from_surface_report(&rep)?;
+        outputs.extend(args.cad.files(&[shape], &name)?);
     }
     for (target, bytes) in &outputs {
         target.write(bytes)?;

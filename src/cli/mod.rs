@@ -6,6 +6,7 @@ pub mod bench;
 pub mod blade;
 pub mod compare;
 pub mod eval;
+pub mod export;
 pub mod fit;
 pub mod fit_surface;
 pub mod naca;

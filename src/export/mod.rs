@@ -1,14 +1,20 @@
-//! Outputs: the JSON report, SVG plots, OBJ/STL meshes and PNG renders.
+//! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders and STEP/IGES B-splines.
 
+mod cad;
+mod iges;
 mod mesh;
 mod render;
 mod report;
+mod step;
 mod svg;
 
+pub use cad::{distinct_knots, utc_now, write_cad, BsplineCurve, BsplineSurface, CadShape, CadUnit};
+pub use iges::iges_text;
 pub use mesh::SurfaceMesh;
 pub use render::{
-    render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT,
-    GENERATED_POINT, NET, SURFACE,
+    local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
+    DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
 pub use report::{CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
+pub use step::step_text;
 pub use svg::CurvePlot;

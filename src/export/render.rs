@@ -1,6 +1,8 @@
 //! A PNG picture of a fitted patch grid with its control net (like the paper's Figs. 12–14):
 //! a CPU rasteriser with a z-buffer, the surface shaded, the net drawn as lines, design points
-//! and generated points as dots of two colours, one panel per view.
+//! and generated points as dots of two colours, one panel per view. Given the data's offsets,
+//! the surface is coloured by the local offset (the largest offset of the data points whose
+//! closest points fall near each place), with a labelled colour bar.
 
 use super::mesh::SurfaceMesh;
 use crate::chain::PatchGrid;
@@ -54,6 +56,10 @@ pub struct RenderOptions {
     /// Data points to draw as small dots (e.g. the fitted cloud or a sample of it). Default
     /// none.
     pub cloud: Vec<DVec3>,
+    /// The closest-point parameters `(u, v)` on the surface of the data points and their
+    /// offsets (model units). When given, the surface is coloured by the local offset (see
+    /// [`local_offsets`]) from 0 to the largest, with a colour bar on the right. Default none.
+    pub offsets: Vec<([f64; 2], f64)>,
 }
 
 impl Default for RenderOptions {
@@ -74,6 +80,7 @@ impl Default for RenderOptions {
             per_patch: 16,
             supersample: 2,
             cloud: Vec::new(),
+            offsets: Vec::new(),
         }
     }
 }
@@ -232,6 +239,161 @@ fn columns_of(points: &[DensePoint], cols: usize) -> Vec<Vec<DVec3>> {
         .collect()
 }
 
+/// The colour of `t ∈ [0, 1]` on a sequential map that stays light where the offsets are
+/// small (so the shading reads) and turns dark red where they are largest (ColorBrewer's
+/// YlOrRd, by linear interpolation between its 9 classes): pale yellow for 0, dark red for 1.
+#[must_use]
+pub fn offset_colour(t: f64) -> Rgb {
+    const STOPS: [[f32; 3]; 9] = [
+        [255.0, 255.0, 204.0],
+        [255.0, 237.0, 160.0],
+        [254.0, 217.0, 118.0],
+        [254.0, 178.0, 76.0],
+        [253.0, 141.0, 60.0],
+        [252.0, 78.0, 42.0],
+        [227.0, 26.0, 28.0],
+        [189.0, 0.0, 38.0],
+        [128.0, 0.0, 38.0],
+    ];
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let x = t * (STOPS.len() - 1) as f64;
+    let k = (x.floor() as usize).min(STOPS.len() - 2);
+    let f = (x - k as f64) as f32;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    [0, 1, 2].map(|c| (a[c] + (b[c] - a[c]) * f).round() as u8)
+}
+
+/// The local offset at every vertex of `mesh`: the largest offset of the data points whose
+/// closest points fall in one of the mesh cells around the vertex; vertices with no such data
+/// take the value of the nearest vertex that has (by grid steps). `None` without data.
+#[must_use]
+pub fn local_offsets(mesh: &SurfaceMesh, offsets: &[([f64; 2], f64)]) -> Option<Vec<f64>> {
+    let (rows, cols) = (mesh.rows, mesh.cols);
+    if offsets.is_empty() || rows < 2 || cols < 2 {
+        return None;
+    }
+    let us: Vec<f64> = (0..rows).map(|i| mesh.params[i * cols][0]).collect();
+    let vs: Vec<f64> = (0..cols).map(|j| mesh.params[j][1]).collect();
+    let cell = |xs: &[f64], x: f64| xs.partition_point(|&k| k <= x).clamp(1, xs.len() - 1) - 1;
+    let mut value = vec![f64::NAN; rows * cols];
+    for &([u, v], e) in offsets {
+        if !(u.is_finite() && v.is_finite() && e.is_finite()) {
+            continue;
+        }
+        let (i, j) = (cell(&us, u), cell(&vs, v));
+        for (a, b) in [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)] {
+            let slot = &mut value[a * cols + b];
+            if slot.is_nan() || *slot < e {
+                *slot = e;
+            }
+        }
+    }
+    // Fill the vertices without data from their nearest neighbours, ring by ring.
+    let mut frontier: Vec<usize> = (0..rows * cols).filter(|&k| value[k].is_finite()).collect();
+    if frontier.is_empty() {
+        return None;
+    }
+    while !frontier.is_empty() {
+        let mut next = Vec::new();
+        for &k in &frontier {
+            let (i, j) = (k / cols, k % cols);
+            let around = [
+                (i > 0).then(|| k - cols),
+                (i + 1 < rows).then(|| k + cols),
+                (j > 0).then(|| k - 1),
+                (j + 1 < cols).then(|| k + 1),
+            ];
+            for n in around.into_iter().flatten() {
+                if value[n].is_nan() {
+                    value[n] = value[k];
+                    next.push(n);
+                }
+            }
+        }
+        frontier = next;
+    }
+    Some(value)
+}
+
+/// 5 x 7 pixel glyphs (one row a byte, the low 5 bits, most significant bit leftmost) for the
+/// colour bar's labels.
+fn glyph(c: char) -> Option<[u8; 7]> {
+    Some(match c {
+        '0' => [0x0e, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0e],
+        '1' => [0x04, 0x0c, 0x04, 0x04, 0x04, 0x04, 0x0e],
+        '2' => [0x0e, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1f],
+        '3' => [0x1f, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0e],
+        '4' => [0x02, 0x06, 0x0a, 0x12, 0x1f, 0x02, 0x02],
+        '5' => [0x1f, 0x10, 0x1e, 0x01, 0x01, 0x11, 0x0e],
+        '6' => [0x06, 0x08, 0x10, 0x1e, 0x11, 0x11, 0x0e],
+        '7' => [0x1f, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
+        '8' => [0x0e, 0x11, 0x11, 0x0e, 0x11, 0x11, 0x0e],
+        '9' => [0x0e, 0x11, 0x11, 0x0f, 0x01, 0x02, 0x0c],
+        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0c, 0x0c],
+        '-' => [0x00, 0x00, 0x00, 0x1f, 0x00, 0x00, 0x00],
+        '+' => [0x00, 0x04, 0x04, 0x1f, 0x04, 0x04, 0x00],
+        'e' => [0x00, 0x00, 0x0e, 0x11, 0x1f, 0x10, 0x0e],
+        'o' => [0x00, 0x00, 0x0e, 0x11, 0x11, 0x11, 0x0e],
+        'f' => [0x06, 0x09, 0x08, 0x1c, 0x08, 0x08, 0x08],
+        's' => [0x00, 0x00, 0x0f, 0x10, 0x0e, 0x01, 0x1e],
+        't' => [0x08, 0x08, 0x1c, 0x08, 0x08, 0x09, 0x06],
+        'm' => [0x00, 0x00, 0x1a, 0x15, 0x15, 0x11, 0x11],
+        'a' => [0x00, 0x00, 0x0e, 0x01, 0x0f, 0x11, 0x0f],
+        'x' => [0x00, 0x00, 0x11, 0x0a, 0x04, 0x0a, 0x11],
+        ' ' => [0; 7],
+        _ => return None,
+    })
+}
+
+/// Draw `text` with its top-left corner at `(x, y)`, each font pixel `scale` canvas pixels.
+fn draw_text(canvas: &mut Canvas, x: i64, y: i64, text: &str, scale: i64, colour: Rgb) {
+    for (k, c) in text.chars().enumerate() {
+        let Some(g) = glyph(c) else { continue };
+        let x0 = x + k as i64 * 6 * scale;
+        for (r, bits) in g.iter().enumerate() {
+            for col in 0..5 {
+                if bits & (0x10 >> col) != 0 {
+                    for dy in 0..scale {
+                        for dx in 0..scale {
+                            canvas.blend(x0 + col * scale + dx, y + r as i64 * scale + dy, colour, 1.0);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A label for an offset: three significant digits, exponent form (`1.23e-3`).
+fn offset_label(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let s = format!("{x:.2e}");
+    s.replace("e-0", "e-").replace("e0", "e")
+}
+
+/// The colour bar: a vertical strip from `lo` (bottom) to `hi` (top) of offset 0 to `max`,
+/// ticks and labels at 0, 1/4, ..., 1 of `max`, and the title `offset` above.
+fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, width: i64, max: f64, scale: i64) {
+    let height = (bottom - top).max(1);
+    for y in top..=bottom {
+        let c = offset_colour((bottom - y) as f64 / height as f64);
+        for dx in 0..width {
+            canvas.blend(x + dx, y, c, 1.0);
+        }
+    }
+    for q in 0..=4 {
+        let y = bottom - height * q / 4;
+        for dx in 0..(width / 3).max(2) {
+            canvas.blend(x + width + dx, y, NET, 1.0);
+        }
+        let label = offset_label(max * q as f64 / 4.0);
+        draw_text(canvas, x + width + width / 2, y - 3 * scale, &label, scale, NET);
+    }
+    draw_text(canvas, x, top - 12 * scale, "offset", scale, NET);
+}
+
 /// Draw `grid` (with its control net) in every view of `opts`.
 pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
@@ -266,8 +428,27 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     let tol = 2e-3 * (size.1 - size.0).max_element();
     let mut canvas = Canvas::new(w, h);
     let panel_h = h as f64 / opts.views.len() as f64;
+    // The surface's base colour per vertex: by the local offset when given.
+    let local = local_offsets(&mesh, &opts.offsets);
+    let largest = local
+        .as_ref()
+        .map_or(0.0, |l| l.iter().fold(0.0, |m: f64, &e| m.max(e)));
+    let base: Vec<[f32; 3]> = match &local {
+        Some(l) => l
+            .iter()
+            .map(|&e| offset_colour(if largest > 0.0 { e / largest } else { 0.0 }).map(f32::from))
+            .collect(),
+        None => vec![SURFACE.map(f32::from); mesh.positions.len()],
+    };
+    // Room for the colour bar on the right.
+    let bar_room = if local.is_some() {
+        (0.09 * w as f64).max(60.0 * ss as f64)
+    } else {
+        0.0
+    };
+    let panel_w = w as f64 - bar_room;
     for (k, view) in opts.views.iter().enumerate() {
-        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w as f64, panel_h))?;
+        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, panel_w, panel_h))?;
         // Light from above left of the camera, so curvature shows as a gradient; a soft
         // highlight (Blinn-Phong) for the sheen of a smooth surface. Both sides are lit alike.
         let light = (cam.eye * 0.6 + cam.up * 1.0 - cam.right * 0.35).normalize();
@@ -289,16 +470,30 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                 &mut canvas,
                 [screen[a], screen[b], screen[c]],
                 [shade[a], shade[b], shade[c]],
+                [base[a], base[b], base[c]],
             );
         }
-        // Patch borders (and the surface's edges) as curves on the surface.
+        // Patch borders (and the surface's edges) as curves on the surface; fainter over a
+        // surface coloured by offsets.
+        let border_alpha = if local.is_some() { 0.35 } else { 0.85 };
         for curve in &borders {
             let curve: Vec<_> = curve.iter().map(|p| cam.project(*p)).collect();
             for w in curve.windows(2) {
-                draw_line(&mut canvas, w[0], w[1], ss as f64 * 0.7, tol, BORDER, 0.85, 0.0);
+                draw_line(
+                    &mut canvas,
+                    w[0],
+                    w[1],
+                    ss as f64 * 0.7,
+                    tol,
+                    BORDER,
+                    border_alpha,
+                    0.0,
+                );
             }
         }
-        // Data points: small dots, faint where the surface hides them.
+        // Data points: small dots, faint where the surface hides them (and over a surface
+        // coloured by offsets, whose colours they would hide).
+        let dot_alpha = if local.is_some() { 0.15 } else { 0.8 };
         for p in &opts.cloud {
             let (x, y, z) = cam.project(*p);
             if !(x.is_finite() && y.is_finite()) {
@@ -311,7 +506,7 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                 for dx in -ri..=ri {
                     if ((dx * dx + dy * dy) as f64).sqrt() <= r {
                         let a = canvas.overlay_alpha(cx + dx, cy + dy, z, tol);
-                        canvas.blend(cx + dx, cy + dy, DATA_POINT, 0.8 * a);
+                        canvas.blend(cx + dx, cy + dy, DATA_POINT, dot_alpha * a);
                     }
                 }
             }
@@ -319,13 +514,33 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
         // Control net: lines, then generated points, then design points on top.
         let at = |r: usize, c: usize| cam.project(net[r * mv + c]);
         let thick = ss as f64 * 0.6;
+        // Over a surface coloured by offsets the net is drawn fainter, so the colours show.
+        let net_alpha = if local.is_some() { 0.3 } else { 0.75 };
         for r in 0..mu {
             for c in 0..mv {
                 if c + 1 < mv {
-                    draw_line(&mut canvas, at(r, c), at(r, c + 1), thick, tol, NET, 0.75, 0.2);
+                    draw_line(
+                        &mut canvas,
+                        at(r, c),
+                        at(r, c + 1),
+                        thick,
+                        tol,
+                        NET,
+                        net_alpha,
+                        0.2 * net_alpha,
+                    );
                 }
                 if r + 1 < mu {
-                    draw_line(&mut canvas, at(r, c), at(r + 1, c), thick, tol, NET, 0.75, 0.2);
+                    draw_line(
+                        &mut canvas,
+                        at(r, c),
+                        at(r + 1, c),
+                        thick,
+                        tol,
+                        NET,
+                        net_alpha,
+                        0.2 * net_alpha,
+                    );
                 }
             }
         }
@@ -352,6 +567,20 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                 canvas.blend(x, y, [200, 200, 200], 1.0);
             }
         }
+    }
+    if local.is_some() {
+        let scale = ((h as f64 / 450.0).round() as i64).max(ss as i64);
+        let bar_w = (bar_room * 0.12).max(6.0) as i64;
+        let x = (panel_w + bar_room * 0.05) as i64;
+        draw_colour_bar(
+            &mut canvas,
+            x,
+            (0.12 * h as f64) as i64,
+            (0.9 * h as f64) as i64,
+            bar_w,
+            largest,
+            scale,
+        );
     }
     // Box-filter down to the requested size.
     let (ow, oh) = (opts.width as usize, opts.height as usize);
@@ -518,9 +747,9 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
     Ok(svg)
 }
 
-/// Fill a triangle with per-vertex shading (diffuse factor, white highlight), keeping the
-/// nearest surface per pixel.
-fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2]; 3]) {
+/// Fill a triangle with per-vertex base colours and shading (diffuse factor, white highlight),
+/// keeping the nearest surface per pixel.
+fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2]; 3], base: [[f32; 3]; 3]) {
     let (x0, x1) = (
         v.iter().map(|p| p.0).fold(f64::MAX, f64::min),
         v.iter().map(|p| p.0).fold(f64::MIN, f64::max),
@@ -553,7 +782,8 @@ fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2];
                 let (w0, w1, w2) = (w0 as f32, w1 as f32, w2 as f32);
                 let d = w0 * shade[0][0] + w1 * shade[1][0] + w2 * shade[2][0];
                 let h = w0 * shade[0][1] + w1 * shade[1][1] + w2 * shade[2][1];
-                canvas.rgb[k] = SURFACE.map(|c| (f32::from(c) * d + 255.0 * h).min(255.0));
+                let colour = [0, 1, 2].map(|c| w0 * base[0][c] + w1 * base[1][c] + w2 * base[2][c]);
+                canvas.rgb[k] = colour.map(|c| (c * d + 255.0 * h).min(255.0));
             }
         }
     }
@@ -693,5 +923,83 @@ mod tests {
         let png = img.to_png().unwrap();
         assert_eq!(&png[1..4], b"PNG");
         assert!(render(&grid, &RenderOptions { width: 4, ..opts }).is_err());
+    }
+
+    #[test]
+    fn the_surface_is_coloured_by_the_local_offset_with_a_bar() {
+        let layout = GridLayout::new(
+            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
+            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
+        );
+        // The unit square in z = 0, seen from above: u along x, v along y.
+        let design = vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1.0, 1.0, 0.0)];
+        let grid = PatchGrid::new(layout, design).unwrap();
+        // Offsets: large near (u, v) = (1, 1), small elsewhere.
+        let offsets: Vec<([f64; 2], f64)> = (0..=20)
+            .flat_map(|i| (0..=20).map(move |j| (i as f64 / 20.0, j as f64 / 20.0)))
+            .map(|(u, v)| ([u, v], if u > 0.8 && v > 0.8 { 1e-2 } else { 1e-4 }))
+            .collect();
+        let mesh = SurfaceMesh::from_grid(&grid, 16).unwrap();
+        let local = local_offsets(&mesh, &offsets).unwrap();
+        assert_eq!(local.len(), mesh.positions.len());
+        let at = |u: f64, v: f64| {
+            let k = mesh
+                .params
+                .iter()
+                .position(|p| (p[0] - u).abs() < 1e-12 && (p[1] - v).abs() < 1e-12)
+                .unwrap();
+            local[k]
+        };
+        assert_eq!(at(1.0, 1.0), 1e-2);
+        assert_eq!(at(0.0, 0.0), 1e-4);
+        // A vertex with no data of its own takes its nearest neighbour's value.
+        let sparse = [([0.95, 0.95], 5e-3)];
+        assert!(local_offsets(&mesh, &sparse).unwrap().iter().all(|&e| e == 5e-3));
+        let opts = RenderOptions {
+            width: 400,
+            height: 200,
+            views: vec![View {
+                eye: DVec3::Z,
+                right: DVec3::X,
+            }],
+            supersample: 1,
+            offsets,
+            ..RenderOptions::default()
+        };
+        let img = render(&grid, &opts).unwrap();
+        let (worst, best) = (offset_colour(1.0), offset_colour(0.0));
+        let near = |c: Rgb, want: Rgb, tol: i32| {
+            c.iter()
+                .zip(want)
+                .all(|(a, b)| (i32::from(*a) - i32::from(b)).abs() <= tol)
+        };
+        let pixels: Vec<(u32, u32, Rgb)> = (0..200)
+            .flat_map(|y| (0..400).map(move |x| (x, y)))
+            .map(|(x, y)| (x, y, img.pixel(x, y)))
+            .collect();
+        // The large offsets are drawn red (shaded) where x and y are large (image y grows
+        // downwards), the small ones pale yellow; the bar is right of the surface.
+        let is_red = |c: Rgb| c[0] > 90 && c[1] < 40 && c[2] < 60;
+        let is_pale = |c: Rgb| c[0] > 150 && c[1] > 150 && c[2] > 100;
+        let surface_red: Vec<_> = pixels.iter().filter(|p| p.0 < 330 && is_red(p.2)).collect();
+        assert!(!surface_red.is_empty(), "the worst corner is red");
+        assert!(
+            surface_red.iter().all(|p| p.1 < 100),
+            "and it is the upper corner"
+        );
+        assert!(
+            pixels.iter().any(|p| p.0 < 330 && is_pale(p.2)),
+            "the rest is pale"
+        );
+        assert!(
+            pixels.iter().any(|p| p.0 > 330 && near(p.2, worst, 2)),
+            "the bar's top"
+        );
+        assert!(
+            pixels.iter().any(|p| p.0 > 330 && near(p.2, best, 2)),
+            "the bar's bottom"
+        );
+        assert_eq!(offset_label(1.234e-3), "1.23e-3");
+        assert_eq!(offset_label(0.0), "0");
     }
 }

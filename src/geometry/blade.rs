@@ -1,5 +1,7 @@
-//! Blade definition files (JSON): stations with radius, chord, twist, aerofoil, pitch axis and
-//! optional prebend/sweep, in column-array or per-station form, validated field by field.
+//! Blade definitions: bezchain's own JSON (stations with radius, chord, twist, aerofoil, pitch
+//! axis and optional prebend/sweep, in column-array or per-station form, validated field by
+//! field), and the format detection that also reads windIO YAML ([`super::windio`]) and
+//! OpenFAST AeroDyn 15 input ([`super::aerodyn`]) into the same [`Blade`].
 
 use super::io;
 use super::naca::{Naca, NacaOptions};
@@ -102,6 +104,73 @@ pub struct Station {
     /// Offset of the pitch axis along +x (in the rotor plane, towards the trailing edge),
     /// model units (default 0).
     pub sweep: f64,
+    /// Offset of the chord line from the pitch axis along the section's thickness direction
+    /// (towards the upper surface), model units (default 0): windIO v2 `section_offset_x`, or
+    /// an AeroDyn reference point off the chord line.
+    pub normal_offset: f64,
+}
+
+/// The file format a blade was read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BladeFormat {
+    /// bezchain's JSON blade.
+    Json,
+    /// windIO v1 (`components.blade.outer_shape_bem`).
+    WindIo1,
+    /// windIO v2 (`components.blade.outer_shape` and `components.blade.reference_axis`).
+    WindIo2,
+    /// An OpenFAST AeroDyn 15 primary file with its blade, polar and coordinate files.
+    AeroDyn15,
+}
+
+impl std::fmt::Display for BladeFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BladeFormat::Json => "JSON blade",
+            BladeFormat::WindIo1 => "windIO v1",
+            BladeFormat::WindIo2 => "windIO v2",
+            BladeFormat::AeroDyn15 => "AeroDyn 15",
+        })
+    }
+}
+
+/// The axes a blade is lofted in. Both have the span along +z and sections in planes
+/// `z = radius`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Axes {
+    /// bezchain's section axes (JSON blades): x along the chord (leading edge → trailing edge at
+    /// zero twist), y the thickness direction (upper surface towards +y). `sweep` is along +x,
+    /// `prebend` along +y, and a positive twist raises the leading edge towards +y.
+    #[default]
+    Section,
+    /// The blade-root frame of windIO and OpenFAST (right-handed): x towards the suction side
+    /// (flapwise, downwind; prebend), y towards the trailing edge (edgewise; sweep). The same
+    /// section placed in [`Axes::Section`] has its x and y swapped, which mirrors it into the
+    /// real blade. Station twists are kept in the [`Axes::Section`] sense, so the readers store
+    /// minus the files' twist (positive towards feather: leading edge towards the pressure
+    /// side).
+    Turbine,
+}
+
+/// How section shapes between stations are made.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Blend {
+    /// Each station uses its own aerofoil as is (JSON, AeroDyn); sections between stations
+    /// (`--sections`) interpolate point by point over the radius (monotone cubic, PCHIP) between
+    /// the stations' shapes, all resampled alike.
+    #[default]
+    Radius,
+    /// windIO's rule, as WISDEM applies it: every section's shape is interpolated point by point
+    /// over relative thickness (PCHIP) between the master aerofoils, all resampled alike; the
+    /// result's leading edge (smallest x) is moved to the origin and its x extent scaled to 1.
+    Thickness {
+        /// `(relative thickness, index into Blade::aerofoils)` of the masters used, thickness
+        /// strictly increasing (of two masters with the same thickness the first placed along
+        /// the span is kept).
+        masters: Vec<(f64, usize)>,
+        /// The relative thickness at every station.
+        rthick: Vec<f64>,
+    },
 }
 
 /// A blade: stations sorted by radius and the aerofoils they use.
@@ -115,6 +184,12 @@ pub struct Blade {
     pub aerofoils: Vec<Aerofoil>,
     /// Repairs made while reading aerofoil files, for the caller to show.
     pub warnings: Vec<String>,
+    /// The format the blade was read from.
+    pub format: BladeFormat,
+    /// The axes the blade is lofted in.
+    pub axes: Axes,
+    /// How shapes between stations are made.
+    pub blend: Blend,
 }
 
 /// Which layout the file used: it decides how fields are named in messages.
@@ -156,9 +231,19 @@ impl Columns {
 }
 
 impl Blade {
-    /// Read and validate a blade file. Aerofoil files are resolved against its folder.
+    /// Read and validate a blade file of any supported format, detected from its content: JSON
+    /// (starts with `{`), an AeroDyn 15 primary file (has a `NumAFfiles` line), otherwise
+    /// windIO YAML. Files it names are resolved against the folder of the file naming them.
     pub fn from_file(path: &Path) -> Result<Blade> {
-        Blade::from_json(&io::read_text(path)?, path)
+        let text = io::read_text(path)?;
+        let trimmed = text.trim_start();
+        if trimmed.starts_with('{') || trimmed.starts_with('[') {
+            Blade::from_json(&text, path)
+        } else if super::aerodyn::is_primary(&text) {
+            super::aerodyn::read(&text, path)
+        } else {
+            super::windio::read(&text, path)
+        }
     }
 
     /// Parse blade JSON; `path` names it in errors and anchors relative aerofoil paths.
@@ -214,6 +299,7 @@ impl Blade {
                 pitch_axis: cols.pitch_axis[i],
                 prebend: cols.prebend[i],
                 sweep: cols.sweep[i],
+                normal_offset: 0.0,
             });
         }
         Ok(Blade {
@@ -221,6 +307,9 @@ impl Blade {
             stations,
             aerofoils,
             warnings,
+            format: BladeFormat::Json,
+            axes: Axes::Section,
+            blend: Blend::Radius,
         })
     }
 
@@ -480,29 +569,90 @@ fn resolve_aerofoil(spec: &str, base: &Path) -> std::result::Result<(Aerofoil, V
         ));
     }
     let loaded = read_curve(&path).map_err(|e| e.to_string())?;
-    let (lo, hi) = loaded
-        .points
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p.x), hi.max(p.x)));
-    if !(-0.1..=0.1).contains(&lo) || !(0.9..=1.1).contains(&hi) {
-        return Err(format!(
-            "{}: x runs from {lo} to {hi}; expected chord fractions (leading edge near 0, trailing edge near 1)",
-            path.display()
-        ));
+    let mut warnings = loaded.warnings;
+    let (points, reversed) = unit_contour(loaded.points).map_err(|m| format!("{}: {m}", path.display()))?;
+    if reversed {
+        warnings.push("the points run clockwise (lower surface first); reversed into Selig order".into());
     }
     Ok((
         Aerofoil::File {
             path,
             name: loaded.name,
-            points: loaded.points,
+            points,
         },
-        loaded.warnings,
+        warnings,
     ))
+}
+
+/// Twice the signed area of the closed polygon through `points` (positive counter-clockwise).
+fn twice_signed_area(points: &[DVec2]) -> f64 {
+    let n = points.len();
+    (0..n).map(|i| points[i].perp_dot(points[(i + 1) % n])).sum()
+}
+
+/// An aerofoil contour in chord fractions, checked and put into Selig order (trailing edge →
+/// upper surface → leading edge → lower surface → trailing edge): the orientation is decided by
+/// the signed area of the closed contour (counter-clockwise is Selig order), never assumed;
+/// a clockwise contour is reversed (the returned flag says so). Fails, with a message, when
+/// the x range is not chord fractions or the contour encloses no area.
+pub(crate) fn unit_contour(mut points: Vec<DVec2>) -> std::result::Result<(Vec<DVec2>, bool), String> {
+    if points.len() < 3 {
+        return Err(format!(
+            "an aerofoil needs at least 3 points (got {})",
+            points.len()
+        ));
+    }
+    if let Some(p) = points.iter().find(|p| !p.is_finite()) {
+        return Err(format!("a point is not finite ({p})"));
+    }
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p.x), hi.max(p.x)));
+    if !(-0.1..=0.1).contains(&lo) || !(0.9..=1.1).contains(&hi) {
+        return Err(format!(
+            "x runs from {lo} to {hi}; expected chord fractions (leading edge near 0, trailing edge near 1)"
+        ));
+    }
+    let area = twice_signed_area(&points);
+    if area.abs() <= 1e-12 {
+        return Err("the contour encloses no area (is it a camber line or one surface only?)".into());
+    }
+    let reversed = area < 0.0;
+    if reversed {
+        points.reverse();
+    }
+    Ok((points, reversed))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn orientation_is_decided_by_the_signed_area() {
+        // Selig order of a thin symmetric lens: upper TE → LE → lower TE, counter-clockwise.
+        let selig: Vec<DVec2> = (0..=20)
+            .map(|i| {
+                let t = std::f64::consts::TAU * i as f64 / 20.0;
+                DVec2::new(0.5 + 0.5 * t.cos(), 0.06 * t.sin())
+            })
+            .collect();
+        let (same, flipped) = unit_contour(selig.clone()).unwrap();
+        assert!(!flipped);
+        assert_eq!(same, selig);
+        let mut reversed = selig.clone();
+        reversed.reverse();
+        let (back, flipped) = unit_contour(reversed).unwrap();
+        assert!(flipped);
+        assert_eq!(back, selig);
+        // Upper surface first means +y right after the trailing edge.
+        assert!(back[3].y > 0.0);
+        let flat: Vec<DVec2> = (0..5)
+            .map(|i| DVec2::new(1.0 - i as f64 / 4.0, 0.0))
+            .chain([DVec2::X])
+            .collect();
+        assert!(unit_contour(flat).unwrap_err().contains("no area"));
+    }
 
     fn err(json: &str) -> String {
         Blade::from_json(json, Path::new("b.json"))

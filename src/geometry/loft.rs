@@ -2,14 +2,16 @@
 //! them (monotone cubic), placed by chord, pitch axis, twist and offsets, with optional
 //! seeded Gaussian noise and shuffling to imitate an unordered scan.
 //!
-//! Axes: z is the span (radius), x runs along the chord (leading edge → trailing edge at zero
-//! twist), y is the thickness direction (upper surface towards +y). A unit-chord section point
-//! `(u, v)` of station `(r, c, θ, a, prebend, sweep)` goes to
-//! `x = sweep + c (u - a) cos θ + c v sin θ`, `y = prebend - c (u - a) sin θ + c v cos θ`,
-//! `z = r`: scaled by the chord about the pitch axis `(a, 0)`, then turned by the twist θ so that
-//! a positive twist raises the leading edge (a rotation by -θ about +z), then offset.
+//! Axes ([`Axes::Section`]): z is the span (radius), x runs along the chord (leading edge →
+//! trailing edge at zero twist), y is the thickness direction (upper surface towards +y). A
+//! unit-chord section point `(u, v)` of station `(r, c, θ, a, prebend, sweep, n)` (`n` the
+//! normal offset) goes to `x = sweep + c (u - a) cos θ + (c v + n) sin θ`,
+//! `y = prebend - c (u - a) sin θ + (c v + n) cos θ`, `z = r`: scaled by the chord about the
+//! pitch axis `(a, 0)`, shifted by `n` along the thickness direction, then turned by the twist θ
+//! so that a positive twist raises the leading edge (a rotation by -θ about +z), then offset.
+//! Blades in [`Axes::Turbine`] are placed the same way and then have x and y swapped.
 
-use super::blade::Blade;
+use super::blade::{Axes, Blade, Blend};
 use super::interp::{Pchip, ShapePchip};
 use super::points::{Cloud, Grid};
 use crate::error::{Error, Result};
@@ -65,20 +67,21 @@ struct Placement {
     pitch_axis: f64,
     prebend: f64,
     sweep: f64,
+    normal_offset: f64,
 }
 
 impl Placement {
     /// Place the unit-chord `shape` in space (see the module doc for the formula).
-    fn place(&self, shape: &[DVec2], out: &mut [DVec3]) {
+    fn place(&self, shape: &[DVec2], axes: Axes, out: &mut [DVec3]) {
         let (s, c) = self.twist_deg.to_radians().sin_cos();
         for (o, q) in out.iter_mut().zip(shape) {
             let u = (q.x - self.pitch_axis) * self.chord;
-            let v = q.y * self.chord;
-            *o = DVec3::new(
-                self.sweep + u * c + v * s,
-                self.prebend - u * s + v * c,
-                self.radius,
-            );
+            let v = q.y * self.chord + self.normal_offset;
+            let (x, y) = (self.sweep + u * c + v * s, self.prebend - u * s + v * c);
+            *o = match axes {
+                Axes::Section => DVec3::new(x, y, self.radius),
+                Axes::Turbine => DVec3::new(y, x, self.radius),
+            };
         }
     }
 }
@@ -90,6 +93,7 @@ struct Profile {
     pitch_axis: Pchip,
     prebend: Pchip,
     sweep: Pchip,
+    normal_offset: Pchip,
 }
 
 impl Profile {
@@ -104,6 +108,7 @@ impl Profile {
             pitch_axis: col(|s| s.pitch_axis),
             prebend: col(|s| s.prebend),
             sweep: col(|s| s.sweep),
+            normal_offset: col(|s| s.normal_offset),
         }
     }
 
@@ -116,6 +121,7 @@ impl Profile {
             pitch_axis: self.pitch_axis.eval(radius),
             prebend: self.prebend.eval(radius),
             sweep: self.sweep.eval(radius),
+            normal_offset: self.normal_offset.eval(radius),
         }
     }
 }
@@ -128,6 +134,26 @@ enum Shapes {
     PerStation(Vec<Vec<DVec2>>),
     /// Interpolated over radius between the stations' shapes.
     Blend(ShapePchip),
+    /// Interpolated over relative thickness between master shapes (section `k` at `rthick[k]`),
+    /// then normalised (leading edge at the origin, unit x extent).
+    Thickness { masters: ShapePchip, rthick: Vec<f64> },
+}
+
+/// Move the leading edge (the point of smallest x) of a blended shape to the origin and scale
+/// its x extent to 1, as WISDEM does after blending by thickness.
+fn normalise(shape: &mut [DVec2]) {
+    let le = shape
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .unwrap_or(DVec2::ZERO);
+    let hi = shape.iter().map(|p| p.x).fold(f64::MIN, f64::max);
+    let extent = hi - le.x;
+    if extent > 0.0 {
+        for p in shape.iter_mut() {
+            *p = (*p - le) / extent;
+        }
+    }
 }
 
 impl Blade {
@@ -135,7 +161,10 @@ impl Blade {
     #[must_use]
     pub fn points_per_section(&self, opts: &LoftOptions) -> usize {
         opts.points_per_section.unwrap_or_else(|| {
-            let used = |a: usize| self.stations.iter().any(|s| s.aerofoil == a);
+            let used = |a: usize| match &self.blend {
+                Blend::Radius => self.stations.iter().any(|s| s.aerofoil == a),
+                Blend::Thickness { masters, .. } => masters.iter().any(|m| m.1 == a),
+            };
             (0..self.aerofoils.len())
                 .filter(|&a| used(a))
                 .map(|a| self.aerofoils[a].native_points())
@@ -148,9 +177,17 @@ impl Blade {
     fn check(&self) -> Result<()> {
         let st = &self.stations;
         let finite = st.iter().all(|s| {
-            [s.radius, s.chord, s.twist_deg, s.pitch_axis, s.prebend, s.sweep]
-                .iter()
-                .all(|v| v.is_finite())
+            [
+                s.radius,
+                s.chord,
+                s.twist_deg,
+                s.pitch_axis,
+                s.prebend,
+                s.sweep,
+                s.normal_offset,
+            ]
+            .iter()
+            .all(|v| v.is_finite())
         });
         let ok = st.len() >= 2
             && finite
@@ -158,7 +195,17 @@ impl Blade {
             && st
                 .iter()
                 .all(|s| s.chord >= 0.0 && s.aerofoil < self.aerofoils.len())
-            && self.max_chord() > 0.0;
+            && self.max_chord() > 0.0
+            && match &self.blend {
+                Blend::Radius => true,
+                Blend::Thickness { masters, rthick } => {
+                    !masters.is_empty()
+                        && rthick.len() == st.len()
+                        && rthick.iter().all(|t| t.is_finite())
+                        && masters.iter().all(|m| m.1 < self.aerofoils.len())
+                        && masters.windows(2).all(|w| w[0].0 < w[1].0)
+                }
+            };
         if ok {
             Ok(())
         } else {
@@ -235,7 +282,26 @@ impl Blade {
             .iter()
             .map(|a| a.sample(n, alike))
             .collect::<Result<Vec<_>>>()?;
-        let shapes = if self.aerofoils.len() == 1 {
+        let radii_of_stations: Vec<f64> = self.stations.iter().map(|s| s.radius).collect();
+        let shapes = if let Blend::Thickness { masters, rthick } = &self.blend {
+            if masters.len() == 1 {
+                Shapes::One(sampled[masters[0].1].clone())
+            } else {
+                let t: Vec<f64> = masters.iter().map(|m| m.0).collect();
+                let shapes = masters.iter().map(|m| sampled[m.1].clone()).collect();
+                let rthick = match opts.sections {
+                    None => rthick.clone(),
+                    Some(_) => {
+                        let f = Pchip::new(&radii_of_stations, rthick);
+                        radii.iter().map(|&r| f.eval(r)).collect()
+                    }
+                };
+                Shapes::Thickness {
+                    masters: ShapePchip::new(&t, shapes),
+                    rthick,
+                }
+            }
+        } else if self.aerofoils.len() == 1 {
             Shapes::One(sampled[0].clone())
         } else {
             let per_station: Vec<Vec<DVec2>> = self
@@ -245,10 +311,7 @@ impl Blade {
                 .collect();
             match opts.sections {
                 None => Shapes::PerStation(per_station),
-                Some(_) => {
-                    let r: Vec<f64> = self.stations.iter().map(|s| s.radius).collect();
-                    Shapes::Blend(ShapePchip::new(&r, per_station))
-                }
+                Some(_) => Shapes::Blend(ShapePchip::new(&radii_of_stations, per_station)),
             }
         };
         let placements: Vec<Placement> = match opts.sections {
@@ -262,6 +325,7 @@ impl Blade {
                     pitch_axis: s.pitch_axis,
                     prebend: s.prebend,
                     sweep: s.sweep,
+                    normal_offset: s.normal_offset,
                 })
                 .collect(),
             Some(_) => {
@@ -283,8 +347,13 @@ impl Blade {
                         b.eval_into(placements[k].radius, buf);
                         buf
                     }
+                    Shapes::Thickness { masters, rthick } => {
+                        masters.eval_into(rthick[k], buf);
+                        normalise(buf);
+                        buf
+                    }
                 };
-                placements[k].place(shape, out);
+                placements[k].place(shape, self.axes, out);
                 if sigma > 0.0 {
                     // One stream per section: the same noise whatever the thread count.
                     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);

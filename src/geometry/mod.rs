@@ -1,6 +1,7 @@
 //! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
-//! readers and writers, blade definitions and lofting.
+//! readers and writers, blade definitions (JSON, windIO v1/v2, AeroDyn 15) and lofting.
 
+mod aerodyn;
 mod blade;
 mod dat;
 mod interp;
@@ -8,8 +9,11 @@ mod io;
 mod loft;
 mod naca;
 mod points;
+mod windio;
 
-pub use blade::{Aerofoil, Blade, Station, DEFAULT_NACA_POINTS, DEFAULT_PITCH_AXIS};
+pub use blade::{
+    Aerofoil, Axes, Blade, BladeFormat, Blend, Station, DEFAULT_NACA_POINTS, DEFAULT_PITCH_AXIS,
+};
 pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
 pub use io::write_atomic;
 pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};
