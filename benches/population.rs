@@ -67,6 +67,7 @@ fn population(c: &mut Criterion) {
 }
 
 /// `B`: row k holds point k's weight on every design point (n = design points), f64.
+#[allow(clippy::needless_range_loop)] // the formula's indices
 fn design_basis(layout: &bezchain::chain::GridLayout, params: &[glam::DVec2]) -> (Vec<f64>, usize) {
     let (nu, nv) = layout.design_shape();
     let n = nu * nv;

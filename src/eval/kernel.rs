@@ -249,9 +249,8 @@ fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 4] {
         let mut low = [0.0; NB];
         bernstein_f64(n - 3, t, &mut low);
         let at = |k: usize, back: usize| if k >= back { low[k - back] } else { 0.0 };
-        for i in 0..=n {
-            out[3][i] =
-                nf * (nf - 1.0) * (nf - 2.0) * (at(i, 3) - 3.0 * at(i, 2) + 3.0 * at(i, 1) - at(i, 0));
+        for (i, d3) in out[3].iter_mut().enumerate().take(n + 1) {
+            *d3 = nf * (nf - 1.0) * (nf - 2.0) * (at(i, 3) - 3.0 * at(i, 2) + 3.0 * at(i, 1) - at(i, 0));
         }
     }
     out
@@ -640,9 +639,9 @@ impl Problem {
             // The shader's weights: its f32 recurrence at the f32 parameters, multiply then add.
             let fu = bernstein::<Unfused>(du, l.u as f32);
             let fv = bernstein::<Unfused>(dv, l.v as f32);
-            for a in 0..=du {
-                for b in 0..=dv {
-                    weights.push(fu[a] * fv[b]);
+            for wu in &fu[..=du] {
+                for wv in &fv[..=dv] {
+                    weights.push(wu * wv);
                 }
             }
             let q = &self.points[l.point as usize];

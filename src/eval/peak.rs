@@ -265,7 +265,7 @@ fn cpu_clock(clock: libc::clockid_t) -> Option<f64> {
     };
     // SAFETY: `t` is a valid timespec for the call to fill.
     let ok = unsafe { libc::clock_gettime(clock, &mut t) } == 0;
-    ok.then(|| t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
+    ok.then_some(t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
 }
 
 #[cfg(target_arch = "x86_64")]
