@@ -10,8 +10,11 @@
 //! units (Intel's server cores, AMD Zen 5). The table: AMD families 23 (Zen 1: 128-bit; Zen 2:
 //! 256-bit) and 25 (Zen 3, Zen 4: 256-bit); other CPUs with AVX-512F: 512-bit; with AVX2 and
 //! FMA: 256-bit; else 128-bit; two FMA units throughout (some Intel Xeon Bronze/Silver parts
-//! have one 512-bit unit: pass the figure explicitly there). The clock is the one the OS
-//! reports (`cpu MHz` in `/proc/cpuinfo`; under a hypervisor, the nominal TSC clock).
+//! have one 512-bit unit: pass the figure explicitly there). The clock is measured: a chain of
+//! dependent integer additions (one cycle each on every x86 core) timed on the thread's CPU
+//! clock, so turbo clocks count and other jobs on the machine do not; where that is not
+//! available, the clock the OS reports (`cpu MHz` in `/proc/cpuinfo`; under a hypervisor, the
+//! nominal TSC clock, which can be far below the clock the cores run at).
 //!
 //! **Measured.** [`measure_fma`] runs, on every rayon thread at once, independent chains of
 //! `a = a · m + c` in registers (AVX-512: 16 zmm; AVX2: 12 ymm, enough to cover FMA latency on
@@ -41,8 +44,10 @@ pub struct CpuPeak {
     pub datapath_bits: u32,
     /// FMA units a core.
     pub fma_units: u32,
-    /// Clock, GHz.
+    /// Clock, GHz: measured (see the module notes), else as reported.
     pub ghz: f64,
+    /// The clock the OS reports, GHz (0 where it reports none).
+    pub ghz_reported: f64,
     /// FP32 FLOP a cycle and core: `fma_units × datapath_bits / 32 × 2`.
     pub flop_per_cycle: f64,
     /// `cores × flop_per_cycle × ghz`.
@@ -63,7 +68,8 @@ impl CpuPeak {
         };
         let fma_units = 2;
         let cores = rayon::current_num_threads();
-        let ghz = cpu_mhz().unwrap_or(0.0) / 1000.0;
+        let ghz_reported = cpu_mhz().unwrap_or(0.0) / 1000.0;
+        let ghz = measure_ghz().unwrap_or(ghz_reported);
         let flop_per_cycle = f64::from(fma_units * datapath_bits / 32 * 2);
         CpuPeak {
             model: model_name().unwrap_or_default(),
@@ -75,6 +81,7 @@ impl CpuPeak {
             datapath_bits,
             fma_units,
             ghz,
+            ghz_reported,
             flop_per_cycle,
             gflops: cores as f64 * flop_per_cycle * ghz,
         }
@@ -128,6 +135,47 @@ fn vector_bits() -> u32 {
     128
 }
 
+/// The core clock in GHz: dependent additions counted against the thread's CPU time (the
+/// median of five timings of about 20 ms).
+fn measure_ghz() -> Option<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        /// Dependent additions a round.
+        const CHAIN: u64 = 32;
+        let time = |rounds: u64| -> Option<f64> {
+            let start = thread_cpu_seconds()?;
+            let mut x = 0u64;
+            for _ in 0..rounds {
+                // SAFETY: register arithmetic only.
+                unsafe {
+                    std::arch::asm!(
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        "add {x}, 1", "add {x}, 1", "add {x}, 1", "add {x}, 1",
+                        x = inout(reg) x,
+                        options(nomem, nostack),
+                    );
+                }
+            }
+            std::hint::black_box(x);
+            Some(thread_cpu_seconds()? - start)
+        };
+        let rounds = 1 << 21;
+        let mut t: Vec<f64> = (0..5).map(|_| time(rounds)).collect::<Option<_>>()?;
+        t.sort_by(f64::total_cmp);
+        (t[2] > 0.0).then(|| (rounds * CHAIN) as f64 / t[2] / 1e9)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        None
+    }
+}
+
 /// A field of the first processor in `/proc/cpuinfo`.
 fn cpuinfo(field: &str) -> Option<String> {
     let text = std::fs::read_to_string("/proc/cpuinfo").ok()?;
@@ -160,7 +208,7 @@ pub enum FmaSet {
 pub struct FmaRate {
     /// FP32 GFLOP/s of all cores: a busy core's rate (FLOPs over its CPU time) times the cores.
     pub gflops: f64,
-    /// FLOPs a cycle and core at [`CpuPeak::ghz`].
+    /// FLOPs a cycle and core at the measured clock (see [`CpuPeak::ghz`]).
     pub flop_per_cycle: f64,
     /// FP32 GFLOP/s over the wall time (lower when other jobs share the cores).
     pub wall_gflops: f64,
@@ -218,7 +266,9 @@ pub fn measure_fma(set: FmaSet, seconds: f64) -> Option<FmaRate> {
         let wall = median(&mut timings.iter().map(|t| t.0).collect());
         let cpu = median(&mut timings.iter_mut().map(|t| t.1).collect());
         let gflops = flops / cpu / 1e9;
-        let ghz = cpu_mhz().unwrap_or(0.0) / 1000.0;
+        let ghz = measure_ghz()
+            .or_else(|| cpu_mhz().map(|m| m / 1000.0))
+            .unwrap_or(f64::NAN);
         Some(FmaRate {
             gflops,
             flop_per_cycle: gflops / threads as f64 / ghz,
