@@ -3,7 +3,9 @@
 //! joint method replaces. Run with `cargo bench --bench fit`.
 
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::fit::{alternate, fit_curve, lsq, CurveProblem, FitOptions, LsqOptions, Method, Metric};
+use bezchain::fit::{
+    fit_curve, lsq, CurveProblem, FitOptions, LsqHooks, LsqMethod, LsqOptions, Method, Metric, Start,
+};
 use bezchain::geometry::{Naca, NacaOptions};
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::DVec2;
@@ -36,11 +38,25 @@ fn single_start_and_baselines(c: &mut Criterion) {
     let problem = CurveProblem::curve(layout.clone(), &pts, Metric::Closest).expect("problem");
     let mut group = c.benchmark_group("fit_case1");
     group.sample_size(20);
+    let start = [Start::Params(problem.params().to_vec())];
     group.bench_function("lsq_one_start", |b| {
-        b.iter(|| lsq(black_box(&problem), &LsqOptions::default()).expect("lsq"))
+        b.iter(|| {
+            lsq(
+                black_box(&problem),
+                &start,
+                &LsqOptions::default(),
+                LsqHooks::default(),
+            )
+            .expect("lsq")
+        })
     });
+    let alternate = LsqOptions {
+        method: LsqMethod::Alternate,
+        max_iterations: 300,
+        ..LsqOptions::default()
+    };
     group.bench_function("alternation_300_rounds", |b| {
-        b.iter(|| alternate(black_box(&problem), 300).expect("alternate"))
+        b.iter(|| lsq(black_box(&problem), &start, &alternate, LsqHooks::default()).expect("alternate"))
     });
     group.sample_size(10);
     group.bench_function("bfgs", |b| {

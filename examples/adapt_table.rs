@@ -1,15 +1,15 @@
 //! The compression table of the README: `bezchain adapt` on every aerofoil file in the given
 //! folders (or files) at each tolerance, beside the peer figures found in a `README.md` next
-//! to the files (the table of `../shared/data/airfoils/README.md`).
+//! to the files (the table of `data/airfoils/README.md`).
 //!
 //! ```text
-//! cargo run --release --example adapt_table -- ../shared/data/airfoils data \
+//! cargo run --release --example adapt_table -- data/airfoils data \
 //!     [--tols 1e-3,1e-4] [--json-dir DIR] [--repeat N]
 //! ```
 //!
 //! Tolerances are in units of the chord (the files have unit chord). With `--json-dir` each
-//! report is written as `DIR/<stem>_<tol>.json` for `verify.py curve`. `--repeat N` runs each
-//! case N times and reports the median seconds.
+//! report is written as `DIR/<stem>_<tol>.json` (the adapt report of `docs/ARCHITECTURE.md`,
+//! for any outside checker). `--repeat N` runs each case N times and reports the median seconds.
 
 use anyhow::{bail, Context, Result};
 use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptReport};

@@ -9,6 +9,8 @@
 //! - [`bezier`]: Bernstein basis, single curves and patches (eval, deriv, split, elevate).
 //! - [`chain`]: chain and grid layouts, the extraction map `expanded = E · design`,
 //!   `CurveChain`, `PatchGrid`.
+//! - [`closest`]: the one closest-point search on chains and grids (f64, global seeding,
+//!   clamped Newton across cell borders), with its accuracy contract.
 //! - [`geometry`]: aerofoil generators, `.dat`/CSV/XYZ readers and writers, blade lofting.
 //! - [`fit`]: offset metrics, foot points, least squares, Nelder-Mead, BFGS, GA, CMA-ES.
 //! - [`adaptive`]: the fewest stored scalars that meet a tolerance (the paper's Figs. 7, 8).
@@ -19,6 +21,7 @@
 pub mod adaptive;
 pub mod bezier;
 pub mod chain;
+pub mod closest;
 pub mod error;
 pub mod eval;
 pub mod export;

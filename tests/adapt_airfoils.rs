@@ -6,10 +6,11 @@ mod common;
 
 use bezchain::adaptive::{adapt_curve, AdaptOptions};
 use bezchain::geometry::read_curve;
-use common::{airfoils_dir, independent_offsets, read_airfoil};
+use common::check::independent_offsets;
+use common::{airfoils_dir, read_airfoil};
 
 /// `(file, tolerance, splprep's coefficients, CST's coefficients)` from the peer table in
-/// `shared/data/airfoils/README.md`.
+/// `data/airfoils/README.md`.
 /// `clarky_lednicer` holds the same points as `clarky` in Lednicer's layout: same bars.
 const PEERS: [(&str, f64, usize, usize); 12] = [
     ("e387", 1e-3, 28, 27),

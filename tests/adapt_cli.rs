@@ -1,9 +1,11 @@
-//! `bezchain adapt` end to end: the table, the JSON report and the SVG, sweeps, relative
+//! `bezchain adapt` end to end: the table, the JSON report (its offsets re-measured from its
+//! control points alone by the tests' own closest-point search) and the SVG, sweeps, relative
 //! tolerances, exit statuses (0 met, 1 not met with the reports written, 2 bad arguments).
 
 mod common;
 
 use common::airfoils_dir;
+use common::check::check_curve_report;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -58,6 +60,8 @@ fn one_tolerance_writes_the_table_the_report_and_the_plot() {
     assert_eq!(v["control_points"].as_array().unwrap().len(), s * d + 1);
     assert_eq!(v["design_points"].as_array().unwrap().len(), s * (d - 1) + 2);
     assert!(v["offset"]["max"].as_f64().unwrap() <= 1e-3);
+    let o = check_curve_report(&v, &common::naca4413(), 1e-6);
+    assert!(o.max <= 1e-3, "independent max {:e}", o.max);
     let a = &v["adapt"];
     assert_eq!(a["met"], true);
     assert!(a["stored_scalars"].as_u64().unwrap() <= 12, "{a}");
@@ -94,6 +98,10 @@ fn a_sweep_prints_scalars_against_tolerance() {
         .map(|r| r["adapt"]["stored_scalars"].as_u64().unwrap())
         .collect();
     assert!(counts.windows(2).all(|w| w[0] <= w[1]), "{counts:?}");
+    for (r, tol) in reports.iter().zip([1e-3, 1e-4, 1e-5]) {
+        let o = check_curve_report(r, &common::naca4413(), 1e-6);
+        assert!(o.max <= tol, "{tol:e}: independent max {:e}", o.max);
+    }
 }
 
 #[test]

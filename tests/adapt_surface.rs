@@ -11,6 +11,7 @@ use bezchain::adaptive::{
 };
 use bezchain::chain::PatchGrid;
 use bezchain::geometry::{Blade, Grid, LoftOptions};
+use common::check::{check_surface_report, IndependentGrid};
 use common::{bin, crate_root, scratch};
 use glam::DVec3;
 use std::process::Command;
@@ -27,56 +28,14 @@ fn blade(per: Option<usize>) -> (Vec<DVec3>, Grid, f64) {
     (cloud.points, cloud.grid.unwrap(), b.max_chord())
 }
 
-/// Closest-point distance of every point from the grid, independently of the library's foot
-/// points: every patch sampled on a 40 x 40 grid, then clamped Gauss-Newton from the 8 best
-/// samples of all.
+/// Closest-point distance of every point from the grid, by the tests' own search
+/// ([`IndependentGrid`], from the grid's control net alone).
 fn independent_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
-    let (pu, pv) = grid.layout().patches();
-    let patches: Vec<_> = (0..pu)
-        .flat_map(|i| (0..pv).map(move |j| (i, j)))
-        .map(|(i, j)| grid.patch(i, j))
-        .collect();
-    let n = 40;
-    let samples: Vec<(usize, f64, f64, DVec3)> = patches
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| {
-            (0..=n).flat_map(move |a| {
-                (0..=n).map(move |b| {
-                    let (u, v) = (a as f64 / n as f64, b as f64 / n as f64);
-                    (k, u, v, p.eval(u, v))
-                })
-            })
-        })
-        .collect();
-    points
-        .iter()
-        .map(|&q| {
-            let mut c: Vec<(f64, usize, f64, f64)> = samples
-                .iter()
-                .map(|&(k, u, v, p)| ((p - q).length(), k, u, v))
-                .collect();
-            c.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut best = c[0].0;
-            for &(_, k, u0, v0) in c.iter().take(8) {
-                let (mut u, mut v) = (u0, v0);
-                for _ in 0..30 {
-                    let (s, su, sv) = patches[k].partials(u, v);
-                    let r = s - q;
-                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
-                    let det = a11 * a22 - a12 * a12;
-                    if det.abs() <= 1e-300 || det.is_nan() {
-                        break;
-                    }
-                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
-                    u = (u + (b1 * a22 - b2 * a12) / det).clamp(0.0, 1.0);
-                    v = (v + (a11 * b2 - a12 * b1) / det).clamp(0.0, 1.0);
-                }
-                best = best.min((patches[k].eval(u, v) - q).length());
-            }
-            best
-        })
-        .collect()
+    let (_, cols) = grid.layout().net_shape();
+    let net: Vec<Vec<DVec3>> = grid.net().chunks(cols).map(<[DVec3]>::to_vec).collect();
+    let l = grid.layout();
+    let check = IndependentGrid::new(&net, l.u.degree(), l.v.degree());
+    points.iter().map(|&q| check.distance(q)).collect()
 }
 
 /// Everything a met result must show: the tolerance at every point by the independent search
@@ -92,7 +51,7 @@ fn check_met(r: &AdaptedSurface, points: &[DVec3], grid: Grid, tol: f64) {
     assert!(r.offset.max <= max * (1.0 + 1e-6) + 1e-12);
     let (lu, lv) = r.encoding.layouts().unwrap();
     let per = if r.encoding.span_rule.is_some() { 2 } else { 3 };
-    assert_eq!(r.count.coords, lu.coeff_count() * lv.coeff_count() * per);
+    assert_eq!(r.count.coords, lu.design_count() * lv.design_count() * per);
     assert_eq!(r.count.total, r.count.coords + r.count.rule + r.count.breaks);
     assert_eq!(r.encoding.grid().unwrap().net(), r.grid.net());
     let rule = r
@@ -151,7 +110,7 @@ fn an_unmeetable_tolerance_ends_with_the_closest_layout_and_a_message() {
     assert!(r.offset.max > 1e-12 && r.offset.max.is_finite());
     // The limits hold: at most half a section's points around, a column per section.
     let (lu, lv) = r.encoding.layouts().unwrap();
-    assert!(lu.coeff_count() <= 6 && lv.coeff_count() <= 12);
+    assert!(lu.design_count() <= 6 && lv.design_count() <= 12);
 }
 
 #[test]
@@ -254,7 +213,17 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
         stdout.contains("stored scalars") && stdout.contains("checker"),
         "{stdout}"
     );
-    let rep: SurfaceAdaptReport = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let text = std::fs::read_to_string(&json).unwrap();
+    // The offsets the report claims, re-measured from its control net alone.
+    let points = bezchain::geometry::read_cloud(&cloud).unwrap().points;
+    let o = check_surface_report(&serde_json::from_str(&text).unwrap(), &points, 1e-6);
+    let rep: SurfaceAdaptReport = serde_json::from_str(&text).unwrap();
+    assert!(
+        o.max <= rep.adapt.tol,
+        "independent max {:e} above {:e}",
+        o.max,
+        rep.adapt.tol
+    );
     assert_eq!(rep.surface.kind, "surface");
     assert!(rep.adapt.met);
     assert_eq!(rep.adapt.stored_scalars, rep.adapt.encoding.count().total);

@@ -11,7 +11,8 @@ use bezchain::adaptive::{
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::error::Error;
 use bezchain::export::InputInfo;
-use common::{independent_offsets, naca4413};
+use common::check::independent_offsets;
+use common::naca4413;
 use glam::DVec2;
 
 /// Independent largest offset of `points` from the result's expanded control points.
@@ -76,7 +77,7 @@ fn aerofoil_truth() -> Encoding {
         x: XStore::AerofoilRule(vec![0.0, 1.0, 1.0]),
         y: vec![],
     };
-    let n = enc.layout().unwrap().coeff_count();
+    let n = enc.layout().unwrap().design_count();
     // Upper surface from the trailing edge to the nose, then the lower one back.
     let upper = [0.001, 0.05, 0.11, 0.12, 0.06];
     let lower = [-0.03, -0.04, -0.035, -0.01, -0.001];

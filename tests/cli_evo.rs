@@ -1,11 +1,12 @@
 //! `bezchain fit --method ga|cmaes|ga+lsq|cmaes+lsq` and `bezchain compare` end to end: the
-//! report (checked by `verify.py`), the history file, checkpoints that resume bit-identically
+//! report (its offsets re-measured by the tests' own closest-point search), the history file, checkpoints that resume bit-identically
 //! and survive a killed run, and every bad setting answered with exit status 2.
 
 mod common;
 
 use bezchain::fit::evo::Checkpoint;
-use common::{bin, crate_root, scratch, verify_py};
+use common::check::check_curve_report;
+use common::{bin, crate_root, naca4413, scratch};
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -78,23 +79,8 @@ fn ga_reports_history_and_checkpoints_and_resumes_bit_identically() {
     assert_eq!(rep["fit"]["evaluations"], 64 * 13);
     assert_eq!(rep["fit"]["backend"], "cpu");
     assert!(rep["fit"]["evals_per_second"].as_f64().unwrap() > 0.0);
-    // The independent checker agrees with the report's offsets.
-    let out = Command::new("python3")
-        .arg(verify_py())
-        .args(["curve", &report, "data/naca4413.dat"])
-        .current_dir(crate_root())
-        .output()
-        .expect("python3 runs verify.py");
-    assert!(out.status.success(), "verify.py: {}", stderr(&out));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let (ours, theirs) = (
-        rep["offset"]["sum_sq"].as_f64().unwrap(),
-        v["sum_sq"].as_f64().unwrap(),
-    );
-    assert!(
-        (ours - theirs).abs() <= 1e-6 * theirs,
-        "report {ours:e} vs verify.py {theirs:e}"
-    );
+    // The report's offsets agree with the tests' own measure of every data point.
+    check_curve_report(&rep, &naca4413(), 1e-6);
     // One history line per generation, the best never worse.
     let text = std::fs::read_to_string(&history).unwrap();
     let lines: Vec<&str> = text.lines().collect();

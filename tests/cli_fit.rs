@@ -1,9 +1,12 @@
-//! `bezchain naca`, `fit` and `compare` end to end: outputs checked by the independent
-//! `verify.py`, and every kind of bad input answered with exit status 2 and one error line.
+//! `bezchain naca`, `fit`, `eval` and `compare` end to end: every report's offsets re-measured
+//! from its control points alone by the tests' own closest-point search (`common::check`), CSV
+//! files with named columns, and every kind of bad input answered with exit status 2 and one
+//! error line.
 
 mod common;
 
-use common::{bin, crate_root, scratch, verify_py};
+use common::check::{check_curve_report, report_c1_error};
+use common::{bin, crate_root, naca4413, scratch};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -29,16 +32,8 @@ fn assert_user_error(o: &Output, needle: &str) {
     assert!(!err.contains("panicked"), "{err}");
 }
 
-fn verify(report: &Path, data: &Path) -> serde_json::Value {
-    let out = Command::new("python3")
-        .arg(verify_py())
-        .arg("curve")
-        .arg(report)
-        .arg(data)
-        .output()
-        .expect("python3 runs verify.py");
-    assert!(out.status.success(), "verify.py: {}", stderr(&out));
-    serde_json::from_slice(&out.stdout).expect("verify.py prints JSON")
+fn report(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 #[test]
@@ -52,7 +47,6 @@ fn naca_writes_the_shipped_data_file() {
 #[test]
 fn the_papers_cases_pass_the_independent_check() {
     let dir = scratch("cli-fit-paper");
-    let data = crate_root().join("data/naca4413.dat");
     // (degree, segments, design points, expanded points, 1/100 of the paper's total offset)
     for (d, s, design, expanded, bar) in [
         (3, 5, 12, 16, 2.4e-8),
@@ -76,19 +70,17 @@ fn the_papers_cases_pass_the_independent_check() {
             svg.to_str().unwrap(),
         ]);
         assert!(out.status.success(), "{}", stderr(&out));
-        let v = verify(&json, &data);
-        assert_eq!(v["design_points"], design);
-        assert_eq!(v["control_points"], expanded);
-        let sum_sq = v["sum_sq"].as_f64().unwrap();
-        assert!(sum_sq <= bar, "d={d}: verify.py sum_sq {sum_sq:e} above {bar:e}");
-        assert!(v["c1_error"].as_f64().unwrap() < 1e-9);
-        // The report's own figure agrees with the independent one.
-        let rep: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
-        let ours = rep["offset"]["sum_sq"].as_f64().unwrap();
+        let rep = report(&json);
+        assert_eq!(rep["design_points"].as_array().unwrap().len(), design);
+        assert_eq!(rep["control_points"].as_array().unwrap().len(), expanded);
+        // The report's offsets agree with the independent measure of every data point.
+        let o = check_curve_report(&rep, &naca4413(), 1e-6);
         assert!(
-            (ours - sum_sq).abs() <= 1e-6 * sum_sq,
-            "report {ours:e} vs verify.py {sum_sq:e}"
+            o.sum_sq <= bar,
+            "d={d}: independent sum_sq {:e} above {bar:e}",
+            o.sum_sq
         );
+        assert!(report_c1_error(&rep) < 1e-9);
         assert_eq!(rep["fit"]["method"], "lsq");
         assert!(rep["fit"]["iterations"].as_u64().unwrap() > 0);
         let plot = std::fs::read_to_string(&svg).unwrap();
@@ -133,7 +125,9 @@ fn selig_and_lednicer_clark_y_fit_alike() {
             json.to_str().unwrap(),
         ]);
         assert!(out.status.success(), "{name}: {}", stderr(&out));
-        sums.push(verify(&json, &path)["sum_sq"].as_f64().unwrap());
+        let rep = report(&json);
+        let o = check_curve_report(&rep, &common::read_airfoil(name), 1e-6);
+        sums.push(o.sum_sq);
     }
     assert!((sums[0] - sums[1]).abs() <= 0.01 * sums[0], "{sums:?}");
 }
@@ -207,4 +201,113 @@ fn consecutive_duplicates_are_dropped_with_a_warning() {
     let err = stderr(&out);
     assert!(err.contains("warning:") && err.contains("dup"), "{err}");
     assert!(String::from_utf8_lossy(&out.stdout).contains("82 points"));
+}
+
+/// `data/naca4413.dat` as CSV under the header `label,y,x`: the columns in another order and a
+/// text column (which surface each point is on).
+fn label_y_x(dir: &Path) -> std::path::PathBuf {
+    let pts = naca4413();
+    let le = pts
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.x.total_cmp(&b.1.x))
+        .unwrap()
+        .0;
+    let mut text = String::from("label,y,x\n");
+    for (k, p) in pts.iter().enumerate() {
+        let label = match k.cmp(&le) {
+            std::cmp::Ordering::Less => "upper surface",
+            std::cmp::Ordering::Equal => "leading edge",
+            std::cmp::Ordering::Greater => "lower surface",
+        };
+        text += &format!("{label},{:?},{:?}\n", p.y, p.x);
+    }
+    let path = dir.join("naca4413_label_y_x.csv");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_csv_with_named_columns_fits_like_the_dat_file() {
+    let dir = scratch("cli-fit-csv");
+    let csv = label_y_x(&dir);
+    let fit = |input: &str, json: &Path| {
+        let out = run(&[
+            "fit",
+            input,
+            "--degree",
+            "3",
+            "--segments",
+            "5",
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{input}: {}", stderr(&out));
+        out
+    };
+    let (a, b) = (dir.join("dat.json"), dir.join("csv.json"));
+    fit("data/naca4413.dat", &a);
+    let out = fit(csv.to_str().unwrap(), &b);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("82 points"));
+    assert!(
+        stderr(&out).contains("ignored column(s) label"),
+        "{}",
+        stderr(&out)
+    );
+    let (a, b) = (report(&a), report(&b));
+    assert_eq!(a["design_points"], b["design_points"]);
+    assert_eq!(a["offset"], b["offset"]);
+    check_curve_report(&b, &naca4413(), 1e-6);
+
+    // `eval --points` reads the same CSV: the report's own design evaluates alike on both files.
+    let population = dir.join("pop.csv");
+    let design: Vec<String> = b["design_points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|p| p.as_array().unwrap().iter().map(|c| c.to_string()))
+        .collect();
+    std::fs::write(&population, design.join(",") + "\n").unwrap();
+    let eval = |points: &str| {
+        let out = run(&[
+            "eval",
+            dir.join("csv.json").to_str().unwrap(),
+            "--population",
+            population.to_str().unwrap(),
+            "--points",
+            points,
+            "--backend",
+            "cpu",
+        ]);
+        assert!(out.status.success(), "{points}: {}", stderr(&out));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let (from_dat, from_csv) = (eval("data/naca4413.dat"), eval(csv.to_str().unwrap()));
+    assert_eq!(from_dat, from_csv);
+    let sum_sq: f64 = from_csv.trim().split(',').next().unwrap().parse().unwrap();
+    let claimed = b["offset"]["sum_sq"].as_f64().unwrap();
+    assert!(
+        (sum_sq - claimed).abs() <= 1e-3 * claimed,
+        "eval {sum_sq:e}, report {claimed:e}"
+    );
+}
+
+#[test]
+fn a_header_without_x_and_y_exits_2_naming_the_file_and_line_1() {
+    let dir = scratch("cli-fit-csv-bad");
+    let path = dir.join("no_xy.csv");
+    std::fs::write(&path, "label,u,v\nte,1,0\nle,0,0\nte,1,-0.01\n").unwrap();
+    let file = path.to_str().unwrap();
+    let out = run(&["fit", file, "--degree", "3", "--segments", "1"]);
+    assert_user_error(
+        &out,
+        &format!("{file}:1: the header 'label,u,v' names no x and no y column"),
+    );
+    let out = run(&["adapt", file, "--tol", "1e-3"]);
+    assert_user_error(&out, &format!("{file}:1:"));
+    // A wrong value in a named column names the column and the line.
+    let bad = dir.join("bad_y.csv");
+    std::fs::write(&bad, "label,y,x\nte,0,1\nle,zero,0\nte,-0.01,1\n").unwrap();
+    let out = run(&["fit", bad.to_str().unwrap(), "--degree", "2", "--segments", "1"]);
+    assert_user_error(&out, "bad_y.csv:3: expected a number in column 'y', found 'zero'");
 }

@@ -1,17 +1,17 @@
-//! `bezchain blade` and `fit-surface` end to end: the paper's blade (82 x 12 points, 10 x 6
-//! design net, 13 x 7 control net, 4 x 2 bicubic patches) with its report checked from the
-//! JSON alone (independent Bezier evaluation and closest-point search), its OBJ, STL and PNG;
+//! `bezchain blade`, `fit-surface` and `adapt-surface` end to end: the paper's blade (82 x 12
+//! points, 10 x 6 design net, 13 x 7 control net, 4 x 2 bicubic patches) with its report
+//! checked from the JSON alone (the tests' own Bezier evaluation and closest-point search), its
+//! OBJ, STL and PNG; a blade cloud with named columns in its own order (`station,point,...`);
 //! the evolutionary methods; and bad blade files and clouds answered with exit status 2.
 
 mod common;
-mod surface_support;
 
+use common::check::{check_surface_report, IndependentGrid};
 use common::{bin, crate_root, scratch};
 use glam::DVec3;
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
-use surface_support::IndependentGrid;
 
 fn run(args: &[&str]) -> Output {
     Command::new(bin())
@@ -183,58 +183,14 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
     let reported = rep["continuity_error"].as_f64().unwrap();
     assert!(reported < 1e-9, "reported continuity error {reported}");
 
-    // The offsets, recomputed from the JSON control net by an independent evaluation and
+    // The offsets, recomputed from the JSON control net by the tests' own evaluation and
     // closest-point search, agree with the reported ones.
     let check = IndependentGrid::new(&control, 3, 3);
-    let d: Vec<f64> = points.iter().map(|&q| check.distance(q)).collect();
-    let sum_sq: f64 = d.iter().map(|x| x * x).sum();
-    let rms = (sum_sq / d.len() as f64).sqrt();
-    let max = d.iter().fold(0.0_f64, |m, &x| m.max(x));
+    check_surface_report(&rep, &points, 1e-6);
     let off = &rep["offset"];
     assert_eq!(off["metric"], "closest");
-    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b;
-    assert!(
-        close(rms, off["rms"].as_f64().unwrap()),
-        "rms {rms} vs {}",
-        off["rms"]
-    );
-    assert!(
-        close(max, off["max"].as_f64().unwrap()),
-        "max {max} vs {}",
-        off["max"]
-    );
-    assert!(
-        close(sum_sq, off["sum_sq"].as_f64().unwrap()),
-        "sum_sq {sum_sq} vs {}",
-        off["sum_sq"]
-    );
     let max_at = point(&off["max_at"]);
     assert!(points.contains(&max_at), "max_at {max_at} is not a data point");
-
-    // The shared checker `verify.py` agrees on the counts, the continuity and the offsets. Its
-    // distances come from a local search (7 x 7 seeds per patch, four refined) that a grid with
-    // overhangs traps; the default span breaks (`--breaks-v auto`) keep only fits that such a
-    // search measures right, so it must agree with the report to 0.1 %.
-    let out = Command::new("python3")
-        .arg(common::verify_py())
-        .arg("surface")
-        .arg(&json)
-        .arg(&cloud)
-        .output()
-        .expect("python3 runs verify.py");
-    assert!(out.status.success(), "verify.py: {}", stderr(&out));
-    let v: Value = serde_json::from_slice(&out.stdout).expect("verify.py prints JSON");
-    assert_eq!(v["points"], 984);
-    assert_eq!(numbers(&v["design_net"]), [10.0, 6.0]);
-    assert_eq!(numbers(&v["control_net"]), [13.0, 7.0]);
-    assert!(v["c1_error"].as_f64().unwrap() < 1e-9, "{v}");
-    for (key, ours) in [("max", max), ("rms", rms)] {
-        let theirs = v[key].as_f64().unwrap();
-        assert!(
-            (theirs - ours).abs() <= 1e-3 * ours,
-            "verify.py {key} {theirs:e}, report {ours:e}"
-        );
-    }
 
     // OBJ: a 16 x 16 sample per patch, every vertex on the surface of the JSON net.
     let text = std::fs::read_to_string(&obj).unwrap();
@@ -488,5 +444,122 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
         &["--obj", "does not exist"],
     );
     assert!(!Path::new(&json).exists(), "a report was written by a failed run");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The cloud `bezchain blade` wrote (`x,y,z,section,index`) rewritten as the blade tables people
+/// have: `station,point,radius,chord,twist_deg,airfoil,x,y,z`, the station's chord and twist from
+/// the blade file, a text column, and the rows in reverse order (the station and point columns
+/// give the order back).
+fn station_csv(cloud: &Path, blade: &Path, out: &Path) {
+    let b: Value = serde_json::from_str(&std::fs::read_to_string(blade).unwrap()).unwrap();
+    let (chord, twist) = (numbers(&b["chord"]), numbers(&b["twist_deg"]));
+    let text = std::fs::read_to_string(cloud).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("x,y,z,section,index"));
+    let mut rows: Vec<String> = lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let s: usize = f[3].parse().unwrap();
+            format!(
+                "{},{},{},{},{},\"NACA 4413, {}\",{},{},{}",
+                f[3], f[4], f[2], chord[s], twist[s], "lofted", f[0], f[1], f[2]
+            )
+        })
+        .collect();
+    rows.reverse();
+    let body = format!(
+        "station,point,radius,chord,twist_deg,airfoil,x,y,z\n{}\n",
+        rows.join("\n")
+    );
+    std::fs::write(out, body).unwrap();
+}
+
+#[test]
+fn a_station_point_cloud_with_text_columns_fits_and_adapts_like_the_blade_cloud() {
+    let dir = scratch("cli-surface-stations");
+    let (cloud, stations) = (dir.join("blade.csv"), dir.join("stations.csv"));
+    ok(run(&[
+        "blade",
+        "data/blade_paper.json",
+        "--points-per-section",
+        "24",
+        "-o",
+        cloud.to_str().unwrap(),
+    ]));
+    station_csv(&cloud, &crate_root().join("data/blade_paper.json"), &stations);
+    let points = read_xyz(&cloud);
+    let fit = |input: &Path, json: &Path| {
+        ok(run(&[
+            "fit-surface",
+            input.to_str().unwrap(),
+            "--degree",
+            "3x3",
+            "--patches",
+            "4x2",
+            "--json",
+            json.to_str().unwrap(),
+        ]))
+    };
+    let (a, b) = (dir.join("a.json"), dir.join("b.json"));
+    fit(&cloud, &a);
+    let out = fit(&stations, &b);
+    let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+    assert!(said.contains("288 points (12 sections x 24 points)"), "{said}");
+    assert!(
+        stderr(&out).contains("ignored column(s) radius, chord, twist_deg, airfoil"),
+        "{}",
+        stderr(&out)
+    );
+    let (a, b): (Value, Value) = (
+        serde_json::from_str(&std::fs::read_to_string(&a).unwrap()).unwrap(),
+        serde_json::from_str(&std::fs::read_to_string(&b).unwrap()).unwrap(),
+    );
+    assert_eq!(a["control_net"], b["control_net"]);
+    assert_eq!(a["offset"], b["offset"]);
+    check_surface_report(&b, &points, 1e-6);
+
+    // adapt-surface needs the sections: the station and point columns give them.
+    let json = dir.join("adapt.json");
+    let out = ok(run(&[
+        "adapt-surface",
+        stations.to_str().unwrap(),
+        "--tol",
+        "2e-3",
+        "--relative",
+        "--degrees-u",
+        "3-4",
+        "--degrees-v",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("met            yes"));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(rep["adapt"]["met"], true);
+    let o = check_surface_report(&rep, &points, 1e-6);
+    assert!(
+        o.max <= rep["adapt"]["tol"].as_f64().unwrap(),
+        "independent max {}",
+        o.max
+    );
+
+    // The same table without x and y columns: exit 2 naming the file and line 1.
+    let bad = dir.join("no_xy.csv");
+    std::fs::write(&bad, "station,point,radius,chord\n0,0,0.344,0.177\n").unwrap();
+    assert_user_error(
+        &run(&[
+            "fit-surface",
+            bad.to_str().unwrap(),
+            "--degree",
+            "3x3",
+            "--patches",
+            "1x1",
+        ]),
+        &[
+            &format!("{}:1: the header", bad.display()),
+            "names no x and no y column",
+        ],
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -4,8 +4,8 @@
 mod eval_support;
 
 use bezchain::chain::Continuity;
-use bezchain::eval::batch::{eval_curve_population, eval_grid_population, BatchOptions, BatchResult};
 use bezchain::eval::{Backend, EvalLayout};
+use bezchain::fit::population::{eval_curve_population, eval_grid_population, BatchOptions, BatchResult};
 use bezchain::Error;
 use eval_support::*;
 use glam::DVec2;

@@ -8,9 +8,9 @@ mod eval_support;
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::eval::Backend;
 use bezchain::fit::evo::{
-    evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoProblem, EvoResult, Evolution,
+    evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoResult, Evolution, PopulationObjective,
 };
-use bezchain::fit::{fit_curve, offset_stats, FitOptions, Method};
+use bezchain::fit::{fit_curve, offset_stats, CurveProblem, FitOptions, Method, Metric};
 use bezchain::Error;
 use glam::DVec2;
 
@@ -38,7 +38,20 @@ fn options(population: usize, generations: usize) -> EvoOptions {
     }
 }
 
-fn run(problem: &EvoProblem, algorithm: Algorithm, opts: &EvoOptions) -> EvoResult {
+/// The fitting problem of a chain through `points`, ends anchored, in a box grown by 0.1 of
+/// the data's extent (what `fit --method ga` optimises).
+fn evo_problem(points: &[DVec2], layout: ChainLayout) -> CurveProblem<'_, DVec2> {
+    CurveProblem::curve(layout, points, Metric::Closest)
+        .and_then(|p| p.with_bounds(0.1))
+        .unwrap()
+}
+
+/// The f64 objective of `design` (48 samples a segment).
+fn measure(problem: &CurveProblem<'_, DVec2>, design: &[f64]) -> f64 {
+    PopulationObjective::measure(problem, design, &EvoOptions::default()).unwrap()
+}
+
+fn run(problem: &CurveProblem<'_, DVec2>, algorithm: Algorithm, opts: &EvoOptions) -> EvoResult {
     evolve(problem, algorithm, opts, &mut EvoHooks::default()).unwrap()
 }
 
@@ -49,8 +62,8 @@ fn bits(x: &[f64]) -> Vec<u64> {
 #[test]
 fn both_methods_approach_the_known_optimum() {
     let (points, layout, truth) = exact_case();
-    let problem = EvoProblem::curve(&points, layout, true, 0.1).unwrap();
-    let start = problem.measure(problem.start(), 48).unwrap();
+    let problem = evo_problem(&points, layout);
+    let start = measure(&problem, problem.start_flat());
     let ga = run(&problem, Algorithm::Ga, &options(256, 300));
     let es = run(&problem, Algorithm::Cmaes, &options(64, 400));
     eprintln!(
@@ -90,7 +103,7 @@ fn both_methods_approach_the_known_optimum() {
 #[test]
 fn the_same_seed_gives_bit_identical_runs_on_any_thread_count() {
     let (points, layout, _) = exact_case();
-    let problem = EvoProblem::curve(&points, layout, true, 0.1).unwrap();
+    let problem = evo_problem(&points, layout);
     for (algorithm, size) in [(Algorithm::Ga, 96), (Algorithm::Cmaes, 40)] {
         let opts = options(size, 25);
         let pool = |threads| {
@@ -122,7 +135,7 @@ fn the_same_seed_gives_bit_identical_runs_on_any_thread_count() {
 #[test]
 fn a_resumed_run_ends_identical_to_an_uninterrupted_one() {
     let (points, layout, _) = exact_case();
-    let problem = EvoProblem::curve(&points, layout, true, 0.1).unwrap();
+    let problem = evo_problem(&points, layout);
     for (algorithm, size) in [(Algorithm::Ga, 64), (Algorithm::Cmaes, 32)] {
         // Checkpoints taken every 5 generations, as the CLI does; projection every 3, so the
         // resumed run must restore the evaluator's parameters too.
@@ -165,27 +178,22 @@ fn a_resumed_run_ends_identical_to_an_uninterrupted_one() {
 #[test]
 fn checkpoints_of_other_runs_and_bad_options_are_refused() {
     let (points, layout, _) = exact_case();
-    let problem = EvoProblem::curve(&points, layout.clone(), true, 0.1).unwrap();
+    let problem = evo_problem(&points, layout.clone());
     let opts = options(16, 3);
     let mut e = Evolution::new(&problem, Algorithm::Ga, &opts).unwrap();
     e.step().unwrap();
     let ck = e.checkpoint();
-    let refused = |p: &EvoProblem, a: Algorithm, o: &EvoOptions| match Evolution::resume(p, a, o, &ck) {
-        Err(Error::Invalid(m)) => m,
-        Err(other) => panic!("expected Invalid, got {other}"),
-        Ok(_) => panic!("a foreign checkpoint was accepted"),
-    };
+    let refused =
+        |p: &CurveProblem<'_, DVec2>, a: Algorithm, o: &EvoOptions| match Evolution::resume(p, a, o, &ck) {
+            Err(Error::Invalid(m)) => m,
+            Err(other) => panic!("expected Invalid, got {other}"),
+            Ok(_) => panic!("a foreign checkpoint was accepted"),
+        };
     let mut moved = points.clone();
     moved[7].y += 1e-9;
-    let other_data = EvoProblem::curve(&moved, layout.clone(), true, 0.1).unwrap();
+    let other_data = evo_problem(&moved, layout.clone());
     assert!(refused(&other_data, Algorithm::Ga, &opts).contains("another problem"));
-    let other_layout = EvoProblem::curve(
-        &points,
-        ChainLayout::uniform(2, 4, Continuity::C1).unwrap(),
-        true,
-        0.1,
-    )
-    .unwrap();
+    let other_layout = evo_problem(&points, ChainLayout::uniform(2, 4, Continuity::C1).unwrap());
     assert!(refused(&other_layout, Algorithm::Ga, &opts).contains("another problem"));
     assert!(refused(
         &problem,
@@ -251,7 +259,7 @@ fn checkpoints_of_other_runs_and_bad_options_are_refused() {
 #[test]
 fn stops_on_target_and_stall() {
     let (points, layout, _) = exact_case();
-    let problem = EvoProblem::curve(&points, layout, true, 0.1).unwrap();
+    let problem = evo_problem(&points, layout);
     let target = EvoOptions {
         target: 1e-4,
         ..options(64, 500)
@@ -308,7 +316,7 @@ fn cpu_and_gpu_reach_the_same_best_offset() {
         return;
     }
     let (points, layout, _) = exact_case();
-    let problem = EvoProblem::curve(&points, layout, true, 0.1).unwrap();
+    let problem = evo_problem(&points, layout);
     for (algorithm, size, generations) in [(Algorithm::Ga, 128, 40), (Algorithm::Cmaes, 48, 60)] {
         let cpu = run(&problem, algorithm, &options(size, generations));
         let gpu = run(
@@ -331,5 +339,41 @@ fn cpu_and_gpu_reach_the_same_best_offset() {
             cpu.sum_sq,
             gpu.sum_sq
         );
+    }
+}
+
+/// Issues 11 and 14: case 1 (degree 3, 5 segments) moved 1000 chords from the origin (+1000 in
+/// x and y) evolves as it does at the origin. The problem is centred on its box and the
+/// evaluator anchored at the best design, so the two runs see the same f32 numbers up to the
+/// rounding of the data's move: CMA-ES (λ = 128, to its flatness stop, in a minimum of
+/// 2.76e-8) ends within 1 % on every backend. (With the default λ = 13 both reach 2.062e-8
+/// on both backends, a 45 s test; before the centring the far run stopped at 8e-6.)
+#[test]
+fn case_1_far_from_the_origin_evolves_as_at_the_origin() {
+    let points = common::naca4413();
+    let far: Vec<DVec2> = points.iter().map(|p| *p + DVec2::splat(1000.0)).collect();
+    let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
+    let mut backends = vec![Backend::Cpu];
+    if eval_support::gpu().is_some() {
+        backends.push(Backend::Gpu);
+    }
+    for backend in backends {
+        let opts = FitOptions {
+            method: Method::Cmaes,
+            evo: EvoOptions {
+                population: Some(128),
+                backend,
+                ..EvoOptions::default()
+            },
+            ..FitOptions::default()
+        };
+        let near = fit_curve(&points, layout.clone(), &opts).unwrap();
+        let moved = fit_curve(&far, layout.clone(), &opts).unwrap();
+        let (a, b) = (near.closest.sum_sq, moved.closest.sum_sq);
+        eprintln!(
+            "case 1 cmaes on {backend:?}: {a:.6e} at the origin, {b:.6e} at +1000 ({} generations)",
+            near.report.iterations
+        );
+        assert!((a - b).abs() <= 0.01 * a, "{backend:?}: {a:e} against {b:e}");
     }
 }

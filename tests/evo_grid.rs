@@ -4,7 +4,7 @@
 use bezchain::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use bezchain::eval::Backend;
 use bezchain::fit::evo::{
-    evolve, fit_grid_evo, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoProblem, Evolution,
+    evolve, fit_grid_evo, Algorithm, Checkpoint, EvoHooks, EvoOptions, Evolution, PopulationObjective,
 };
 use bezchain::fit::{GridProblem, LsqOptions, Metric};
 use glam::DVec3;
@@ -70,9 +70,12 @@ fn cmaes_and_the_ga_fit_a_grid_and_the_polish_reaches_the_optimum() {
         layout,
         start,
     } = case();
-    let evo = EvoProblem::grid(&points, layout.clone(), &start, 0.1).unwrap();
-    assert_eq!(evo.dim(), 48);
-    let first = evo.measure(evo.start(), 16).unwrap();
+    let evo = GridProblem::grid(layout.clone(), &points, params.clone(), Metric::Closest)
+        .and_then(|p| p.with_start(start.clone()))
+        .and_then(|p| p.with_bounds(0.1))
+        .unwrap();
+    assert_eq!(PopulationObjective::dim(&evo), 48);
+    let first = evo.measure(evo.start_flat(), &options(4, 1)).unwrap();
     let es = evolve(
         &evo,
         Algorithm::Cmaes,
@@ -113,11 +116,14 @@ fn cmaes_and_the_ga_fit_a_grid_and_the_polish_reaches_the_optimum() {
 fn a_resumed_grid_run_ends_identical() {
     let Case {
         points,
+        params,
         layout,
         start,
-        ..
     } = case();
-    let evo = EvoProblem::grid(&points, layout, &start, 0.1).unwrap();
+    let evo = GridProblem::grid(layout, &points, params, Metric::Closest)
+        .and_then(|p| p.with_start(start))
+        .and_then(|p| p.with_bounds(0.1))
+        .unwrap();
     let opts = EvoOptions {
         reproject_every: 2,
         ..options(24, 12)

@@ -1,11 +1,12 @@
-//! The shared aerofoil files (`../shared/data/airfoils/`) load and fit, and the Selig and
+//! The real aerofoil files (`data/airfoils/`) load and fit, and the Selig and
 //! Lednicer copies of the Clark Y give the same fit.
 
 mod common;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::fit::{fit_curve, offset_stats, FitOptions};
-use common::{independent_offsets, read_airfoil as read_dat};
+use common::check::independent_offsets;
+use common::read_airfoil as read_dat;
 use glam::DVec2;
 
 const FILES: [&str; 6] = [
@@ -22,7 +23,7 @@ fn case1() -> ChainLayout {
 }
 
 #[test]
-fn every_shared_aerofoil_fits() {
+fn every_real_aerofoil_fits() {
     for name in FILES {
         let pts = read_dat(name);
         assert!(pts.len() >= 30, "{name}: {} points", pts.len());

@@ -4,8 +4,11 @@
 mod common;
 
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::fit::{alternate, fit_curve, CurveProblem, FitOptions, Method, Metric};
-use common::{independent_offsets, naca4413};
+use bezchain::fit::{
+    fit_curve, lsq, CurveProblem, FitOptions, LsqHooks, LsqMethod, LsqOptions, Method, Metric, Start,
+};
+use common::check::independent_offsets;
+use common::naca4413;
 
 /// (degree, segments, design points, expanded points, the paper's total offset).
 const CASES: [(usize, usize, usize, usize, f64); 3] = [
@@ -92,7 +95,15 @@ fn plain_alternation_stays_far_from_the_optimum() {
     let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
     let joint = fit_curve(&pts, layout.clone(), &FitOptions::default()).unwrap();
     let problem = CurveProblem::curve(layout, &pts, Metric::Closest).unwrap();
-    let slow = alternate(&problem, 300).unwrap();
+    let alternate = LsqOptions {
+        method: LsqMethod::Alternate,
+        max_iterations: 300,
+        ..LsqOptions::default()
+    };
+    let start = Start::Params(problem.params().to_vec());
+    let slow = lsq(&problem, &[start], &alternate, LsqHooks::default())
+        .unwrap()
+        .remove(0);
     assert!(
         slow.sum_sq > 10.0 * joint.closest.sum_sq,
         "alternation {:e}, joint {:e}",

@@ -47,7 +47,7 @@ fn clarky_selig_and_lednicer_give_the_same_points() {
 }
 
 #[test]
-fn every_shared_aerofoil_reads_in_selig_order() {
+fn every_real_aerofoil_reads_in_selig_order() {
     for name in [
         "e387.dat",
         "s1223.dat",

@@ -2,14 +2,13 @@
 //! paper's blade (82 x 12 points, 4 x 2 bicubic patches) and a noisy unordered blade cloud.
 
 mod common;
-mod surface_support;
 
 use bezchain::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use bezchain::export::{FitInfo, InputInfo, OffsetReport, SurfaceReport};
 use bezchain::fit::{fit_surface, Breaks, ParamSource, SurfaceLayout, SurfaceOptions, SurfaceProgress};
 use bezchain::geometry::{Blade, Grid, LoftOptions};
+use common::check::IndependentGrid;
 use glam::DVec3;
-use surface_support::IndependentGrid;
 
 fn paper_blade() -> Blade {
     Blade::from_file(&common::crate_root().join("data/blade_paper.json")).expect("data/blade_paper.json")

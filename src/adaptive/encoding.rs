@@ -8,7 +8,7 @@
 //! peer figures count neither their degree nor their knot counts.
 
 use super::engine::LE_BREAK;
-use super::spline::SplineLayout;
+use crate::chain::ChainLayout;
 use crate::error::{Error, Result};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
@@ -126,14 +126,14 @@ impl Encoding {
     }
 
     /// The spline layout the encoding describes.
-    pub fn layout(&self) -> Result<SplineLayout> {
-        SplineLayout::new(self.degree, self.break_list()?, self.joins.clone())
+    pub fn layout(&self) -> Result<ChainLayout> {
+        ChainLayout::with_orders(self.degree, self.break_list()?, self.joins.clone())
     }
 
     /// The B-spline coefficients (design points) regenerated from the stored numbers.
     pub fn coeffs(&self) -> Result<Vec<DVec2>> {
         let layout = self.layout()?;
-        let n = layout.coeff_count();
+        let n = layout.design_count();
         if self.y.len() != n {
             return Err(Error::invalid(format!(
                 "encoding: {} y values for {n} design points",

@@ -1,16 +1,22 @@
-//! The fast closest-point fit inside the adaptive search: a linear least-squares start at
-//! fixed parameters, then tangent-distance Gauss-Newton steps (Wang, Pottmann and Liu 2006)
-//! with foot-point projection, and an optional minimax polish by Lawson's reweighting.
+//! The fits of the adaptive search: a candidate parameterisation (a layout and how x is
+//! stored) is fitted through the library's one least-squares solver ([`crate::fit::lsq`]) on
+//! the one fitting problem ([`FitProblem`]: ends anchored, the aerofoil rule a linear
+//! constraint on x), with the search's effort limits as an observer, and an optional
+//! minimax polish by Lawson's reweighting (the problem's weights).
 //!
-//! The search fits hundreds of candidate layouts, so this fit is single-start, warm-started
-//! and allocation-light; the design it returns is re-measured with the library's global
-//! closest-point search ([`crate::fit::offset_stats`]) before it is reported. Its own
-//! distances come from a local Newton search from each point's previous foot point: each is
-//! the distance to *some* point of the curve, so never below the true closest distance, and
-//! a tolerance met by them is met by the true offsets.
+//! The search fits hundreds of candidate layouts, so each fit is single-start, warm-started
+//! and checks no other foot points than the local ones: its distances come from a local
+//! Newton search from each point's previous foot point, each the distance to *some* point of
+//! the curve, so never below the true closest distance, and a tolerance met by them is met
+//! by the true offsets. The design a search returns is re-measured with the global
+//! closest-point search ([`crate::fit::offset_stats`]) before it is reported.
 
-use super::spline::{BezierForm, SplineLayout, MAX_SUPPORT};
+use crate::chain::{ChainLayout, CurveShape};
+use crate::closest::FootOptions;
 use crate::error::{Error, Result};
+use crate::fit::{
+    lsq, Constraint, CoordRule, DampingScale, FitProblem, LsqHooks, LsqIterate, LsqOptions, Metric, Start,
+};
 use glam::DVec2;
 
 /// How the x coordinates of the design points are stored.
@@ -34,8 +40,10 @@ pub(crate) enum XRule {
 /// A candidate parameterisation: the spline layout and how x is stored.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Model {
-    pub layout: SplineLayout,
+    pub layout: ChainLayout,
     pub rule: XRule,
+    /// The rule as a constraint on the design points (`None` for free x).
+    constraint: Option<Constraint>,
 }
 
 /// The break of the leading edge in the aerofoil rule.
@@ -43,16 +51,17 @@ pub(crate) const LE_BREAK: f64 = 0.5;
 
 impl Model {
     /// A model with free x.
-    pub fn free(layout: SplineLayout) -> Self {
+    pub fn free(layout: ChainLayout) -> Self {
         Model {
             layout,
             rule: XRule::Free,
+            constraint: None,
         }
     }
 
     /// A model with the aerofoil rule (one trailing-edge x for both surfaces with
     /// `shared_te`); the layout must have a C1 (or C0) break at 1/2 and degree 2 or more.
-    pub fn aerofoil(layout: SplineLayout, shared_te: bool) -> Result<Self> {
+    pub fn aerofoil(layout: ChainLayout, shared_te: bool) -> Result<Self> {
         let d = layout.degree();
         let le = layout.breaks().iter().position(|&b| b == LE_BREAK);
         match le {
@@ -64,29 +73,26 @@ impl Model {
             }
         }
         let rows = rule_rows(&layout);
+        let constraint = Some(rule_constraint(&rows, shared_te));
         Ok(Model {
             layout,
             rule: XRule::Aerofoil { rows, shared_te },
+            constraint,
         })
     }
 
     /// Number of x unknowns.
     pub fn x_unknowns(&self) -> usize {
         match &self.rule {
-            XRule::Free => self.layout.coeff_count(),
+            XRule::Free => self.layout.design_count(),
             XRule::Aerofoil { shared_te, .. } => 3 - usize::from(*shared_te),
         }
-    }
-
-    /// Number of unknowns: x unknowns then one y per design point.
-    pub fn unknowns(&self) -> usize {
-        self.x_unknowns() + self.layout.coeff_count()
     }
 
     /// The design points (B-spline coefficients) from the unknowns.
     pub fn coeffs(&self, z: &[f64]) -> Vec<DVec2> {
         let mx = self.x_unknowns();
-        let n = self.layout.coeff_count();
+        let n = self.layout.design_count();
         (0..n)
             .map(|i| {
                 let x = match &self.rule {
@@ -114,36 +120,42 @@ impl Model {
         z
     }
 
-    /// The x entries `(unknown, weight)` of a point with basis `value` from design `first`.
-    #[inline]
-    fn x_entries(&self, first: usize, value: &[f64], out: &mut [(usize, f64); MAX_SUPPORT]) -> usize {
-        let d = self.layout.degree();
-        match &self.rule {
-            XRule::Free => {
-                for a in 0..=d {
-                    out[a] = (first + a, value[a]);
-                }
-                d + 1
-            }
-            XRule::Aerofoil { rows: r, shared_te } => {
-                let mut g = [0.0; 3];
-                for a in 0..=d {
-                    for k in 0..3 {
-                        g[k] += value[a] * r[first + a][k];
-                    }
-                }
-                if *shared_te {
-                    out[0] = (0, g[0]);
-                    out[1] = (1, g[1] + g[2]);
-                    2
-                } else {
-                    for k in 0..3 {
-                        out[k] = (k, g[k]);
-                    }
-                    3
-                }
-            }
+    /// The aerofoil rule's numbers `θ` of design points that follow the model (`None` for
+    /// free x).
+    pub fn theta(&self, coeffs: &[DVec2]) -> Option<Vec<f64>> {
+        let z = self.constraint.as_ref()?.unknowns_of(coeffs)?;
+        Some(z[..self.x_unknowns()].to_vec())
+    }
+
+    /// The fitting problem of this model on `data` from `params`: the ends anchored at 0 and
+    /// 1, the rule a constraint on x. `None` when the data cannot determine the layout.
+    fn problem<'a>(&self, data: &Data<'a>, params: Vec<f64>) -> Option<FitProblem<'a, CurveShape<DVec2>, 1>> {
+        let extent = data
+            .points
+            .iter()
+            .fold(0.0_f64, |m, p| m.max(p.x.abs()).max(p.y.abs()));
+        let foot = FootOptions {
+            max_newton: FOOT_STEPS,
+            tolerance: FOOT_TOLERANCE * extent.max(f64::MIN_POSITIVE),
+            ..FootOptions::default()
+        };
+        let n = data.points.len();
+        let mut params: Vec<[f64; 1]> = params.into_iter().map(|t| [t.clamp(0.0, 1.0)]).collect();
+        params[0] = [0.0];
+        params[n - 1] = [1.0];
+        let problem = FitProblem::new(
+            CurveShape::new(self.layout.clone()),
+            data.points,
+            params,
+            Metric::Closest,
+            foot,
+        )
+        .ok()?;
+        let mut problem = problem.with_anchors(&[0, n - 1]).ok()?;
+        if let Some(c) = &self.constraint {
+            problem = problem.with_constraint(c.clone()).ok()?;
         }
+        Some(problem)
     }
 }
 
@@ -151,11 +163,11 @@ impl Model {
 /// B-spline coefficients of the rule's three piecewise quadratics, by blossoming (the
 /// coefficient of basis function `i` is the blossom of the polynomial piece at the knots
 /// `τ_{i+1} … τ_{i+d}`; the pieces agree wherever the window spans the leading edge).
-fn rule_rows(layout: &SplineLayout) -> Vec<[f64; 3]> {
+fn rule_rows(layout: &ChainLayout) -> Vec<[f64; 3]> {
     let d = layout.degree();
     let knots = layout.knots();
     let pairs = (d * (d - 1) / 2) as f64;
-    (0..layout.coeff_count())
+    (0..layout.design_count())
         .map(|i| {
             let args = &knots[i + 1..=i + d];
             // Blossom of 4 (t - 1/2)²: 4 Σ_{a<b} (x_a - 1/2)(x_b - 1/2) / C(d, 2).
@@ -173,14 +185,29 @@ fn rule_rows(layout: &SplineLayout) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// A fitted state of a model: unknowns, design points, one parameter and one distance per
-/// data point.
+/// The aerofoil rule as a constraint: x of design point `i` is `rows[i] · θ` (the two
+/// trailing-edge numbers one with `shared_te`), y free.
+fn rule_constraint(rows: &[[f64; 3]], shared_te: bool) -> Constraint {
+    let x = if shared_te {
+        CoordRule::linear(
+            rows.iter().map(|r| vec![(0, r[0]), (1, r[1] + r[2])]).collect(),
+            2,
+        )
+    } else {
+        CoordRule::linear(
+            rows.iter()
+                .map(|r| vec![(0, r[0]), (1, r[1]), (2, r[2])])
+                .collect(),
+            3,
+        )
+    };
+    Constraint::new(vec![x, CoordRule::free(rows.len())])
+}
+
+/// A fitted state of a model: design points, one parameter and one distance per data point.
 #[derive(Clone, Debug)]
 pub(crate) struct State {
-    pub z: Vec<f64>,
     pub coeffs: Vec<DVec2>,
-    /// The curve in Bezier form.
-    pub curve: BezierForm,
     pub params: Vec<f64>,
     /// Distance of each data point to the curve at its parameter (an upper bound of the true
     /// closest distance).
@@ -225,381 +252,148 @@ pub(crate) struct Data<'a> {
     pub points: &'a [DVec2],
 }
 
-impl Data<'_> {
-    fn anchored(&self, j: usize) -> bool {
-        j == 0 || j + 1 == self.points.len()
-    }
-}
+/// Newton steps of a point's local foot-point search.
+const FOOT_STEPS: usize = 16;
 
-/// A dense symmetric system `M z = v`, filled by weighted rank-one updates (lower triangle).
-struct Normal {
-    m: usize,
-    mat: Vec<f64>,
-    rhs: Vec<f64>,
-}
+/// The local foot-point search stops before a step that moves the foot by less than this
+/// fraction of the data's extent along the curve (`1e-10` of a unit chord: the distance it
+/// reports is then exact to `1e-20` over the curvature radius, and still a distance to a
+/// point of the curve).
+const FOOT_TOLERANCE: f64 = 1e-10;
 
-impl Normal {
-    fn new(m: usize) -> Self {
-        Normal {
-            m,
-            mat: vec![0.0; m * m],
-            rhs: vec![0.0; m],
-        }
-    }
-
-    /// Add `w (rᵀ z - target)²` for the sparse row `r` (indices ascending). Only the lower
-    /// triangle of `M` is kept: the solve reads nothing else.
-    #[inline]
-    fn add(&mut self, row: &[(usize, f64)], w: f64, target: f64) {
-        for (p, &(i, a)) in row.iter().enumerate() {
-            let wa = w * a;
-            self.rhs[i] += wa * target;
-            let line = &mut self.mat[i * self.m..i * self.m + i + 1];
-            for &(j, b) in &row[..=p] {
-                line[j] += wa * b;
-            }
-        }
-    }
-
-    /// Add `(A z - q)ᵀ W (A z - q)` for a point whose x is `xs · z` and y is `ys · z` (every
-    /// y index above every x index, each list ascending): `M += Aᵀ W A`, `v += Aᵀ W q`.
-    #[inline]
-    fn add_point(&mut self, xs: &[(usize, f64)], ys: &[(usize, f64)], w: [[f64; 2]; 2], q: DVec2) {
-        let g = DVec2::new(w[0][0] * q.x + w[0][1] * q.y, w[1][0] * q.x + w[1][1] * q.y);
-        let m = self.m;
-        for (p, &(i, a)) in xs.iter().enumerate() {
-            self.rhs[i] += a * g.x;
-            let line = &mut self.mat[i * m..i * m + i + 1];
-            let wa = w[0][0] * a;
-            for &(j, b) in &xs[..=p] {
-                line[j] += wa * b;
-            }
-        }
-        for (p, &(i, a)) in ys.iter().enumerate() {
-            self.rhs[i] += a * g.y;
-            let line = &mut self.mat[i * m..i * m + i + 1];
-            let wx = w[1][0] * a;
-            for &(j, b) in xs {
-                line[j] += wx * b;
-            }
-            let wy = w[1][1] * a;
-            for &(j, b) in &ys[..=p] {
-                line[j] += wy * b;
-            }
-        }
-    }
-
-    /// Add `lambda diag(M) (z - z0)²` (Marquardt's scaling; zero diagonals get the mean).
-    fn damp(&mut self, lambda: f64, z0: &[f64]) {
-        let m = self.m;
-        let mean = (0..m).map(|i| self.mat[i * m + i]).sum::<f64>() / m.max(1) as f64;
-        for i in 0..m {
-            let dg = self.mat[i * m + i];
-            let dg = if dg > 0.0 { dg } else { mean };
-            self.mat[i * m + i] += lambda * dg;
-            self.rhs[i] += lambda * dg * z0[i];
-        }
-    }
-
-    /// Solve by Cholesky; a singular system gets a small ridge towards `fallback`.
-    fn solve(mut self, fallback: &[f64]) -> Option<Vec<f64>> {
-        if let Some(z) = cholesky_solve(&self.mat, &self.rhs, self.m) {
-            return Some(z);
-        }
-        let scale = (0..self.m).map(|i| self.mat[i * self.m + i]).fold(0.0, f64::max);
-        let mu = 1e-10 * scale.max(f64::MIN_POSITIVE);
-        for i in 0..self.m {
-            self.mat[i * self.m + i] += mu;
-            self.rhs[i] += mu * fallback.get(i).copied().unwrap_or(0.0);
-        }
-        cholesky_solve(&self.mat, &self.rhs, self.m)
-    }
-}
-
-/// Solve the symmetric positive definite `a x = b` (`a` row-major `m x m`); `None` when not
-/// positive definite or the result is not finite.
-fn cholesky_solve(a: &[f64], b: &[f64], m: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0.0; m * m];
-    let scale = (0..m).map(|i| a[i * m + i].abs()).fold(0.0, f64::max);
-    if !(scale > 0.0) || !scale.is_finite() {
-        return None;
-    }
-    for i in 0..m {
-        for j in 0..=i {
-            let mut s = a[i * m + j];
-            for p in 0..j {
-                s -= l[i * m + p] * l[j * m + p];
-            }
-            if i == j {
-                if s <= 1e-15 * scale {
-                    return None;
-                }
-                l[i * m + i] = s.sqrt();
-            } else {
-                l[i * m + j] = s / l[j * m + j];
-            }
-        }
-    }
-    let mut y = vec![0.0; m];
-    for i in 0..m {
-        let mut s = b[i];
-        for p in 0..i {
-            s -= l[i * m + p] * y[p];
-        }
-        y[i] = s / l[i * m + i];
-    }
-    for i in (0..m).rev() {
-        let mut s = y[i];
-        for p in i + 1..m {
-            s -= l[p * m + i] * y[p];
-        }
-        y[i] = s / l[i * m + i];
-    }
-    y.iter().all(|v| v.is_finite()).then_some(y)
-}
-
-/// The local foot point of `q` from `t0`: Newton's method on the squared distance, clamped to
-/// `[0, 1]`, each step accepted only if the distance does not grow. Returns `(t, distance²)`.
-pub(crate) fn foot(curve: &BezierForm, q: DVec2, t0: f64) -> (f64, f64) {
-    let mut t = t0.clamp(0.0, 1.0);
-    let (mut p, mut d1, mut d2) = curve.jet(t);
-    let mut e = (p - q).length_squared();
-    for _ in 0..16 {
-        let r = p - q;
-        let f = r.dot(d1);
-        let gn = d1.length_squared();
-        let mut fp = gn + r.dot(d2);
-        if !(fp > 0.0) {
-            fp = gn;
-        }
-        if !(fp > 0.0) {
-            break;
-        }
-        let mut step = -f / fp;
-        // A step moving the point along the curve by less than this changes the distance by
-        // its square over the curvature radius: nothing.
-        if (step * step) * gn < 1e-20 * (1.0 + e) {
-            break;
-        }
-        let mut moved = false;
-        for _ in 0..6 {
-            let tn = (t + step).clamp(0.0, 1.0);
-            if tn == t {
-                break;
-            }
-            let (pn, d1n, d2n) = curve.jet(tn);
-            let en = (pn - q).length_squared();
-            if en <= e {
-                moved = (tn - t).abs() > 1e-14;
-                t = tn;
-                (p, d1, d2, e) = (pn, d1n, d2n, en);
-                break;
-            }
-            step *= 0.5;
-        }
-        if !moved {
-            break;
-        }
-    }
-    (t, e)
-}
-
-/// Project every parameter (but the anchored ends) to its local foot point; returns the
-/// distances.
-fn project(curve: &BezierForm, data: &Data<'_>, params: &mut [f64]) -> Vec<f64> {
-    let n = data.points.len();
-    let mut dist = vec![0.0; n];
-    for j in 0..n {
-        let q = data.points[j];
-        if data.anchored(j) {
-            params[j] = if j == 0 { 0.0 } else { 1.0 };
-            dist[j] = (curve.eval(params[j]) - q).length();
-        } else {
-            let (t, e) = foot(curve, q, params[j]);
-            params[j] = t;
-            dist[j] = e.sqrt();
-        }
-    }
-    dist
-}
-
-/// The linear least-squares design for fixed parameters (both coordinates' residuals).
-pub(crate) fn linear_fit(
-    model: &Model,
-    data: &Data<'_>,
-    params: &[f64],
-    weights: Option<&[f64]>,
-) -> Option<Vec<f64>> {
-    let mx = model.x_unknowns();
-    let mut normal = Normal::new(model.unknowns());
-    let mut xs = [(0usize, 0.0); MAX_SUPPORT];
-    let mut ys = [(0usize, 0.0); MAX_SUPPORT];
-    let d = model.layout.degree();
-    for (j, (&q, &t)) in data.points.iter().zip(params).enumerate() {
-        let (first, value) = model.layout.basis_values(t);
-        let w = weights.map_or(1.0, |w| w[j]);
-        let nx = model.x_entries(first, &value, &mut xs);
-        for a in 0..=d {
-            ys[a] = (mx + first + a, value[a]);
-        }
-        normal.add(&xs[..nx], w, q.x);
-        normal.add(&ys[..=d], w, q.y);
-    }
-    let centroid = data.points.iter().fold(DVec2::ZERO, |a, &p| a + p) / data.points.len() as f64;
-    let mut fallback = vec![centroid.x; mx];
-    fallback.extend(std::iter::repeat_n(centroid.y, model.layout.coeff_count()));
-    normal.solve(&fallback)
-}
-
-/// A state from unknowns and starting parameters, projected.
-pub(crate) fn state(model: &Model, data: &Data<'_>, z: Vec<f64>, mut params: Vec<f64>) -> State {
-    let coeffs = model.coeffs(&z);
-    let curve = BezierForm::new(&model.layout, &coeffs);
-    let dist = project(&curve, data, &mut params);
+/// A fitted state from a design and the parameters it was fitted with (anchored ends at 0
+/// and 1), the distances measured there.
+fn state_at(
+    problem: &FitProblem<'_, CurveShape<DVec2>, 1>,
+    coeffs: Vec<DVec2>,
+    params: Vec<[f64; 1]>,
+) -> State {
+    let dist = problem.distances(&coeffs, &params);
     State {
-        z,
         coeffs,
-        curve,
-        params,
+        params: params.iter().map(|t| t[0]).collect(),
         dist,
     }
 }
 
-/// Weight of the tangential residual beside the normal one in a Gauss-Newton step. The
-/// tangent-distance model alone lets the curve slide along itself for free and diverges;
-/// the tangential term (zero at the foot points, so it moves no fixed point) holds it.
-const TANGENT_WEIGHT: f64 = 0.0;
-
-/// One damped tangent-distance solve at `s`: the unknowns minimising the weighted squared
-/// distances of the points to their tangent lines, plus [`TANGENT_WEIGHT`] times the
-/// tangential residuals (anchored points and feet clamped at an end: their full residual),
-/// plus `lambda` times the Marquardt-scaled distance from the current unknowns.
-fn tdm_solve(model: &Model, data: &Data<'_>, s: &State, weights: &[f64], lambda: f64) -> Option<Vec<f64>> {
-    let layout = &model.layout;
-    let mx = model.x_unknowns();
-    let d = layout.degree();
-    let mut normal = Normal::new(model.unknowns());
-    let mut xs = [(0usize, 0.0); MAX_SUPPORT];
-    let mut ys = [(0usize, 0.0); MAX_SUPPORT];
-    for (j, &q) in data.points.iter().enumerate() {
-        let t = s.params[j];
-        let (first, value) = layout.basis_values(t);
-        let nx = model.x_entries(first, &value, &mut xs);
-        for a in 0..=d {
-            ys[a] = (mx + first + a, value[a]);
+/// A state from design points and starting parameters, every parameter (but the anchored
+/// ends) projected to its local foot point.
+pub(crate) fn state(model: &Model, data: &Data<'_>, coeffs: Vec<DVec2>, params: Vec<f64>) -> State {
+    let n = data.points.len();
+    let mut params: Vec<[f64; 1]> = params.into_iter().map(|t| [t.clamp(0.0, 1.0)]).collect();
+    params[0] = [0.0];
+    params[n - 1] = [1.0];
+    match model.problem(data, params.iter().map(|t| t[0]).collect()) {
+        Some(problem) => {
+            problem.project(&coeffs, &mut params);
+            state_at(&problem, coeffs, params)
         }
-        let w = weights[j];
-        let tangent = s.curve.tangent(t);
-        let end = t <= 0.0 || t >= 1.0;
-        // The point's 2 x 2 weight: w (n nᵀ + tw t tᵀ), or w I for its full residual.
-        let weight = if data.anchored(j) || end || tangent.length_squared() == 0.0 {
-            [[w, 0.0], [0.0, w]]
-        } else {
-            let tan = tangent.normalize();
-            let nrm = DVec2::new(-tan.y, tan.x);
-            let tw = TANGENT_WEIGHT.max(lambda / (1.0 + lambda));
-            let outer = |a: DVec2, b: DVec2| [[a.x * b.x, a.x * b.y], [a.y * b.x, a.y * b.y]];
-            let (n2, t2) = (outer(nrm, nrm), outer(tan, tan));
-            let mut m = [[0.0; 2]; 2];
-            for r in 0..2 {
-                for c in 0..2 {
-                    m[r][c] = w * (n2[r][c] + tw * t2[r][c]);
-                }
-            }
-            m
-        };
-        normal.add_point(&xs[..nx], &ys[..=d], weight, q);
+        None => State {
+            dist: vec![f64::INFINITY; n],
+            params: params.iter().map(|t| t[0]).collect(),
+            coeffs,
+        },
     }
-    if lambda > 0.0 {
-        normal.damp(lambda, &s.z);
-    }
-    normal.solve(&s.z)
 }
 
-fn weighted_sq(s: &State, w: &[f64]) -> f64 {
-    s.dist.iter().zip(w).map(|(d, w)| w * d * d).sum()
-}
-
-/// Damped Gauss-Newton (Levenberg-Marquardt) on the weighted sum of squared distances from
-/// `s`; each trial is judged by its projected distances.
-fn descend(model: &Model, data: &Data<'_>, mut s: State, weights: &[f64], effort: &Effort) -> State {
-    let mut obj = weighted_sq(&s, weights);
-    let mut lambda = 0.1;
-    let mut tries = 0;
-    let mut iterations = 0;
-    let mut maxes = vec![s.max()];
-    while iterations < effort.iterations && tries < 3 * effort.iterations {
-        tries += 1;
-        let Some(z) = tdm_solve(model, data, &s, weights, lambda) else {
-            lambda *= 10.0;
-            if lambda > 1e8 {
-                break;
-            }
-            continue;
-        };
-        let trial = state(model, data, z, s.params.clone());
-        let o = weighted_sq(&trial, weights);
-        if o < obj {
-            iterations += 1;
-            let gain = (obj - o) / obj.max(f64::MIN_POSITIVE);
-            s = trial;
-            obj = o;
-            lambda = (lambda / 4.0).max(1e-12);
-            // Far from the caller's tolerance and no longer converging fast: not worth more.
-            if gain < effort.ftol {
-                break;
-            }
-            // Give up when, at the rate of the last iteration, the remaining ones would not
-            // bring the largest distance (about the square root of the sum) to the target.
-            if iterations >= effort.give_up_after && effort.give_up.is_finite() {
-                let rest = effort.iterations.saturating_sub(iterations) as f64;
-                if s.max() * (1.0 - gain).max(0.0).powf(0.5 * rest) > effort.give_up {
-                    break;
-                }
-            }
-            maxes.push(s.max());
-            let k = effort.max_stall;
-            if k > 0 && maxes.len() > k && maxes[maxes.len() - 1] > 0.99 * maxes[maxes.len() - 1 - k] {
-                break;
-            }
-        } else {
-            lambda *= 8.0;
-            if lambda > 1e8 {
-                break;
+/// Least squares on `problem` from `start` under `effort` (its iteration, gain, give-up and
+/// stall limits, judged on accepted steps as an observer of [`lsq`]).
+fn descend(
+    problem: &FitProblem<'_, CurveShape<DVec2>, 1>,
+    start: Start<DVec2, 1>,
+    effort: &Effort,
+) -> Option<State> {
+    let opts = LsqOptions {
+        // Steps tried, accepted or not: the effort counts accepted ones.
+        max_iterations: 3 * effort.iterations,
+        initial_damping: INITIAL_DAMPING,
+        global_checks: 0,
+        // The effort's tests below replace the windowed decrease test.
+        window: usize::MAX,
+        // Any decrease is taken, and the damping follows it quickly: the fits are short.
+        accept_ratio: 0.0,
+        damping_factors: Some([4.0, 8.0]),
+        damping_scale: DampingScale::Reduced,
+        ..LsqOptions::default()
+    };
+    let (mut obj, mut accepted) = (f64::INFINITY, 0);
+    let mut maxes: Vec<f64> = Vec::new();
+    let mut observe = |it: &LsqIterate, _: &[DVec2], _: &[[f64; 1]]| {
+        if it.iteration == 0 {
+            obj = it.sum_sq;
+            maxes.push(it.max);
+            return true;
+        }
+        if !it.accepted {
+            return true;
+        }
+        accepted += 1;
+        let gain = (obj - it.sum_sq) / obj.max(f64::MIN_POSITIVE);
+        obj = it.sum_sq;
+        // Far from the caller's tolerance and no longer converging fast: not worth more.
+        if gain < effort.ftol || accepted >= effort.iterations {
+            return false;
+        }
+        // Give up when, at the rate of the last iteration, the remaining ones would not
+        // bring the largest distance (about the square root of the sum) to the target.
+        if accepted >= effort.give_up_after && effort.give_up.is_finite() {
+            let rest = effort.iterations.saturating_sub(accepted) as f64;
+            if it.max * (1.0 - gain).max(0.0).powf(0.5 * rest) > effort.give_up {
+                return false;
             }
         }
-    }
-    s
+        maxes.push(it.max);
+        let k = effort.max_stall;
+        !(k > 0 && maxes.len() > k && maxes[maxes.len() - 1] > 0.99 * maxes[maxes.len() - 1 - k])
+    };
+    let hooks = LsqHooks {
+        guard: None,
+        observe: Some(&mut observe),
+    };
+    let fit = lsq(problem, &[start], &opts, hooks).ok()?.pop()?;
+    Some(state_at(problem, fit.design, fit.params))
 }
 
-/// Fit `model` from unknowns `z` (or, when `None`, the linear fit at `params`) and starting
-/// parameters: Gauss-Newton on the sum of squares, then the minimax polish if asked, keeping
-/// whichever state has the smaller largest distance.
+/// The damping the fits start with, relative to the diagonal of the normal equations: the
+/// search's fits are warm-started close to their optimum, so bold first steps pay.
+const INITIAL_DAMPING: f64 = 0.1;
+
+/// Fit `model` from design points `start` (or, when `None`, the linear fit at `params`) and
+/// starting parameters: least squares on the sum of squares, then the minimax polish if
+/// asked.
 pub(crate) fn fit(
     model: &Model,
     data: &Data<'_>,
-    z: Option<Vec<f64>>,
+    start: Option<Vec<DVec2>>,
     params: Vec<f64>,
     effort: &Effort,
 ) -> Option<State> {
-    let z = match z {
-        Some(z) => z,
-        None => linear_fit(model, data, &params, None)?,
+    let mut problem = model.problem(data, params)?;
+    let params = problem.params().to_vec();
+    let start = match start {
+        Some(coeffs) => Start::Design(coeffs, params),
+        None => Start::Params(params),
     };
-    let s = state(model, data, z, params);
-    let ones = vec![1.0; data.points.len()];
-    let s = descend(model, data, s, &ones, effort);
+    let s = descend(&problem, start, effort)?;
     if effort.minimax == 0 {
         return Some(s);
     }
-    Some(minimax(model, data, s, effort))
+    Some(lawson(&mut problem, s, effort))
+}
+
+/// Lawson's iteration towards the minimax fit, from `s`: see [`minimax`].
+pub(crate) fn minimax(model: &Model, data: &Data<'_>, s: State, effort: &Effort) -> State {
+    match model.problem(data, s.params.clone()) {
+        Some(mut problem) => lawson(&mut problem, s, effort),
+        None => s,
+    }
 }
 
 /// Lawson's iteration towards the minimax fit: each round multiplies every point's weight by
-/// its distance (normalised, floored at `1e-6` of the largest) and takes one Gauss-Newton
-/// step; the state with the smallest largest distance is kept.
-pub(crate) fn minimax(model: &Model, data: &Data<'_>, s: State, effort: &Effort) -> State {
-    let n = data.points.len();
+/// its distance (normalised, floored at `1e-6` of the largest) and takes one least-squares
+/// step with those weights; the state with the smallest largest distance is kept.
+fn lawson(problem: &mut FitProblem<'_, CurveShape<DVec2>, 1>, s: State, effort: &Effort) -> State {
+    let n = s.dist.len();
     let mut w = vec![1.0 / n as f64; n];
     let mut best = s.clone();
     let mut cur = s;
@@ -620,7 +414,14 @@ pub(crate) fn minimax(model: &Model, data: &Data<'_>, s: State, effort: &Effort)
         for wj in &mut w {
             *wj = (*wj / total).max(1e-6 * top);
         }
-        cur = descend(model, data, cur, &w, &one);
+        if problem.set_weights(Some(w.clone())).is_err() {
+            break;
+        }
+        let start = Start::Feet(cur.coeffs.clone(), cur.params.iter().map(|&t| [t]).collect());
+        match descend(problem, start, &one) {
+            Some(next) => cur = next,
+            None => break,
+        }
         if cur.max() < best.max() {
             best = cur.clone();
         }
@@ -655,10 +456,10 @@ mod tests {
                 1 => vec![0.0, 0.5, 1.0],
                 _ => vec![0.0, 0.2, 0.5, 0.9, 1.0],
             };
-            let l = SplineLayout::new(d, breaks, orders).unwrap();
+            let l = ChainLayout::with_orders(d, breaks, orders).unwrap();
             let m = Model::aerofoil(l.clone(), false).unwrap();
             let theta = [0.01, 1.02, 0.98];
-            let z = m.unknowns_of(&vec![DVec2::ZERO; l.coeff_count()], Some(&theta));
+            let z = m.unknowns_of(&vec![DVec2::ZERO; l.design_count()], Some(&theta));
             let c = m.coeffs(&z);
             for i in 0..=200 {
                 let t = i as f64 / 200.0;
@@ -671,16 +472,16 @@ mod tests {
                 assert!((x - expect).abs() < 1e-14, "d={d} t={t}: {x} vs {expect}");
             }
         }
-        let no_le = SplineLayout::with_order(3, vec![0.0, 0.4, 1.0], 1).unwrap();
+        let no_le = ChainLayout::with_order(3, vec![0.0, 0.4, 1.0], 1).unwrap();
         assert!(Model::aerofoil(no_le, false).is_err());
-        let c2_le = SplineLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
+        let c2_le = ChainLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
         assert!(Model::aerofoil(c2_le, true).is_err());
     }
 
     #[test]
     fn recovers_a_curve_sampled_off_its_parameters() {
-        let l = SplineLayout::new(4, vec![0.0, 0.35, 0.6, 1.0], vec![3, 1]).unwrap();
-        let truth: Vec<DVec2> = (0..l.coeff_count())
+        let l = ChainLayout::with_orders(4, vec![0.0, 0.35, 0.6, 1.0], vec![3, 1]).unwrap();
+        let truth: Vec<DVec2> = (0..l.design_count())
             .map(|i| DVec2::new(i as f64 * 0.2, 0.3 * (1.3 * i as f64).sin()))
             .collect();
         let pts: Vec<DVec2> = (0..150)
@@ -695,7 +496,7 @@ mod tests {
 
     #[test]
     fn minimax_lowers_the_largest_distance() {
-        let l = SplineLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
+        let l = ChainLayout::with_order(3, vec![0.0, 0.5, 1.0], 2).unwrap();
         let pts: Vec<DVec2> = (0..120)
             .map(|i| {
                 let a = i as f64 / 119.0 * 3.0;

@@ -1,13 +1,12 @@
 //! The adaptive parameterisation of the paper's Figs. 7 and 8: the chain with the fewest
 //! stored scalars whose offsets from the data meet a tolerance.
 //!
-//! - [`spline`]: [`SplineLayout`], a chain whose joins may be smoother than C1 (a B-spline),
-//!   with knot insertion and Bezier extraction.
 //! - [`encoding`]: [`Encoding`], exactly the numbers an adapted curve stores, how they are
 //!   counted, and the control points regenerated from them.
 //! - `engine`: the fast warm-started closest-point fit the search runs on every candidate.
 //! - `search`: growth by splitting, reduction, break tuning, the parallel outer search.
-//! - [`report`]: the JSON reports, DESIGN.md §4's curve and surface reports with an `adapt` block.
+//! - [`report`]: the JSON reports: the curve and surface reports with an `adapt` block
+//!   (`docs/ARCHITECTURE.md` §5.6, §5.7).
 //! - [`surface`]: [`adapt_surface`], the same search for patch grids fitted to sectioned clouds.
 //!
 //! The search runs *families* in parallel (Fig. 8): a degree, a continuity of the joins
@@ -34,18 +33,17 @@ pub mod encoding;
 mod engine;
 pub mod report;
 mod search;
-pub mod spline;
 pub mod surface;
 
+pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
 pub use report::{AdaptBlock, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
-pub use spline::{SplineLayout, MAX_DEGREE};
 pub use surface::{
     adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, SpanRule, SurfaceAdaptOptions,
     SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 
-use crate::chain::{ChainLayout, Continuity, CurveChain};
+use crate::chain::CurveChain;
 use crate::error::{Error, Result};
 use crate::fit::{chord_length_params, offset_stats, OffsetStats};
 use glam::DVec2;
@@ -427,31 +425,7 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
 /// The chain of an encoding as a C1 chain of its degree and breaks, from the encoding's
 /// control points alone.
 pub fn chain_of(encoding: &Encoding) -> Result<CurveChain<DVec2>> {
-    let ctrl = encoding.control_points()?;
-    let layout = encoding.layout()?;
-    let d = layout.degree();
-    let c1 = ChainLayout::with_breaks(d, layout.breaks().to_vec(), Continuity::C1)?;
-    let s = c1.segments();
-    // C1 design points: the control points without the generated joins.
-    let design: Vec<DVec2> = ctrl
-        .iter()
-        .enumerate()
-        .filter(|(r, _)| !(r % d == 0 && *r != 0 && *r != s * d))
-        .map(|(_, &p)| p)
-        .collect();
-    let chain = CurveChain::new(c1, design)?;
-    let scale = ctrl.iter().fold(1.0_f64, |m, p| m.max(p.abs().max_element()));
-    if chain
-        .ctrl()
-        .iter()
-        .zip(&ctrl)
-        .any(|(a, b)| (*a - *b).abs().max_element() > 1e-9 * scale)
-    {
-        return Err(Error::Numerical(
-            "the adapted spline's joins are not C1 (internal inconsistency)".into(),
-        ));
-    }
-    Ok(chain)
+    CurveChain::new(encoding.layout()?, encoding.coeffs()?)?.to_c1()
 }
 
 /// Refit the winning model on every other point (both ends kept) and measure the others.
@@ -462,7 +436,7 @@ fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Optio
         keep.push(n - 1);
     }
     let rest: Vec<usize> = (0..n).filter(|j| !keep.contains(j)).collect();
-    if rest.is_empty() || keep.len() < best.model.layout.coeff_count() + 2 {
+    if rest.is_empty() || keep.len() < best.model.layout.design_count() + 2 {
         return None;
     }
     let sub: Vec<DVec2> = keep.iter().map(|&j| points[j]).collect();
@@ -480,7 +454,13 @@ fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Optio
         give_up_after: 0,
         max_stall: 0,
     };
-    let state = engine::fit(&best.model, &data, Some(best.state.z.clone()), params, &effort)?;
+    let state = engine::fit(
+        &best.model,
+        &data,
+        Some(best.state.coeffs.clone()),
+        params,
+        &effort,
+    )?;
     let chain = chain_of(
         &search::Cand {
             state,

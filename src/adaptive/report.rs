@@ -1,7 +1,8 @@
-//! The JSON report of an adapted curve: the fit report of DESIGN.md §4 (its keys intact)
+//! The JSON report of an adapted curve: the curve report (its keys intact)
 //! with an `adapt` block: the stored scalars, how they are counted, the stored numbers
 //! themselves, the held-out check and a summary of the search; and the same for an adapted
-//! patch grid (DESIGN.md §4's surface report with an `adapt` block).
+//! patch grid (the surface report with an `adapt` block). Formats: `docs/ARCHITECTURE.md`
+//! §5.6 and §5.7.
 
 use super::encoding::{Encoding, ScalarCount};
 use super::surface::{
@@ -52,7 +53,7 @@ pub struct AdaptBlock {
 /// A curve report with the adapt block.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AdaptReport {
-    /// The fit report of DESIGN.md §4.
+    /// The curve report (`docs/ARCHITECTURE.md` §5.4).
     #[serde(flatten)]
     pub curve: CurveReport,
     /// The adaptive search's block.
@@ -140,7 +141,7 @@ pub struct SurfaceAdaptBlock {
     pub search: Vec<SurfaceFamilyTrace>,
 }
 
-/// A surface report (DESIGN.md §4) with the adapt block.
+/// A surface report (`docs/ARCHITECTURE.md` §5.5) with the adapt block (§5.7).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SurfaceAdaptReport {
     /// The surface fit report.

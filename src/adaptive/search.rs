@@ -6,8 +6,8 @@
 
 use super::encoding::{per_side_breaks, Breaks, Encoding, XStore};
 use super::engine::{self, Data, Effort, Model, State, XRule, LE_BREAK};
-use super::spline::SplineLayout;
 use super::{AdaptOptions, FamilyTrace, Norm};
+use crate::chain::ChainLayout;
 use glam::DVec2;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -104,7 +104,7 @@ impl Family {
     /// The model of this family over `breaks` at `degree`.
     fn model(&self, degree: usize, breaks: Vec<f64>) -> Option<Model> {
         let orders = self.orders(degree, &breaks);
-        let layout = SplineLayout::new(degree, breaks, orders).ok()?;
+        let layout = ChainLayout::with_orders(degree, breaks, orders).ok()?;
         if self.aerofoil {
             Model::aerofoil(layout, self.shared_te).ok()
         } else {
@@ -113,8 +113,8 @@ impl Family {
     }
 
     /// Stored scalars of a layout of this family.
-    fn count(&self, layout: &SplineLayout) -> usize {
-        let n = layout.coeff_count();
+    fn count(&self, layout: &ChainLayout) -> usize {
+        let n = layout.design_count();
         let stored_breaks = match self.breaks {
             BreakKind::Uniform => 0,
             BreakKind::Stored => layout.segments() - 1 - usize::from(self.aerofoil),
@@ -169,7 +169,9 @@ impl Cand {
         };
         let x = match self.model.rule {
             XRule::Free => XStore::Free(self.state.coeffs.iter().map(|p| p.x).collect()),
-            XRule::Aerofoil { .. } => XStore::AerofoilRule(self.state.z[..self.model.x_unknowns()].to_vec()),
+            XRule::Aerofoil { .. } => {
+                XStore::AerofoilRule(self.model.theta(&self.state.coeffs).unwrap_or_default())
+            }
         };
         Encoding {
             degree: layout.degree(),
@@ -280,7 +282,7 @@ impl<'a> Search<'a> {
         &self,
         fam: Family,
         model: Model,
-        z: Option<Vec<f64>>,
+        start: Option<Vec<DVec2>>,
         params: Vec<f64>,
         effort: &Effort,
     ) -> Option<Cand> {
@@ -305,8 +307,8 @@ impl<'a> Search<'a> {
             max_stall: if fam.aerofoil { effort.max_stall } else { 0 },
             ..*effort
         };
-        let state = engine::fit(&model, &self.data, z, params, &effort)?;
-        if !state.z.iter().all(|v| v.is_finite()) {
+        let state = engine::fit(&model, &self.data, start, params, &effort)?;
+        if !state.coeffs.iter().all(|v| v.is_finite()) {
             return None;
         }
         let count = fam.count(&model.layout);
@@ -338,7 +340,7 @@ impl<'a> Search<'a> {
         if let Some(state) = engine::fit(
             &c.model,
             &self.data,
-            Some(c.state.z.clone()),
+            Some(c.state.coeffs.clone()),
             c.state.params.clone(),
             &full,
         ) {
@@ -499,7 +501,7 @@ impl<'a> Search<'a> {
     pub fn continue_from(&self, cand: &Cand, params: Vec<f64>, max_steps: usize) -> Option<(Cand, bool)> {
         // The candidate as it is, measured on these data: often the tolerance already holds.
         let same = Cand {
-            state: engine::state(&cand.model, &self.data, cand.state.z.clone(), params.clone()),
+            state: engine::state(&cand.model, &self.data, cand.state.coeffs.clone(), params.clone()),
             ..cand.clone()
         };
         if self.measure(&same.state) <= self.tol {
@@ -508,7 +510,7 @@ impl<'a> Search<'a> {
         let c = self.fit(
             cand.fam,
             cand.model.clone(),
-            Some(cand.state.z.clone()),
+            Some(cand.state.coeffs.clone()),
             params,
             &GROW,
         )?;
@@ -572,7 +574,7 @@ impl<'a> Search<'a> {
 
     /// True when `model` has more design points or stored scalars than the data allow.
     fn over_limit(&self, fam: Family, model: &Model) -> bool {
-        model.layout.coeff_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
+        model.layout.design_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
     }
 
     /// The first fit of a family. Its layout (one segment, or one per aerofoil surface) has no
@@ -659,7 +661,7 @@ impl<'a> Search<'a> {
         let layout = &c.model.layout;
         let mut err = vec![0.0_f64; layout.segments()];
         for (&t, &d) in c.state.params.iter().zip(&c.state.dist) {
-            let k = layout.segment_of(t);
+            let k = layout.locate(t).0;
             err[k] = err[k].max(d);
         }
         err
@@ -670,7 +672,7 @@ impl<'a> Search<'a> {
     /// the tolerance so is every segment within half the worst (the exact splits are the
     /// warm start). Uniform breaks: one equal segment more on the worse surface, or half as
     /// many again while far above the tolerance.
-    fn grow(&self, c: &Cand) -> Option<(Model, Option<Vec<f64>>)> {
+    fn grow(&self, c: &Cand) -> Option<(Model, Option<Vec<DVec2>>)> {
         let fam = c.fam;
         let layout = &c.model.layout;
         let d = layout.degree();
@@ -696,9 +698,7 @@ impl<'a> Search<'a> {
                     XRule::Free => Model::free(l2),
                     XRule::Aerofoil { shared_te, .. } => Model::aerofoil(l2, *shared_te).ok()?,
                 };
-                let theta = &c.state.z[..c.model.x_unknowns()];
-                let z = model.unknowns_of(&c2, fam.aerofoil.then_some(theta));
-                Some((model, Some(z)))
+                Some((model, Some(c2)))
             }
             BreakKind::Uniform => {
                 let more = |s: usize, e: f64| if e > far { s + (s / 2).max(1) } else { s + 1 };

@@ -2,7 +2,7 @@
 //! from a sectioned 3D cloud meet a tolerance (the paper's Fig. 8 for surfaces).
 //!
 //! The cloud is a grid of sections (a blade's stations: `section,index` columns). Each
-//! direction of the tensor-product spline has its own [`SplineLayout`]: u around the sections,
+//! direction of the tensor-product spline has its own [`ChainLayout`]: u around the sections,
 //! v along the span. The section `k` sits at span parameter `v_k`; every data point has its own
 //! `u`. A candidate is fitted by alternating a linear least-squares solve for the design net
 //! (all points at their `(u, v_k)`) with a Newton correction of each point's `u` on the section
@@ -36,11 +36,11 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::encoding::Breaks;
-use super::spline::{SplineLayout, MAX_SUPPORT};
 use super::{HeldOut, Norm};
-use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
+use crate::chain::MAX_SUPPORT;
+use crate::chain::{ChainLayout, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-pub use crate::fit::surface_breaks::sampled_offsets;
+pub use crate::fit::checker::sampled_offsets;
 use crate::fit::{shape_offsets, FootOptions, GridShape, Metric, OffsetStats};
 use crate::geometry::Grid;
 use glam::DVec3;
@@ -164,43 +164,12 @@ fn stored_breaks(b: &Breaks) -> usize {
     }
 }
 
-/// Greville abscissae of a layout's coefficients: the coefficients of the function `t`.
-fn greville(l: &SplineLayout) -> Vec<f64> {
-    let d = l.degree();
-    let k = l.knots();
-    (0..l.coeff_count())
-        .map(|j| k[j + 1..=j + d].iter().sum::<f64>() / d as f64)
-        .collect()
-}
-
-/// `layout`'s Bezier form of every row, then of every column: the expanded control net.
-fn expand_net(lu: &SplineLayout, lv: &SplineLayout, design: &[DVec3]) -> (Vec<DVec3>, usize, usize) {
-    let (nu, nv) = (lu.coeff_count(), lv.coeff_count());
-    let rows: Vec<Vec<DVec3>> = (0..nu)
-        .map(|i| lv.bezier(&design[i * nv..(i + 1) * nv]))
-        .collect();
-    let mv = rows[0].len();
-    let mut cols: Vec<Vec<DVec3>> = Vec::with_capacity(mv);
-    for j in 0..mv {
-        let col: Vec<DVec3> = rows.iter().map(|r| r[j]).collect();
-        cols.push(lu.bezier(&col));
-    }
-    let mu = cols[0].len();
-    let mut net = vec![DVec3::ZERO; mu * mv];
-    for j in 0..mv {
-        for i in 0..mu {
-            net[i * mv + j] = cols[j][i];
-        }
-    }
-    (net, mu, mv)
-}
-
 impl SurfaceEncoding {
     /// The two spline layouts.
-    pub fn layouts(&self) -> Result<(SplineLayout, SplineLayout)> {
+    pub fn layouts(&self) -> Result<(ChainLayout, ChainLayout)> {
         Ok((
-            SplineLayout::new(self.degree[0], break_list(&self.breaks_u)?, self.joins_u.clone())?,
-            SplineLayout::new(self.degree[1], break_list(&self.breaks_v)?, self.joins_v.clone())?,
+            ChainLayout::with_orders(self.degree[0], break_list(&self.breaks_u)?, self.joins_u.clone())?,
+            ChainLayout::with_orders(self.degree[1], break_list(&self.breaks_v)?, self.joins_v.clone())?,
         ))
     }
 
@@ -220,7 +189,7 @@ impl SurfaceEncoding {
     /// The design net (B-spline coefficients, row-major, rows along u) from the stored numbers.
     pub fn design(&self) -> Result<Vec<DVec3>> {
         let (lu, lv) = self.layouts()?;
-        let (nu, nv) = (lu.coeff_count(), lv.coeff_count());
+        let (nu, nv) = (lu.design_count(), lv.design_count());
         let per = if self.span_rule.is_some() { 2 } else { 3 };
         if self.coords.len() != nu * nv * per {
             return Err(Error::invalid(format!(
@@ -228,7 +197,7 @@ impl SurfaceEncoding {
                 self.coords.len()
             )));
         }
-        let g = greville(&lv);
+        let g = lv.greville();
         let mut out = Vec::with_capacity(nu * nv);
         for i in 0..nu {
             for j in 0..nv {
@@ -261,33 +230,7 @@ impl SurfaceEncoding {
     /// are generated points too; the expanded control net is the same).
     pub fn grid(&self) -> Result<PatchGrid<DVec3>> {
         let (lu, lv) = self.layouts()?;
-        let design = self.design()?;
-        let (net, mu, mv) = expand_net(&lu, &lv, &design);
-        let (du, dv) = (lu.degree(), lv.degree());
-        let keep_u: Vec<usize> = (0..mu)
-            .filter(|&r| r == 0 || r == mu - 1 || r % du != 0)
-            .collect();
-        let keep_v: Vec<usize> = (0..mv)
-            .filter(|&c| c == 0 || c == mv - 1 || c % dv != 0)
-            .collect();
-        let c1_design: Vec<DVec3> = keep_u
-            .iter()
-            .flat_map(|&r| keep_v.iter().map(move |&c| (r, c)))
-            .map(|(r, c)| net[r * mv + c])
-            .collect();
-        let layout = GridLayout::new(
-            ChainLayout::with_breaks(du, lu.breaks().to_vec(), Continuity::C1)?,
-            ChainLayout::with_breaks(dv, lv.breaks().to_vec(), Continuity::C1)?,
-        );
-        let grid = PatchGrid::new(layout, c1_design)?;
-        debug_assert!(
-            grid.net()
-                .iter()
-                .zip(&net)
-                .all(|(a, b)| (*a - *b).length() <= 1e-9 * (1.0 + b.length())),
-            "the C1 view of the grid regenerates its control net"
-        );
-        Ok(grid)
+        PatchGrid::new(GridLayout::new(lu, lv), self.design()?)?.to_c1()
     }
 }
 
@@ -472,8 +415,8 @@ struct Fitted {
 /// The fitting engine of one layout pair.
 struct Fitter<'d, 'a> {
     data: &'d Data<'a>,
-    lu: SplineLayout,
-    lv: SplineLayout,
+    lu: ChainLayout,
+    lv: ChainLayout,
     /// The v basis of every section.
     vb: Vec<(usize, [f64; MAX_SUPPORT])>,
     /// Span coordinate of every design column under the span rule.
@@ -483,10 +426,17 @@ struct Fitter<'d, 'a> {
 }
 
 impl<'d, 'a> Fitter<'d, 'a> {
-    fn new(data: &'d Data<'a>, lu: SplineLayout, lv: SplineLayout) -> Self {
-        let vb = data.v.iter().map(|&v| lv.basis_values(v)).collect();
+    fn new(data: &'d Data<'a>, lu: ChainLayout, lv: ChainLayout) -> Self {
+        let vb = data
+            .v
+            .iter()
+            .map(|&v| {
+                let b = lv.basis(v, 0);
+                (b.first, b.value)
+            })
+            .collect();
         let span_col = data.span.map(|r| {
-            greville(&lv)
+            lv.greville()
                 .iter()
                 .map(|g| r.ends[0] + g * (r.ends[1] - r.ends[0]))
                 .collect()
@@ -503,7 +453,7 @@ impl<'d, 'a> Fitter<'d, 'a> {
 
     /// Weighted least squares for the design net at fixed parameters.
     fn solve(&self, u: &[f64], w: &[f64]) -> Option<Vec<DVec3>> {
-        let (nu, nv) = (self.lu.coeff_count(), self.lv.coeff_count());
+        let (nu, nv) = (self.lu.design_count(), self.lv.design_count());
         let n = nu * nv;
         let na = self.data.axes.len();
         let (du, dv) = (self.lu.degree(), self.lv.degree());
@@ -517,7 +467,8 @@ impl<'d, 'a> Fitter<'d, 'a> {
                 if !self.active[p] {
                     continue;
                 }
-                let (fu, bu) = self.lu.basis_values(u[p]);
+                let b = self.lu.basis(u[p], 0);
+                let (fu, bu) = (b.first, b.value);
                 let mut len = 0;
                 for a in 0..=du {
                     for b in 0..=dv {
@@ -563,7 +514,7 @@ impl<'d, 'a> Fitter<'d, 'a> {
 
     /// The coefficients of section `k`'s curve `S(·, v_k)`.
     fn section_curve(&self, design: &[DVec3], k: usize) -> Vec<DVec3> {
-        let (nu, nv) = (self.lu.coeff_count(), self.lv.coeff_count());
+        let (nu, nv) = (self.lu.design_count(), self.lv.design_count());
         let (fv, bv) = self.vb[k];
         (0..nu)
             .map(|i| {
@@ -581,7 +532,7 @@ impl<'d, 'a> Fitter<'d, 'a> {
         for k in 0..self.data.sections {
             let c = self.section_curve(design, k);
             let eval = |t: f64| {
-                let b = self.lu.basis(t);
+                let b = self.lu.basis(t, 2);
                 let mut p = [DVec3::ZERO; 3];
                 for a in 0..=d {
                     let q = c[b.first + a];
@@ -757,8 +708,8 @@ impl Family {
         )
     }
 
-    fn layout(&self, degree: usize, order: usize, breaks: &[f64]) -> Option<SplineLayout> {
-        SplineLayout::with_order(degree, breaks.to_vec(), order).ok()
+    fn layout(&self, degree: usize, order: usize, breaks: &[f64]) -> Option<ChainLayout> {
+        ChainLayout::with_order(degree, breaks.to_vec(), order).ok()
     }
 }
 
@@ -793,13 +744,13 @@ impl<'d, 'a> Search<'d, 'a> {
         let per = self.data.axes.len();
         let rule = if self.data.span.is_some() { 2 } else { 0 };
         let breaks = |b: &[f64]| if is_uniform(b) { 0 } else { b.len() - 2 };
-        Some(lu.coeff_count() * lv.coeff_count() * per + rule + breaks(bu) + breaks(bv))
+        Some(lu.design_count() * lv.design_count() * per + rule + breaks(bu) + breaks(bv))
     }
 
     fn fit(&self, count: &mut usize, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
         let lu = fam.layout(fam.du, fam.ou, bu)?;
         let lv = fam.layout(fam.dv, fam.ov, bv)?;
-        if lu.coeff_count() > self.limit_u || lv.coeff_count() > self.data.sections {
+        if lu.design_count() > self.limit_u || lv.design_count() > self.data.sections {
             return None;
         }
         let scalars = self.scalars(fam, bu, bv)?;
@@ -1285,12 +1236,13 @@ mod tests {
         let (lu, lv) = enc.layouts().unwrap();
         let design = enc.design().unwrap();
         let grid = enc.grid().unwrap();
-        let nv = lv.coeff_count();
+        let nv = lv.design_count();
         for i in 0..=15 {
             for j in 0..=15 {
                 let (u, v) = (i as f64 / 15.0, j as f64 / 15.0);
-                let (fu, bu) = lu.basis_values(u);
-                let (fv, bv) = lv.basis_values(v);
+                let (bu, bv) = (lu.basis(u, 0), lv.basis(v, 0));
+                let (fu, fv) = (bu.first, bv.first);
+                let (bu, bv) = (bu.value, bv.value);
                 let mut p = DVec3::ZERO;
                 for a in 0..=4 {
                     for b in 0..=3 {

@@ -10,15 +10,6 @@ pub struct BezierCurve<P: Vector> {
     pub ctrl: Vec<P>,
 }
 
-/// The closest point of a curve to a query point.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Nearest {
-    /// Parameter of the foot point.
-    pub u: f64,
-    /// Squared distance from the query to the foot point.
-    pub distance_sq: f64,
-}
-
 impl<P: Vector> BezierCurve<P> {
     /// A curve from its control points (at least one).
     #[must_use]
@@ -130,53 +121,6 @@ impl<P: Vector> BezierCurve<P> {
         out.push(self.ctrl[n]);
         BezierCurve::new(out)
     }
-
-    /// The closest point to `q` on the curve, `u` clamped to `[0, 1]`.
-    ///
-    /// Samples the curve at `samples + 1` parameters, then refines the best sample by Newton
-    /// steps on `(P(u) - q) . P'(u) = 0` kept inside the bracket of its neighbours, until the
-    /// parameter step is below `1e-14` (the result is exact to rounding for smooth curves whose
-    /// closest point is isolated).
-    #[must_use]
-    pub fn nearest(&self, q: P, samples: usize) -> Nearest {
-        let samples = samples.max(1);
-        let mut best = Nearest {
-            u: 0.0,
-            distance_sq: f64::INFINITY,
-        };
-        for i in 0..=samples {
-            let u = i as f64 / samples as f64;
-            let e = (self.eval(u) - q).length_squared();
-            if e < best.distance_sq {
-                best = Nearest { u, distance_sq: e };
-            }
-        }
-        let h = 1.0 / samples as f64;
-        let (lo, hi) = ((best.u - h).max(0.0), (best.u + h).min(1.0));
-        let d1 = self.deriv();
-        let d2 = d1.deriv();
-        let mut u = best.u;
-        for _ in 0..50 {
-            let r = self.eval(u) - q;
-            let t = d1.eval(u);
-            let f = r.dot(t);
-            let fp = t.dot(t) + r.dot(d2.eval(u));
-            if fp <= 0.0 || !fp.is_finite() {
-                break;
-            }
-            let un = (u - f / fp).clamp(lo, hi);
-            let done = (un - u).abs() < 1e-14;
-            u = un;
-            if done {
-                break;
-            }
-        }
-        let e = (self.eval(u) - q).length_squared();
-        if e < best.distance_sq {
-            best = Nearest { u, distance_sq: e };
-        }
-        best
-    }
 }
 
 /// A fixed-capacity stack buffer for de Casteljau, falling back to the heap for high degrees.
@@ -211,7 +155,7 @@ mod smallbuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{DVec2, DVec3};
+    use glam::DVec2;
 
     fn cubic() -> BezierCurve<DVec2> {
         BezierCurve::new(vec![
@@ -278,37 +222,6 @@ mod tests {
         for i in 0..=30 {
             let u = i as f64 / 30.0;
             assert!((e.eval(u) - c.eval(u)).length() < 1e-14);
-        }
-    }
-
-    #[test]
-    fn nearest_on_a_line_is_the_orthogonal_projection() {
-        let c = BezierCurve::new(vec![
-            DVec3::ZERO,
-            DVec3::new(1.0, 1.0, 0.0) / 3.0 * 1.0,
-            DVec3::new(2.0, 2.0, 0.0) / 3.0,
-            DVec3::new(1.0, 1.0, 0.0),
-        ]);
-        let q = DVec3::new(0.2, 0.6, 0.5);
-        let n = c.nearest(q, 8);
-        assert!((n.u - 0.4).abs() < 1e-12, "u = {}", n.u);
-        let exact = 0.2 * 0.2 * 2.0 + 0.25;
-        assert!((n.distance_sq - exact).abs() < 1e-14);
-        // Beyond the end it clamps to the end point.
-        let n = c.nearest(DVec3::new(2.0, 2.0, 0.0), 8);
-        assert_eq!(n.u, 1.0);
-    }
-
-    #[test]
-    fn nearest_is_orthogonal_for_a_curved_segment() {
-        let c = cubic();
-        let q = DVec2::new(0.55, 0.6);
-        let n = c.nearest(q, 16);
-        let r = c.eval(n.u) - q;
-        assert!(r.dot(c.eval_deriv(n.u)).abs() < 1e-12);
-        for i in 0..=1000 {
-            let u = i as f64 / 1000.0;
-            assert!((c.eval(u) - q).length_squared() >= n.distance_sq - 1e-15);
         }
     }
 }

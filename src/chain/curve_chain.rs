@@ -113,20 +113,38 @@ impl<P: Vector> CurveChain<P> {
             .fold(0.0, f64::max)
     }
 
-    /// The closest point of the chain to `q`: `(t, squared distance)`.
-    ///
-    /// Every segment is searched by [`BezierCurve::nearest`] with `samples` samples.
-    #[must_use]
-    pub fn nearest(&self, q: P, samples: usize) -> (f64, f64) {
-        let mut best = (0.0, f64::INFINITY);
-        for k in 0..self.layout.segments() {
-            let n = self.segment(k).nearest(q, samples);
-            if n.distance_sq < best.1 {
-                best = (self.layout.global(k, n.u), n.distance_sq);
-            }
+    /// The same chain as a C1 chain of its degree and breaks, with the same expanded control
+    /// points: its design points are the control points less the generated joins. An error
+    /// when a join is only C0, or when the regenerated control points differ (they cannot,
+    /// up to rounding, for joins at least C1).
+    pub fn to_c1(&self) -> Result<CurveChain<P>> {
+        let c1 = self
+            .layout
+            .as_c1()
+            .ok_or_else(|| Error::invalid("a chain with C0 joins has no C1 form"))?;
+        let d = c1.degree();
+        let last = c1.segments() * d;
+        let design: Vec<P> = self
+            .ctrl
+            .iter()
+            .enumerate()
+            .filter(|(r, _)| r % d != 0 || *r == 0 || *r == last)
+            .map(|(_, &p)| p)
+            .collect();
+        let chain = CurveChain::new(c1, design)?;
+        if !same_points(chain.ctrl(), &self.ctrl) {
+            return Err(Error::Numerical(
+                "the chain's joins are not C1 (internal inconsistency)".into(),
+            ));
         }
-        best
+        Ok(chain)
     }
+}
+
+/// True when `a` and `b` are the same points to `1e-9` of their largest coordinate.
+pub(crate) fn same_points<P: Vector>(a: &[P], b: &[P]) -> bool {
+    let scale = b.iter().fold(1.0_f64, |m, p| m.max(p.max_abs()));
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (*x - *y).max_abs() <= 1e-9 * scale)
 }
 
 #[cfg(test)]
@@ -188,22 +206,6 @@ mod tests {
         let chain = CurveChain::new(layout, design).unwrap();
         assert_eq!(chain.eval(0.5), DVec2::new(2.0, 0.0));
         assert!(chain.continuity_error(1) > 0.1);
-    }
-
-    #[test]
-    fn nearest_finds_the_closest_segment() {
-        let layout = ChainLayout::uniform(3, 3, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..layout.design_count())
-            .map(|i| DVec2::new(i as f64, (i as f64).sin()))
-            .collect();
-        let chain = CurveChain::new(layout, design).unwrap();
-        let q = DVec2::new(4.1, 0.2);
-        let (t, e) = chain.nearest(q, 16);
-        for i in 0..=3000 {
-            let s = i as f64 / 3000.0;
-            assert!((chain.eval(s) - q).length_squared() >= e - 1e-14);
-        }
-        assert!((chain.eval(t) - q).length_squared() - e < 1e-15);
     }
 
     #[test]

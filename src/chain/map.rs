@@ -6,7 +6,6 @@
 //! map depends only on `(d, breaks, k)`, so it is built once, by running the insertion on the
 //! unit basis vectors, and stored in compressed-row form.
 
-use super::layout::Continuity;
 use crate::bezier::Vector;
 
 /// Sparse `rows x cols` matrix `E` with `expanded = E · design`, one row per expanded point.
@@ -23,43 +22,54 @@ pub struct ExtractionMap {
 const WEIGHT_EPS: f64 = 1e-14;
 
 impl ExtractionMap {
-    /// The map of a chain of `degree` over `breaks` with the given continuity.
-    pub(crate) fn for_chain(degree: usize, breaks: &[f64], continuity: Continuity) -> Self {
+    /// The map of a chain of `degree` over `breaks` whose interior knots (the breaks) start at
+    /// the multiplicities `knots` gives them: every interior knot is raised to multiplicity
+    /// `degree` by Boehm's insertion, run on the unit basis vectors.
+    pub(crate) fn for_knots(degree: usize, breaks: &[f64], knots: &[f64]) -> Self {
         let p = degree;
-        let mult = degree - continuity.order();
-        // Clamped knot vector: p+1 zeros, each interior break `mult` times, p+1 ones.
-        let mut knots = vec![breaks[0]; p + 1];
-        for &b in &breaks[1..breaks.len() - 1] {
-            knots.extend(std::iter::repeat_n(b, mult));
-        }
-        knots.extend(std::iter::repeat_n(breaks[breaks.len() - 1], p + 1));
+        let mut knots = knots.to_vec();
         let cols = knots.len() - p - 1;
-        // Each control point as its (dense) weights over the design points.
-        let mut pts: Vec<Vec<f64>> = (0..cols)
-            .map(|i| {
-                let mut e = vec![0.0; cols];
-                e[i] = 1.0;
-                e
-            })
-            .collect();
+        let rows = (breaks.len() - 1) * p + 1;
+        // Each control point as its dense weights over the design points, row-major in one
+        // buffer with room for every row the insertions add.
+        let mut pts = vec![0.0; rows * cols];
+        for i in 0..cols {
+            pts[i * cols + i] = 1.0;
+        }
+        let mut count = cols;
+        let mut row = vec![0.0; cols];
         for &b in &breaks[1..breaks.len() - 1] {
+            let mult = knots.iter().filter(|&&x| x == b).count();
             for _ in mult..p {
-                insert_knot(&mut knots, &mut pts, p, b);
+                // Boehm's insertion (as `insert_knot`), rows shifted in place from the back.
+                let k = knots.partition_point(|&x| x <= b) - 1;
+                let m = knots.iter().filter(|&&x| x == b).count();
+                for i in (0..=count).rev() {
+                    if i + p <= k {
+                        break;
+                    }
+                    if i + m > k {
+                        pts.copy_within((i - 1) * cols..i * cols, i * cols);
+                    } else {
+                        let a = (b - knots[i]) / (knots[i + p] - knots[i]);
+                        for (j, x) in row.iter_mut().enumerate() {
+                            *x = (1.0 - a) * pts[(i - 1) * cols + j] + a * pts[i * cols + j];
+                        }
+                        pts[i * cols..(i + 1) * cols].copy_from_slice(&row);
+                    }
+                }
+                knots.insert(k + 1, b);
+                count += 1;
             }
         }
-        let rows = pts.len();
-        debug_assert_eq!(
-            rows,
-            (breaks.len() - 1) * p + 1,
-            "Bezier extraction produced the wrong count"
-        );
+        debug_assert_eq!(count, rows, "Bezier extraction produced the wrong count");
         let mut map = ExtractionMap {
             cols,
             start: vec![0],
             index: Vec::new(),
             weight: Vec::new(),
         };
-        for row in &pts {
+        for row in pts.chunks_exact(cols) {
             for (j, &w) in row.iter().enumerate() {
                 if w.abs() > WEIGHT_EPS {
                     map.index.push(j as u32);
@@ -189,38 +199,43 @@ impl ExtractionMap {
     }
 }
 
-/// Insert knot `t` once (Boehm's algorithm) into a clamped B-spline of degree `p`.
-fn insert_knot(knots: &mut Vec<f64>, pts: &mut Vec<Vec<f64>>, p: usize, t: f64) {
-    // k: the last index with knots[k] <= t (t is an interior knot, so k < len - p - 1).
+/// Insert knot `t` once (Boehm's algorithm) into a clamped B-spline of degree `p` with
+/// coefficients `c`; `lerp(a, b, s)` is `a (1 - s) + b s` for the coefficient type.
+pub(crate) fn insert_knot<T: Clone>(
+    knots: &mut Vec<f64>,
+    c: &mut Vec<T>,
+    p: usize,
+    t: f64,
+    lerp: impl Fn(&T, &T, f64) -> T,
+) {
+    // k: the last index with knots[k] <= t; `mult` the multiplicity of t already present.
     let k = knots.partition_point(|&x| x <= t) - 1;
     let mult = knots.iter().filter(|&&x| x == t).count();
-    let mut new_pts = Vec::with_capacity(pts.len() + 1);
-    for i in 0..=pts.len() {
+    let mut out = Vec::with_capacity(c.len() + 1);
+    for i in 0..=c.len() {
         if i + p <= k {
-            new_pts.push(pts[i].clone());
+            out.push(c[i].clone());
         } else if i + mult > k {
-            new_pts.push(pts[i - 1].clone());
+            out.push(c[i - 1].clone());
         } else {
             let a = (t - knots[i]) / (knots[i + p] - knots[i]);
-            new_pts.push(
-                pts[i - 1]
-                    .iter()
-                    .zip(&pts[i])
-                    .map(|(x, y)| (1.0 - a) * x + a * y)
-                    .collect(),
-            );
+            out.push(lerp(&c[i - 1], &c[i], a));
         }
     }
     knots.insert(k + 1, t);
-    *pts = new_pts;
+    *c = out;
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::chain::{ChainLayout, Continuity};
 
     fn map(d: usize, breaks: &[f64], c: Continuity) -> ExtractionMap {
-        ExtractionMap::for_chain(d, breaks, c)
+        ChainLayout::with_breaks(d, breaks.to_vec(), c)
+            .unwrap()
+            .map()
+            .clone()
     }
 
     #[test]

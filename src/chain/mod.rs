@@ -1,13 +1,16 @@
 //! Chains of Bezier curves and grids of Bezier patches whose joins are generated from their
-//! neighbours (DESIGN.md §2): the layout, the sparse extraction map `expanded = E · design`,
-//! `CurveChain` and `PatchGrid`.
+//! neighbours (`docs/ARCHITECTURE.md` §2.2, §2.3): the one spline kernel [`ChainLayout`]
+//! (degree, breaks, the continuity of every join, knot insertion, the basis), the sparse
+//! extraction map `expanded = E · design`, `CurveChain` and `PatchGrid`.
 
 mod curve_chain;
 mod layout;
 mod map;
 mod patch_grid;
+pub mod shape;
 
 pub use curve_chain::CurveChain;
-pub use layout::{ChainLayout, Continuity};
+pub use layout::{ChainLayout, Continuity, SpanBasis, MAX_DEGREE, MAX_SUPPORT};
 pub use map::ExtractionMap;
 pub use patch_grid::{GridLayout, PatchGrid};
+pub use shape::{Basis, CurveShape, GridShape, Jet, Shape};

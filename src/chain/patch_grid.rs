@@ -122,6 +122,31 @@ impl<P: Vector> PatchGrid<P> {
         self.net = self.layout.expand(&self.design);
     }
 
+    /// The same grid as a C1 grid of its degrees and breaks, with the same control net (see
+    /// [`CurveChain::to_c1`](super::CurveChain::to_c1)).
+    pub fn to_c1(&self) -> Result<PatchGrid<P>> {
+        let c1 = |l: &ChainLayout| {
+            l.as_c1()
+                .ok_or_else(|| Error::invalid("a grid with C0 joins has no C1 form"))
+        };
+        let layout = GridLayout::new(c1(&self.layout.u)?, c1(&self.layout.v)?);
+        let (mu, mv) = layout.net_shape();
+        let (du, dv) = (layout.u.degree(), layout.v.degree());
+        let keep = |r: usize, d: usize, m: usize| r % d != 0 || r == 0 || r == m - 1;
+        let design: Vec<P> = (0..mu)
+            .filter(|&r| keep(r, du, mu))
+            .flat_map(|r| (0..mv).filter(move |&c| keep(c, dv, mv)).map(move |c| (r, c)))
+            .map(|(r, c)| self.net[r * mv + c])
+            .collect();
+        let grid = PatchGrid::new(layout, design)?;
+        if !super::curve_chain::same_points(grid.net(), &self.net) {
+            return Err(Error::Numerical(
+                "the grid's joins are not C1 (internal inconsistency)".into(),
+            ));
+        }
+        Ok(grid)
+    }
+
     /// Patch `(i, j)`: rows `i*du ..= (i+1)*du`, columns `j*dv ..= (j+1)*dv` of the net.
     #[must_use]
     pub fn patch(&self, i: usize, j: usize) -> BezierPatch<P> {

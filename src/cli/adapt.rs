@@ -92,7 +92,8 @@ pub enum ModeArg {
 /// Arguments of `bezchain adapt`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Contour: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y`, ordered along the curve.
+    /// Contour: Selig or Lednicer `.dat`, CSV/XYZ rows of `x y`, or CSV whose header names `x`
+    /// and `y` columns; ordered along the curve (or by an `index` or `point` column).
     pub input: PathBuf,
     /// Tolerance in the data's units (a fraction of the data's extent with `--relative`).
     #[arg(long, required_unless_present = "sweep")]
@@ -104,7 +105,7 @@ pub struct Args {
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
     pub norm: NormArg,
-    /// Degrees searched, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-7")]
     pub degrees: String,
     /// How x may be stored.
@@ -120,8 +121,9 @@ pub struct Args {
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
-    /// Write the JSON report (DESIGN.md §4 with an `adapt` block; an array for a sweep);
-    /// `-` for standard output (the table then goes to standard error).
+    /// Write the JSON report (the curve report with an `adapt` block, `docs/ARCHITECTURE.md`
+    /// §5.6; an array for a sweep); `-` for standard output (the table then goes to standard
+    /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write an SVG plot of the chain and its offsets.

@@ -16,7 +16,9 @@ use std::path::PathBuf;
 /// Arguments of `bezchain adapt-surface`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Cloud: a CSV with complete `section,index` columns (e.g. from `bezchain blade`).
+    /// Cloud: a CSV whose header names `x`, `y`, `z` and `section` (or `station`) columns, the
+    /// points of a section ordered by `index` (or `point`), every section alike (e.g. from
+    /// `bezchain blade`).
     pub cloud: PathBuf,
     /// Tolerance in the data's units (a fraction of the largest section's chord with
     /// `--relative`).
@@ -29,10 +31,10 @@ pub struct Args {
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
     pub norm: NormArg,
-    /// Degrees searched around the sections, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched around the sections, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "3-6")]
     pub degrees_u: String,
-    /// Degrees searched along the span, `LO-HI` or one degree (2 to 9).
+    /// Degrees searched along the span, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-3")]
     pub degrees_v: String,
     /// Store all three coordinates of every design point even where the sections are planar.
@@ -45,8 +47,9 @@ pub struct Args {
     /// Never report more stored scalars than this.
     #[arg(long)]
     pub max_scalars: Option<usize>,
-    /// Write the JSON report (DESIGN.md §4's surface report with an `adapt` block; an array
-    /// for a sweep); `-` for standard output (the summary then goes to standard error).
+    /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
+    /// §5.7; an array for a sweep); `-` for standard output (the summary then goes to standard
+    /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     #[command(flatten)]
@@ -98,7 +101,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
     let (nu, nv) = r
         .encoding
         .layouts()
-        .map(|(u, v)| (u.coeff_count(), v.coeff_count()))
+        .map(|(u, v)| (u.design_count(), v.design_count()))
         .unwrap_or((0, 0));
     let mut s = String::new();
     let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");
@@ -134,7 +137,7 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
     );
     let _ = writeln!(
         s,
-        "  checker        max {:.3e}, rms {:.3e} (verify.py's sampled search, step for step)",
+        "  checker        max {:.3e}, rms {:.3e} (the coarse sampled search of outside checkers: 7 x 7 seeds a patch)",
         r.checked.max, r.checked.rms
     );
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();

@@ -3,10 +3,10 @@
 
 use super::{parse_backend, Target};
 use anyhow::Result;
-use bezchain::eval::batch::{eval_curve_population, eval_grid_population, read_population_f64, BatchOptions};
 use bezchain::eval::Backend;
 use bezchain::export::Report;
-use bezchain::geometry::{read_cloud, read_curve};
+use bezchain::fit::population::{eval_curve_population, eval_grid_population, BatchOptions};
+use bezchain::geometry::{read_cloud, read_curve, read_population};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -53,7 +53,7 @@ pub fn run(args: Args) -> Result<()> {
             let layout = rep.layout()?;
             let points = read_curve(&args.points)?;
             super::warn_all(&args.points, &points.warnings);
-            let pop = read_population_f64(&args.population, 2 * layout.design_count())?;
+            let pop = read_population(&args.population, 2 * layout.design_count())?;
             eval_curve_population(&layout, &points.points, &pop, &opts)?
         }
         Report::Surface(rep) => {
@@ -61,7 +61,7 @@ pub fn run(args: Args) -> Result<()> {
             let points = read_cloud(&args.points)?;
             super::warn_all(&args.points, &points.warnings);
             let (nu, nv) = layout.design_shape();
-            let pop = read_population_f64(&args.population, 3 * nu * nv)?;
+            let pop = read_population(&args.population, 3 * nu * nv)?;
             eval_grid_population(&layout, &points.points, &pop, &opts)?
         }
     };

@@ -18,9 +18,10 @@ use std::time::{Duration, Instant};
 /// Arguments of `bezchain fit`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Contour: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y` (detected).
+    /// Contour: Selig or Lednicer `.dat`, CSV/XYZ rows of `x y`, or CSV whose header names `x`
+    /// and `y` columns (any order, other columns ignored) (detected).
     pub input: PathBuf,
-    /// Degree of every segment (1 to 16).
+    /// Degree of every segment (1 to 7).
     #[arg(long)]
     pub degree: usize,
     /// Number of chained segments.

@@ -8,8 +8,9 @@ use bezchain::chain::Continuity;
 use bezchain::export::{
     render, render_svg, FitInfo, InputInfo, OffsetReport, RenderOptions, SurfaceMesh, SurfaceReport,
 };
+use bezchain::fit::checker::projection_check;
 use bezchain::fit::evo::{Checkpoint, EvoHooks, Evolution};
-use bezchain::fit::surface_breaks::{projection_check, search_breaks_v, BreakSearch};
+use bezchain::fit::surface_breaks::{search_breaks_v, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
@@ -23,8 +24,9 @@ use std::time::{Duration, Instant};
 /// Arguments of `bezchain fit-surface`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Point cloud: CSV/XYZ rows of `x y z`; a CSV with complete `section,index` columns is a
-    /// structured cloud whose parameters come from its sections.
+    /// Point cloud: CSV/XYZ rows of `x y z`, or CSV whose header names `x`, `y`, `z` (any order,
+    /// other columns ignored); `section` (or `station`) and `index` (or `point`) columns with
+    /// equal sections make a structured cloud whose parameters come from its sections.
     pub cloud: PathBuf,
     /// Degrees around the section (u) and along the span (v), as DUxDV (e.g. 3x3).
     #[arg(long, value_parser = parse_pair)]

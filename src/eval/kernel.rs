@@ -193,8 +193,7 @@ pub struct Vertex {
 /// Sentinel for "no patch held".
 pub(crate) const NONE: u32 = u32::MAX;
 
-/// Largest degree the kernels accept in either direction (the GPU holds a patch in registers).
-pub const MAX_DEGREE: usize = 7;
+pub use crate::chain::MAX_DEGREE;
 
 /// Basis arrays hold up to this many values (degree [`MAX_DEGREE`]).
 pub(crate) const NB: usize = MAX_DEGREE + 1;

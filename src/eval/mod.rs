@@ -23,13 +23,11 @@
 //! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
 //! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
 
-pub mod batch;
 pub mod bench;
 pub mod cpu;
 pub mod dense;
 pub mod gpu;
 pub mod kernel;
-pub mod nearest;
 pub mod peak;
 
 pub use cpu::{CpuEvaluator, Simd};
@@ -240,8 +238,8 @@ pub trait PopulationEvaluator: Send {
     /// Re-anchor the reference design (`design_variables` finite values): the kernels then
     /// compute only each individual's difference from it in f32. Results are accurate to f32
     /// relative to the offsets when the population lies near the reference (see
-    /// [`kernel`](self::kernel)); population methods set it to their best design whenever they
-    /// re-project the data.
+    /// [`kernel`](self::kernel)); population methods set it to their best design every
+    /// generation.
     fn set_reference(&mut self, design: &[f64]) -> Result<()>;
 
     /// Set the number of foot-point Newton steps (0: parameters held fixed).

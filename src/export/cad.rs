@@ -3,13 +3,14 @@
 //!
 //! A chain of degree `d` whose joins have continuity `Ck` is exactly the B-spline of degree `d`
 //! over the clamped knot vector whose interior knots are the breaks, each of multiplicity
-//! `d - k`, with the design points as control points (DESIGN.md §2); an adapted chain's
+//! `d - k`, with the design points as control points (the layout's own knot vector,
+//! [`ChainLayout::knots`], `docs/ARCHITECTURE.md` §2.2); an adapted chain's
 //! encoding gives each join its own `k`. Nothing is approximated: the exported curve or
 //! surface is the fitted one, to the rounding of its coefficients (printed in shortest
 //! round-trip form).
 
 use crate::adaptive::{AdaptReport, Encoding, SurfaceAdaptReport, SurfaceEncoding};
-use crate::chain::{ChainLayout, CurveChain, PatchGrid};
+use crate::chain::{CurveChain, PatchGrid};
 use crate::error::{Error, Result};
 use crate::export::{CurveReport, SurfaceReport};
 use glam::{DVec2, DVec3};
@@ -73,22 +74,6 @@ impl std::str::FromStr for CadUnit {
     }
 }
 
-/// The clamped knot vector of `degree` over `breaks` with continuity order `orders[k]` at
-/// interior break `k + 1` (multiplicity `degree - order`).
-fn knot_vector(degree: usize, breaks: &[f64], orders: impl Iterator<Item = usize>) -> Vec<f64> {
-    let mut knots = vec![breaks[0]; degree + 1];
-    for (&b, k) in breaks[1..breaks.len() - 1].iter().zip(orders) {
-        knots.extend(std::iter::repeat_n(b, degree - k));
-    }
-    knots.extend(std::iter::repeat_n(breaks[breaks.len() - 1], degree + 1));
-    knots
-}
-
-fn layout_knots(l: &ChainLayout) -> Vec<f64> {
-    let k = l.continuity().order();
-    knot_vector(l.degree(), l.breaks(), std::iter::repeat(k))
-}
-
 /// The knots that differ and how often each occurs (STEP's form).
 #[must_use]
 pub fn distinct_knots(knots: &[f64]) -> (Vec<f64>, Vec<usize>) {
@@ -144,7 +129,7 @@ impl BsplineCurve {
     /// The B-spline form of a chain (exact).
     #[must_use]
     pub fn from_chain(chain: &CurveChain<DVec2>) -> Self {
-        let knots = layout_knots(chain.layout());
+        let knots = chain.layout().knots().to_vec();
         let ctrl: Vec<DVec3> = chain.design().iter().map(|p| p.extend(0.0)).collect();
         debug_assert_eq!(
             ctrl.len(),
@@ -184,8 +169,8 @@ impl BsplineSurface {
         let (nu, nv) = l.design_shape();
         BsplineSurface {
             degree: [l.u.degree(), l.v.degree()],
-            knots_u: layout_knots(&l.u),
-            knots_v: layout_knots(&l.v),
+            knots_u: l.u.knots().to_vec(),
+            knots_v: l.v.knots().to_vec(),
             count: [nu, nv],
             ctrl: grid.design().to_vec(),
         }
@@ -198,7 +183,7 @@ impl BsplineSurface {
             degree: [lu.degree(), lv.degree()],
             knots_u: lu.knots().to_vec(),
             knots_v: lv.knots().to_vec(),
-            count: [lu.coeff_count(), lv.coeff_count()],
+            count: [lu.design_count(), lv.design_count()],
             ctrl: enc.design()?,
         })
     }
@@ -453,7 +438,7 @@ pub fn utc_now() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{Continuity, GridLayout};
+    use crate::chain::{ChainLayout, Continuity, GridLayout};
 
     #[test]
     fn a_chain_and_its_bspline_are_the_same_curve() {

@@ -1,5 +1,5 @@
-//! The JSON fit report of DESIGN.md §4 for curves and surfaces, written by `fit` and read back
-//! by `eval`.
+//! The JSON fit reports of curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written by
+//! `fit` and `fit-surface` and read back by `eval`.
 
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};

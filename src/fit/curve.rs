@@ -2,15 +2,15 @@
 //! and metric, with the offsets and the solver's effort (what the CLI's `fit` reports).
 
 use super::bfgs::{bfgs, BfgsOptions};
-use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoProblem, EvoSummary, Stage};
-use super::foot::FootOptions;
-use super::lsq::{lsq_each_guarded, pick, Guard, HasReport, LsqFit, LsqOptions, Start};
+use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoSummary, Stage};
+use super::lsq::{lsq, pick, Guard, HasReport, LsqFit, LsqHooks, LsqOptions, Start};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::objective::SolveReport;
 use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
 use super::problem::CurveProblem;
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
+use crate::closest::FootOptions;
 use crate::error::{Error, Result};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
@@ -243,11 +243,14 @@ pub fn fit_curve_with<P: Vector>(
                     opts.method
                 )));
             }
+            // The population evaluator takes plane points: the same problem over them.
             let plane: Vec<DVec2> = points
                 .iter()
                 .map(|p| DVec2::new(p.coord(0), p.coord(1)))
                 .collect();
-            let evo = EvoProblem::curve(&plane, layout, opts.anchor_ends, opts.evo.margin)?;
+            let evo =
+                CurveProblem::<DVec2>::curve_with(layout, &plane, opts.metric, opts.foot, opts.anchor_ends)?
+                    .with_bounds(opts.evo.margin)?;
             let (mut design, mut report, mut summary) = evolve_then_polish(
                 &evo, &problem, algorithm, false, &opts.evo, &opts.lsq, None, hooks,
             )?;
@@ -337,7 +340,11 @@ fn best_lsq<P: Vector>(
             problem.params().to_vec(),
         ));
     }
-    let fits = lsq_each_guarded(problem, &starts, &opts.lsq, Some(guard))?;
+    let hooks = LsqHooks {
+        guard: Some(guard),
+        observe: None,
+    };
+    let fits = lsq(problem, &starts, &opts.lsq, hooks)?;
     // Rank by (has a loop, sum of squares), loops by their span ratio.
     let scored = fits
         .into_iter()

@@ -42,12 +42,12 @@
 //! minimum.
 
 use super::band::{rcm_order, BandMatrix};
-use super::foot::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use super::objective::{SolveReport, StopReason};
 use super::offset::Metric;
-use super::problem::{chunked_sum, FitProblem};
+use super::problem::{chunked_sum, Constraint, FitProblem};
 use super::shape::{Basis, Shape};
 use crate::bezier::Vector;
+use crate::closest::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -74,6 +74,30 @@ pub struct LsqOptions {
     /// Iterations over which the `ftol` test measures the decrease. Default 10: on aerofoils
     /// the iteration crosses flat stretches of a valley where single steps gain little.
     pub window: usize,
+    /// Smallest ratio of the actual to the predicted decrease of the sum of squares for a step
+    /// to be accepted. Default 1e-4.
+    pub accept_ratio: f64,
+    /// `[down, up]`: the damping is divided by `down` (not below 1e-12) after an accepted step
+    /// and multiplied by `up` after a rejected one; `None`, the default, is Nielsen's update
+    /// (down by up to 3 as the model predicted well, up by 2, 4, 8, ... in a row).
+    pub damping_factors: Option<[f64; 2]>,
+    /// What the damping `λ` scales. Default [`DampingScale::Jacobian`].
+    pub damping_scale: DampingScale,
+    /// The method. Default [`LsqMethod::Joint`].
+    pub method: LsqMethod,
+}
+
+/// Marquardt's scaling of the damping term `λ D` of the design step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DampingScale {
+    /// `D` is the diagonal of `Jxᵀ W Jx`, the design points' own weight in the data (the same
+    /// for every coordinate of a point). The default.
+    #[default]
+    Jacobian,
+    /// `D` is the diagonal of the reduced normal matrix (after the parameters are eliminated),
+    /// one per unknown: a direction that the data pin only along the shape is damped less.
+    /// The adaptive search's short, warm-started fits converge on it as its own engine did.
+    Reduced,
 }
 
 impl Default for LsqOptions {
@@ -85,8 +109,25 @@ impl Default for LsqOptions {
             initial_damping: 10.0,
             global_checks: 3,
             window: 10,
+            accept_ratio: 1e-4,
+            damping_factors: None,
+            damping_scale: DampingScale::Jacobian,
+            method: LsqMethod::Joint,
         }
     }
+}
+
+/// How [`lsq`] iterates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LsqMethod {
+    /// Levenberg-Marquardt over the design and the parameters together (see the module docs).
+    #[default]
+    Joint,
+    /// Hoschek's parameter correction, the baseline the joint method replaces: each iteration
+    /// is a linear least-squares solve at fixed parameters, then a projection of every
+    /// parameter to its local foot point. `max_iterations` rounds at most; only the observer
+    /// stops it earlier.
+    Alternate,
 }
 
 /// The result of a least-squares fit.
@@ -119,7 +160,7 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
     /// The model of a point with residual `r` and tangents `T` at parameter `t`. Parameters
     /// held at a bound by an outward gradient, with a degenerate tangent, or anchored, are
     /// fixed (their rows of `M⁻¹` are zero).
-    fn new(r: P, tangents: [P; K], t: &[f64; K], lambda: f64, anchored: bool) -> Self {
+    fn new(r: P, tangents: [P; K], t: &[f64; K], lambda: f64, anchored: bool, held: [bool; K]) -> Self {
         let mut g = [0.0; K];
         let mut m = [[0.0; K]; K];
         for k in 0..K {
@@ -129,6 +170,9 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
             }
         }
         let mut free = if anchored { [false; K] } else { free_params(t, &g) };
+        for (f, &h) in free.iter_mut().zip(&held) {
+            *f = *f && !h;
+        }
         let mut m_diag = [0.0; K];
         for k in 0..K {
             m_diag[k] = m[k][k];
@@ -230,53 +274,120 @@ impl<P: Vector, const K: usize> PointModel<P, K> {
 /// in `b`.
 fn model_at<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    design: &[S::Point],
+    (prepared, design): (&S::Prepared<'_>, &[S::Point]),
     j: usize,
     t: &[f64; K],
     lambda: f64,
     b: &mut Basis<K>,
 ) -> PointModel<S::Point, K> {
-    let res = problem.residual(design, j, *t, b);
-    PointModel::new(res.r, res.tangents, t, lambda, problem.is_anchored(j))
+    let res = problem.residual_at(prepared, design, j, *t, b);
+    PointModel::new(
+        res.r,
+        res.tangents,
+        t,
+        lambda,
+        problem.is_anchored(j),
+        problem.held(),
+    )
 }
 
 /// The reduced normal equations, accumulated per cell over the cell's support.
 ///
 /// The cell's block of `S` is `Σ_j (a_j a_jᵀ) ⊗ P_j`; it is kept as one `s x s` matrix
 /// `G_c1c2 = Σ_j P_j[c1][c2] a_j a_jᵀ` per coordinate pair `c1 ≤ c2` (`s` the support size),
-/// so each point adds `D (D + 1) / 2` contiguous rank-one updates.
+/// so each point adds `D (D + 1) / 2` rank-one updates, of their lower triangles only (every
+/// `G` is symmetric, and the lower triangle of `S` is all its factorisation reads).
 struct Normal {
     /// Per cell, the `D (D + 1) / 2` matrices `G_c1c2`, each row-major `s x s`, pairs in the
-    /// order of [`pair`].
-    blocks: Vec<Vec<f64>>,
-    /// Per cell, `s D`.
-    rhs: Vec<Vec<f64>>,
-    /// Per cell, `Σ a_i²` per support point (the undamped diagonal of `Jxᵀ Jx`).
-    diag: Vec<Vec<f64>>,
+    /// order of [`pair`]: cell `c` at `blocks[at[c].0..]`.
+    blocks: Vec<f64>,
+    /// Per cell, `s D`, at `rhs[at[c].1..]`.
+    rhs: Vec<f64>,
+    /// Per cell, `Σ a_i²` per support point (the undamped diagonal of `Jxᵀ Jx`), at
+    /// `diag[at[c].2..]`.
+    diag: Vec<f64>,
+    /// Per cell, its support size and the starts of its parts in the three buffers.
+    at: Vec<(usize, usize, usize, usize)>,
 }
 
 impl Normal {
     fn new<S: Shape<K>, const K: usize>(shape: &S) -> Self {
         let dim = S::Point::DIM;
-        let sizes: Vec<usize> = (0..shape.cell_count()).map(|c| shape.support(c).len()).collect();
         let pairs = dim * (dim + 1) / 2;
+        let mut at = Vec::with_capacity(shape.cell_count());
+        let (mut b, mut r, mut d) = (0, 0, 0);
+        for c in 0..shape.cell_count() {
+            let s = shape.support(c).len();
+            at.push((s, b, r, d));
+            b += pairs * s * s;
+            r += s * dim;
+            d += s;
+        }
         Normal {
-            blocks: sizes.iter().map(|&s| vec![0.0; pairs * s * s]).collect(),
-            rhs: sizes.iter().map(|&s| vec![0.0; s * dim]).collect(),
-            diag: sizes.iter().map(|&s| vec![0.0; s]).collect(),
+            blocks: vec![0.0; b],
+            rhs: vec![0.0; r],
+            diag: vec![0.0; d],
+            at,
         }
     }
 
+    /// Cell `c`'s blocks, right-hand side and diagonal.
+    fn cell(&self, c: usize, dim: usize) -> (&[f64], &[f64], &[f64]) {
+        let (s, b, r, d) = self.at[c];
+        let pairs = dim * (dim + 1) / 2;
+        (
+            &self.blocks[b..b + pairs * s * s],
+            &self.rhs[r..r + s * dim],
+            &self.diag[d..d + s],
+        )
+    }
+
+    /// [`Normal::cell`], to fill.
+    fn cell_mut(&mut self, c: usize, dim: usize) -> (&mut [f64], &mut [f64], &mut [f64]) {
+        let (s, b, r, d) = self.at[c];
+        let pairs = dim * (dim + 1) / 2;
+        (
+            &mut self.blocks[b..b + pairs * s * s],
+            &mut self.rhs[r..r + s * dim],
+            &mut self.diag[d..d + s],
+        )
+    }
+
     fn merge(mut self, other: Normal) -> Normal {
-        let add = |a: &mut Vec<Vec<f64>>, b: Vec<Vec<f64>>| {
-            for (x, y) in a.iter_mut().zip(b) {
-                x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
-            }
-        };
+        let add = |a: &mut Vec<f64>, b: Vec<f64>| a.iter_mut().zip(b).for_each(|(p, q)| *p += q);
         add(&mut self.blocks, other.blocks);
         add(&mut self.rhs, other.rhs);
         add(&mut self.diag, other.diag);
         self
+    }
+}
+
+/// Calls `add(row, col, value)` for every entry of the cells' blocks (flat design indices).
+#[inline]
+fn each_entry<S: Shape<K>, const K: usize, F: FnMut(usize, usize, f64) + ?Sized>(
+    shape: &S,
+    normal: &Normal,
+    add: &mut F,
+) {
+    let dim = S::Point::DIM;
+    for cell in 0..shape.cell_count() {
+        let support = shape.support(cell);
+        let n = support.len();
+        let block = normal.cell(cell, dim).0;
+        for (a, &ia) in support.iter().enumerate() {
+            for c1 in 0..dim {
+                let row = ia as usize * dim + c1;
+                for (bb, &ib) in support.iter().enumerate() {
+                    for c2 in 0..dim {
+                        // G_c1c2 is symmetric in the support indices (its lower triangle is
+                        // kept), and P in the coordinates.
+                        let g = pair(c1.min(c2), c1.max(c2), dim);
+                        let (hi, lo) = (a.max(bb), a.min(bb));
+                        add(row, ib as usize * dim + c2, block[g * n * n + hi * n + lo]);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -294,24 +405,33 @@ fn assemble<S: Shape<K>, const K: usize>(
     design: &[S::Point],
     params: &[[f64; K]],
     lambda: f64,
-) -> Normal {
+) -> (Normal, Option<Models<S::Point, K>>) {
     let shape = problem.shape();
     let dim = S::Point::DIM;
-    chunked_sum(
+    let keep = params.len() < PARALLEL_MIN;
+    let prepared = shape.prepare(design);
+    let (normal, _, models) = chunked_sum(
         params.len(),
-        || (Normal::new(shape), Basis::new()),
-        |(acc, b), range| {
+        || {
+            let models = keep.then(|| Models::with_capacity(params.len(), shape.support(0).len()));
+            (Normal::new(shape), Basis::new(), models)
+        },
+        |(acc, b, models), range| {
             for j in range {
-                let pm = model_at(problem, design, j, &params[j], lambda, b);
-                let proj = pm.projector();
+                let pm = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
+                let mut proj = pm.projector();
+                let w = problem.weight(j);
+                if w != 1.0 {
+                    proj.iter_mut().flatten().for_each(|x| *x *= w);
+                }
                 let mut pr = [0.0; 3];
                 for (c1, x) in pr.iter_mut().enumerate().take(dim) {
                     *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
                 }
                 let (cell, s) = (b.cell, b.value.len());
-                let (block, rhs, diag) = (&mut acc.blocks[cell], &mut acc.rhs[cell], &mut acc.diag[cell]);
+                let (block, rhs, diag) = acc.cell_mut(cell, dim);
                 for (a, &wa) in b.value.iter().enumerate() {
-                    diag[a] += wa * wa;
+                    diag[a] += w * wa * wa;
                     for c1 in 0..dim {
                         rhs[a * dim + c1] += wa * pr[c1];
                     }
@@ -323,19 +443,48 @@ fn assemble<S: Shape<K>, const K: usize>(
                             continue;
                         }
                         let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
-                        for (row, &wa) in g.chunks_exact_mut(s).zip(&b.value) {
+                        // G is symmetric in the support indices: its lower triangle is kept.
+                        for (a, (row, &wa)) in g.chunks_exact_mut(s).zip(&b.value).enumerate() {
                             let wa = w * wa;
-                            for (x, &wb) in row.iter_mut().zip(&b.value) {
+                            for (x, &wb) in row[..=a].iter_mut().zip(&b.value) {
                                 *x += wa * wb;
                             }
                         }
                     }
                 }
+                if let Some(m) = models {
+                    m.cells.push(cell as u32);
+                    m.values.extend_from_slice(&b.value);
+                    m.offsets.push(m.values.len() as u32);
+                    m.models.push(pm);
+                }
             }
         },
-        |a, b| (a.0.merge(b.0), a.1),
-    )
-    .0
+        |a, b| (a.0.merge(b.0), a.1, None),
+    );
+    (normal, models)
+}
+
+/// The per-point models of one assembly, kept for the trial step of small point sets (the
+/// same numbers [`trial_starts`] would compute again).
+struct Models<P, const K: usize> {
+    models: Vec<PointModel<P, K>>,
+    cells: Vec<u32>,
+    /// Basis values of point `j`: `values[offsets[j - 1]..offsets[j]]` (from 0 for `j = 0`).
+    values: Vec<f64>,
+    offsets: Vec<u32>,
+}
+
+impl<P, const K: usize> Models<P, K> {
+    /// Room for `n` points of `s` basis values each.
+    fn with_capacity(n: usize, s: usize) -> Self {
+        Models {
+            models: Vec::with_capacity(n),
+            cells: Vec::with_capacity(n),
+            values: Vec::with_capacity(n * s),
+            offsets: Vec::with_capacity(n),
+        }
+    }
 }
 
 /// Systems with at least this many unknowns are solved in band form (see [`BandMatrix`]);
@@ -350,7 +499,9 @@ fn solve_step<S: Shape<K>, const K: usize>(
     shape: &S,
     normal: &Normal,
     lambda: f64,
-) -> Option<(Vec<S::Point>, Vec<f64>)> {
+    constraint: Option<&Constraint>,
+    scale: DampingScale,
+) -> Option<(Vec<S::Point>, f64)> {
     let dim = S::Point::DIM;
     let m = shape.design_count();
     let nn = m * dim;
@@ -364,9 +515,9 @@ fn solve_step<S: Shape<K>, const K: usize>(
             reach = reach.max((hi - lo) as usize);
         }
         for (a, &ia) in support.iter().enumerate() {
-            dx[ia as usize] += normal.diag[cell][a];
+            dx[ia as usize] += normal.cell(cell, dim).2[a];
             for c1 in 0..dim {
-                b[ia as usize * dim + c1] += normal.rhs[cell][a * dim + c1];
+                b[ia as usize * dim + c1] += normal.cell(cell, dim).1[a * dim + c1];
             }
         }
     }
@@ -376,28 +527,63 @@ fn solve_step<S: Shape<K>, const K: usize>(
     for v in &mut dx {
         *v = v.max(floor);
     }
-    // Calls `add(row, col, value)` for every entry of the cells' blocks.
-    let for_entries = |add: &mut dyn FnMut(usize, usize, f64)| {
-        for cell in 0..shape.cell_count() {
-            let support = shape.support(cell);
-            let n = support.len();
-            let block = &normal.blocks[cell];
-            for (a, &ia) in support.iter().enumerate() {
-                for c1 in 0..dim {
-                    let row = ia as usize * dim + c1;
-                    for (bb, &ib) in support.iter().enumerate() {
-                        for c2 in 0..dim {
-                            // G_c1c2 is symmetric in the support indices, and P in the coordinates.
-                            let g = pair(c1.min(c2), c1.max(c2), dim);
-                            add(row, ib as usize * dim + c2, block[g * n * n + a * n + bb]);
-                        }
+    // With the reduced scaling: the matrix's own diagonal (zeros get the mean), per unknown.
+    let scaled = |diag: &mut dyn FnMut(usize) -> f64, n: usize| -> Vec<f64> {
+        let d: Vec<f64> = (0..n).map(&mut *diag).collect();
+        let mean = d.iter().sum::<f64>() / n.max(1) as f64;
+        d.into_iter().map(|x| if x > 0.0 { x } else { mean }).collect()
+    };
+    let mut sdiag = vec![0.0; nn];
+    if scale == DampingScale::Reduced && constraint.is_none() {
+        each_entry(shape, normal, &mut |r, c, v| {
+            if r == c {
+                sdiag[r] += v;
+            }
+        });
+        sdiag = scaled(&mut |k| sdiag[k], nn);
+    }
+    // The damping of flat design variable k.
+    let damp = |k: usize| match scale {
+        DampingScale::Jacobian => dx[k / dim],
+        DampingScale::Reduced => sdiag[k],
+    };
+    let band = (reach + 1) * dim - 1;
+    let mut damping_term = None;
+    let x: Vec<f64> = if let Some(con) = constraint {
+        // Within the constraint the step is `A dz`: (Aᵀ S A + λ Dz) dz = -Aᵀ b, with `Dz` the
+        // design damping carried over to the unknowns.
+        let nz = con.unknowns();
+        let rows = con.flat_rows();
+        let mut sz = DMatrix::<f64>::zeros(nz, nz);
+        let mut bz = DVector::<f64>::zeros(nz);
+        let mut dz_scale = vec![0.0; nz];
+        for r in 0..nn {
+            for &(a, wa) in &rows[r] {
+                bz[a] -= wa * b[r];
+                dz_scale[a] += wa * wa * dx[r / dim];
+            }
+        }
+        each_entry(shape, normal, &mut |r, c, v| {
+            if v != 0.0 {
+                for &(a, wa) in &rows[r] {
+                    for &(z, wz) in &rows[c] {
+                        sz[(a, z)] += wa * v * wz;
                     }
                 }
             }
+        });
+        if scale == DampingScale::Reduced {
+            dz_scale = scaled(&mut |a| sz[(a, a)], nz);
         }
-    };
-    let band = (reach + 1) * dim - 1;
-    let x: Vec<f64> = if nn >= BAND_MIN && band < nn / 2 {
+        for (a, &d) in dz_scale.iter().enumerate() {
+            sz[(a, a)] += lambda * d;
+        }
+        let dz = sz.cholesky()?.solve(&bz);
+        damping_term = Some(lambda * dz.iter().zip(&dz_scale).map(|(x, d)| d * x * x).sum::<f64>());
+        (0..nn)
+            .map(|r| rows[r].iter().map(|&(a, w)| w * dz[a]).sum())
+            .collect()
+    } else if nn >= BAND_MIN && band < nn / 2 {
         // Reorder the design points (reverse Cuthill-McKee) when that narrows the band: the
         // factorisation costs O(n b²).
         let order = rcm_order(m, (0..shape.cell_count()).map(|c| shape.support(c)));
@@ -420,7 +606,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
         let band = (reach.min(reach_rcm) + 1) * dim - 1;
         let at = |row: usize| pos[row / dim] * dim + row % dim;
         let mut s = BandMatrix::zeros(nn, band);
-        for_entries(&mut |r, c, v| {
+        each_entry(shape, normal, &mut |r, c, v| {
             let (r, c) = (at(r), at(c));
             if c <= r {
                 s.add_lower(r, c, v);
@@ -429,7 +615,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
         for i in 0..m {
             for c in 0..dim {
                 let k = pos[i] * dim + c;
-                s.add_lower(k, k, lambda * dx[i]);
+                s.add_lower(k, k, lambda * damp(i * dim + c));
             }
         }
         let mut y = vec![0.0; nn];
@@ -440,10 +626,10 @@ fn solve_step<S: Shape<K>, const K: usize>(
         (0..nn).map(|row| y[at(row)]).collect()
     } else {
         let mut s = DMatrix::<f64>::zeros(nn, nn);
-        for_entries(&mut |r, c, v| s[(r, c)] += v);
+        each_entry(shape, normal, &mut |r, c, v| s[(r, c)] += v);
         for i in 0..m {
             for c in 0..dim {
-                s[(i * dim + c, i * dim + c)] += lambda * dx[i];
+                s[(i * dim + c, i * dim + c)] += lambda * damp(i * dim + c);
             }
         }
         let x = s.cholesky()?.solve(&(-DVector::from_vec(b)));
@@ -452,24 +638,51 @@ fn solve_step<S: Shape<K>, const K: usize>(
     if x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    Some((x.chunks_exact(dim).map(S::Point::from_coords).collect(), dx))
+    let step: Vec<S::Point> = x.chunks_exact(dim).map(S::Point::from_coords).collect();
+    // The damping term `λ δᵀ D δ` of the predicted decrease.
+    let damping_term = damping_term.unwrap_or_else(|| match scale {
+        DampingScale::Jacobian => step
+            .iter()
+            .zip(&dx)
+            .map(|(d, w)| lambda * w * d.length_squared())
+            .sum(),
+        DampingScale::Reduced => lambda * x.iter().zip(&sdiag).map(|(v, d)| d * v * v).sum::<f64>(),
+    });
+    Some((step, damping_term))
 }
 
 /// The trial of a design step: every parameter's start `t + dt` and the predicted decrease of
 /// the linear model, `-gᵀδ + λ δᵀ D δ` over design points and parameters.
+#[allow(clippy::too_many_arguments)]
 fn trial_starts<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: &[S::Point],
     params: &[[f64; K]],
     step: &[S::Point],
-    dx: &[f64],
+    damping_term: f64,
     lambda: f64,
+    models: Option<&Models<S::Point, K>>,
 ) -> (Vec<[f64; K]>, f64) {
     let shape = problem.shape();
+    let prepared = shape.prepare(design);
     let per_point = |b: &mut Basis<K>, j: usize| -> ([f64; K], f64) {
-        let pm = model_at(problem, design, j, &params[j], lambda, b);
+        let computed;
+        let (pm, cell, values) = match models {
+            Some(m) => {
+                let from = if j == 0 { 0 } else { m.offsets[j - 1] as usize };
+                (
+                    &m.models[j],
+                    m.cells[j] as usize,
+                    &m.values[from..m.offsets[j] as usize],
+                )
+            }
+            None => {
+                computed = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
+                (&computed, b.cell, &b.value[..])
+            }
+        };
         let mut jx = S::Point::ZERO;
-        for (&i, &w) in shape.support(b.cell).iter().zip(&b.value) {
+        for (&i, &w) in shape.support(cell).iter().zip(values) {
             jx += step[i as usize] * w;
         }
         let dt = pm.param_step(jx);
@@ -479,7 +692,7 @@ fn trial_starts<S: Shape<K>, const K: usize>(
             pred += -pm.g[k] * dt[k] + lambda * pm.m_diag[k] * dt[k] * dt[k];
             t[k] += dt[k];
         }
-        (clamp01(t), pred)
+        (clamp01(t), problem.weight(j) * pred)
     };
     let n = params.len();
     let out: Vec<([f64; K], f64)> = if n < PARALLEL_MIN {
@@ -488,11 +701,7 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     } else {
         (0..n).into_par_iter().map_init(Basis::new, per_point).collect()
     };
-    let mut pred: f64 = step
-        .iter()
-        .zip(dx)
-        .map(|(d, w)| lambda * w * d.length_squared())
-        .sum();
+    let mut pred = damping_term;
     let starts = out
         .into_iter()
         .map(|(t, p)| {
@@ -503,188 +712,49 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     (starts, pred)
 }
 
-/// Levenberg-Marquardt on the design points and the data points' parameters together, from
-/// `design` and `params` (see the module docs). For the corresponding-points metric the
-/// parameters stay fixed and one linear solve is exact: use [`lsq`].
-pub fn levenberg_marquardt<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, None, &mut |_| true)
-}
-
-/// A test of a design and its parameters that [`levenberg_marquardt_guarded`] keeps true.
+/// A test of a design and its parameters that the fit keeps true once it holds (see
+/// [`LsqHooks::guard`]).
 pub type Guard<'g, P, const K: usize> = &'g (dyn Fn(&[P], &[[f64; K]]) -> bool + Sync);
 
-/// [`levenberg_marquardt`] that, once `guard` holds, rejects every step after which it would
-/// no longer hold (a barrier: the fit stays in the region the guard admits, e.g. chains that do
-/// not fold back on themselves). From a start where the guard fails, steps are taken freely
-/// until it holds.
-pub fn levenberg_marquardt_guarded<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, guard, &mut |_| true)
+/// An observer of every iteration (the iterate, the current design and parameters), and of
+/// the start (iteration 0); returning false stops the fit (reason
+/// [`StopReason::MaxIterations`]).
+pub type Observer<'o, P, const K: usize> = &'o mut dyn FnMut(&LsqIterate, &[P], &[[f64; K]]) -> bool;
+
+/// What a caller may hook into [`lsq`].
+pub struct LsqHooks<'h, P, const K: usize> {
+    /// Once the guard holds, every step after which it would no longer hold is rejected (a
+    /// barrier: the fit stays in the region the guard admits, e.g. chains that do not fold
+    /// back on themselves). From a start where it fails, steps are taken freely until it
+    /// holds. Joint method only.
+    pub guard: Option<Guard<'h, P, K>>,
+    /// Called after every iteration. With an observer, several starts run one after another.
+    pub observe: Option<Observer<'h, P, K>>,
 }
 
-/// The state after one Levenberg-Marquardt iteration, for progress reports.
+impl<P, const K: usize> Default for LsqHooks<'_, P, K> {
+    fn default() -> Self {
+        LsqHooks {
+            guard: None,
+            observe: None,
+        }
+    }
+}
+
+/// The state after one iteration, for progress reports and observers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LsqIterate {
     /// Iterations so far (steps tried).
     pub iteration: usize,
-    /// The sum of squares at the current design, in squared model units.
+    /// The (weighted) sum of squares at the current design, in squared model units.
     pub sum_sq: f64,
-    /// The damping `λ` for the next step.
+    /// The largest distance of any data point at the current design and parameters, model
+    /// units.
+    pub max: f64,
+    /// The damping `λ` for the next step (0 for the alternating method).
     pub lambda: f64,
     /// True when this iteration's step was accepted.
     pub accepted: bool,
-}
-
-/// [`levenberg_marquardt`], calling `observe` after every iteration; the iteration stops
-/// (reason [`StopReason::MaxIterations`]) when `observe` returns false.
-pub fn levenberg_marquardt_observed<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    observe: &mut dyn FnMut(&LsqIterate) -> bool,
-) -> Result<LsqFit<S::Point, K>> {
-    levenberg_marquardt_core(problem, design, params, opts, None, observe)
-}
-
-/// Levenberg-Marquardt with an optional guard and an observer (see the two wrappers above).
-fn levenberg_marquardt_core<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    params: Vec<[f64; K]>,
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-    observe: &mut dyn FnMut(&LsqIterate) -> bool,
-) -> Result<LsqFit<S::Point, K>> {
-    let clock = Instant::now();
-    if design.len() != problem.design_count() || params.len() != problem.points().len() {
-        return Err(Error::invalid(format!(
-            "levenberg_marquardt: {} design points and {} parameters given, the problem needs {} and {}",
-            design.len(),
-            params.len(),
-            problem.design_count(),
-            problem.points().len()
-        )));
-    }
-    let (mut design, mut params) = (design, params);
-    // Below this sum of squares the data lie on the shape to rounding.
-    let tiny = (f64::EPSILON * problem.extent()).powi(2) * problem.points().len() as f64;
-    let mut evaluations = 1;
-    let mut iterations = 0;
-    let mut phi = problem.project(&design, &mut params);
-    let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
-    let mut feasible = admits(&design, &params);
-    let mut lambda = opts.initial_damping;
-    let mut nu = 2.0;
-    // The sum of squares after every iteration, for the windowed convergence test.
-    let window = opts.window.max(1);
-    let mut history = vec![phi];
-    let mut checks = 0;
-    let stop = loop {
-        let mut done = None;
-        if phi <= tiny {
-            done = Some(StopReason::Converged);
-        } else if iterations >= opts.max_iterations {
-            break StopReason::MaxIterations;
-        } else {
-            iterations += 1;
-            let normal = assemble(problem, &design, &params, lambda);
-            let mut accepted = false;
-            if let Some((step, dx)) = solve_step(problem.shape(), &normal, lambda) {
-                let (starts, pred) = trial_starts(problem, &design, &params, &step, &dx, lambda);
-                let trial: Vec<S::Point> = design.iter().zip(&step).map(|(&x, &d)| x + d).collect();
-                let mut trial_params = starts;
-                let phi_trial = problem.project(&trial, &mut trial_params);
-                evaluations += 1;
-                let rho = (phi - phi_trial) / pred;
-                let trial_feasible = || admits(&trial, &trial_params);
-                if pred > 0.0 && phi_trial.is_finite() && rho > 1e-4 && (!feasible || trial_feasible()) {
-                    feasible = feasible || trial_feasible();
-                    accepted = true;
-                    let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
-                    design = trial;
-                    params = trial_params;
-                    // Nielsen's update: shrink the damping by up to 3 when the model was good.
-                    lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0);
-                    nu = 2.0;
-                    phi = phi_trial;
-                    if moved <= opts.xtol * problem.extent() {
-                        done = Some(StopReason::Converged);
-                    }
-                }
-            }
-            if !accepted {
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > 1e16 {
-                    done = Some(StopReason::NoProgress);
-                }
-            }
-            history.push(phi);
-            if history.len() > window && history[history.len() - 1 - window] - phi <= opts.ftol * phi {
-                done = done.or(Some(StopReason::Converged));
-            }
-            let state = LsqIterate {
-                iteration: iterations,
-                sum_sq: phi,
-                lambda,
-                accepted,
-            };
-            if !observe(&state) && done.is_none() {
-                break StopReason::MaxIterations;
-            }
-        }
-        if let Some(reason) = done {
-            if problem.metric() == Metric::Closest && checks < opts.global_checks && phi > tiny {
-                let feet = problem.feet(&design, Some(&params));
-                evaluations += 1;
-                let phi_global: f64 = feet.iter().map(|f| f.dist_sq).sum();
-                if phi_global < phi * (1.0 - 1e-9) {
-                    checks += 1;
-                    params = feet.iter().map(|f| f.t).collect();
-                    phi = phi_global;
-                    history.clear();
-                    history.push(phi);
-                    lambda = opts.initial_damping;
-                    nu = 2.0;
-                    continue;
-                }
-            }
-            break reason;
-        }
-    };
-    Ok(LsqFit {
-        design,
-        params,
-        sum_sq: phi,
-        report: SolveReport {
-            iterations,
-            evaluations,
-            seconds: clock.elapsed().as_secs_f64(),
-            stop,
-        },
-    })
-}
-
-/// The least-squares fit of the problem: a linear least-squares solve at the problem's
-/// parameters, then, for the closest-point metric, [`levenberg_marquardt`] from there. For the
-/// corresponding-points metric the linear solve is the exact optimum (one iteration, one
-/// evaluation).
-pub fn lsq<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    opts: &LsqOptions,
-) -> Result<LsqFit<S::Point, K>> {
-    lsq_from(problem, &[Start::Params(problem.params().to_vec())], opts)
 }
 
 /// Where a least-squares fit starts.
@@ -695,25 +765,25 @@ pub enum Start<P, const K: usize> {
     /// A design, with one parameter per data point from which the local foot points are
     /// found.
     Design(Vec<P>, Vec<[f64; K]>),
+    /// A design with its local foot points already found (the result of an earlier fit):
+    /// taken as they are.
+    Feet(Vec<P>, Vec<[f64; K]>),
 }
 
-/// [`lsq`] from several starts, run in parallel: one fit per start, in order. For the
-/// corresponding-points metric only the problem's own parameters matter: one linear solve.
-pub fn lsq_each<S: Shape<K>, const K: usize>(
+/// The least-squares fit of `problem` from each of `starts`, one fit per start, in order
+/// (several starts run in parallel unless an observer is hooked).
+///
+/// For the closest-point metric each start is followed by the method of `opts`:
+/// Levenberg-Marquardt over the design and the parameters together ([`LsqMethod::Joint`],
+/// see the module docs) or Hoschek's alternation ([`LsqMethod::Alternate`]). Anchored points
+/// keep the problem's parameters whatever the start says. For the corresponding-points metric
+/// the parameters are fixed and one linear solve at the problem's parameters is exact: one
+/// fit, whatever the starts. [`LsqFit::best`] picks the lowest sum of squares.
+pub fn lsq<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     starts: &[Start<S::Point, K>],
     opts: &LsqOptions,
-) -> Result<Vec<LsqFit<S::Point, K>>> {
-    lsq_each_guarded(problem, starts, opts, None)
-}
-
-/// [`lsq_each`] with every run kept where `guard` admits once it holds (see
-/// [`levenberg_marquardt_guarded`]).
-pub fn lsq_each_guarded<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    starts: &[Start<S::Point, K>],
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
+    hooks: LsqHooks<'_, S::Point, K>,
 ) -> Result<Vec<LsqFit<S::Point, K>>> {
     let clock = Instant::now();
     if problem.metric() == Metric::Corresponding {
@@ -755,38 +825,212 @@ pub fn lsq_each_guarded<S: Shape<K>, const K: usize>(
             })
             .collect())
     };
-    let run = |start: &Start<S::Point, K>| -> Result<LsqFit<S::Point, K>> {
-        let (design, params) = match start {
-            Start::Params(t) => {
-                let params = own(t)?;
-                (problem.linear_fit(&params)?, params)
+    let guard = hooks.guard;
+    let run =
+        |start: &Start<S::Point, K>, observe: Observer<'_, S::Point, K>| -> Result<LsqFit<S::Point, K>> {
+            let (design, params, projected) = match start {
+                Start::Params(t) => (None, own(t)?, false),
+                Start::Design(x, t) => (Some(x.clone()), own(t)?, false),
+                Start::Feet(x, t) => (Some(x.clone()), own(t)?, true),
+            };
+            match opts.method {
+                LsqMethod::Joint => {
+                    let design = match design {
+                        Some(x) => x,
+                        None => problem.linear_fit(&params)?,
+                    };
+                    levenberg_marquardt(problem, design, params, projected, opts, guard, observe)
+                }
+                LsqMethod::Alternate => alternate(problem, design, params, opts, observe),
             }
-            Start::Design(x, t) => (x.clone(), own(t)?),
         };
-        levenberg_marquardt_guarded(problem, design, params, opts, guard)
-    };
-    if starts.len() == 1 {
-        return Ok(vec![run(&starts[0])?]);
+    match hooks.observe {
+        Some(observe) => starts.iter().map(|s| run(s, &mut *observe)).collect(),
+        None if starts.len() == 1 => Ok(vec![run(&starts[0], &mut |_, _, _| true)?]),
+        None => starts.par_iter().map(|s| run(s, &mut |_, _, _| true)).collect(),
     }
-    starts.par_iter().map(run).collect()
 }
 
-/// [`lsq`] from several starts, run in parallel; the fit with the least sum of squares wins
-/// (the first on ties). The closest-point objective has many local minima on real data, and
-/// different parameterisations of the data (chord length, centripetal, ...) reach different
-/// ones. The report sums the iterations and evaluations of all starts; `seconds` is the
-/// wall-clock time of the whole call.
-pub fn lsq_from<S: Shape<K>, const K: usize>(
+impl<P, const K: usize> LsqFit<P, K> {
+    /// The fit with the least sum of squares (the first on ties), its report carrying the
+    /// summed iterations and evaluations of all; `None` for no fits.
+    #[must_use]
+    pub fn best(fits: Vec<Self>) -> Option<Self> {
+        pick(fits, |a, b| a.sum_sq < b.sum_sq)
+    }
+}
+
+/// Levenberg-Marquardt on the design points and the data points' parameters together, from
+/// `design` and `params` (see the module docs), under `guard`, calling `observe` after every
+/// iteration.
+#[allow(clippy::too_many_arguments)]
+fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    starts: &[Start<S::Point, K>],
+    design: Vec<S::Point>,
+    params: Vec<[f64; K]>,
+    projected: bool,
     opts: &LsqOptions,
+    guard: Option<Guard<'_, S::Point, K>>,
+    observe: Observer<'_, S::Point, K>,
 ) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
-    let fits = lsq_each(problem, starts, opts)?;
-    let mut best = pick(fits, |a, b| a.sum_sq < b.sum_sq)
-        .ok_or_else(|| Error::Numerical("lsq: no start produced a fit".into()))?;
-    best.report.seconds = clock.elapsed().as_secs_f64();
-    Ok(best)
+    if design.len() != problem.design_count() || params.len() != problem.points().len() {
+        return Err(Error::invalid(format!(
+            "levenberg_marquardt: {} design points and {} parameters given, the problem needs {} and {}",
+            design.len(),
+            params.len(),
+            problem.design_count(),
+            problem.points().len()
+        )));
+    }
+    let (mut design, mut params) = (design, params);
+    // Below this sum of squares the data lie on the shape to rounding.
+    let tiny = (f64::EPSILON * problem.extent()).powi(2) * problem.points().len() as f64;
+    let mut evaluations = 1;
+    let mut iterations = 0;
+    let (mut phi, mut max) = if projected {
+        let d = problem.distances(&design, &params);
+        let phi = d.iter().enumerate().map(|(j, e)| problem.weight(j) * e * e).sum();
+        (phi, d.iter().fold(0.0_f64, |m, &e| m.max(e)))
+    } else {
+        problem.project_max(&design, &mut params)
+    };
+    let admits = |d: &[S::Point], t: &[[f64; K]]| guard.is_none_or(|g| g(d, t));
+    let mut feasible = admits(&design, &params);
+    let mut lambda = opts.initial_damping;
+    let mut nu = 2.0;
+    // The sum of squares after every iteration, for the windowed convergence test.
+    let window = opts.window.max(1);
+    let mut history = vec![phi];
+    let mut checks = 0;
+    let start = LsqIterate {
+        iteration: 0,
+        sum_sq: phi,
+        max,
+        lambda,
+        accepted: false,
+    };
+    let stop = loop {
+        if iterations == 0 && !observe(&start, &design, &params) {
+            break StopReason::MaxIterations;
+        }
+        let mut done = None;
+        if phi <= tiny {
+            done = Some(StopReason::Converged);
+        } else if iterations >= opts.max_iterations {
+            break StopReason::MaxIterations;
+        } else {
+            iterations += 1;
+            let (normal, models) = assemble(problem, &design, &params, lambda);
+            let mut accepted = false;
+            let solved = solve_step(
+                problem.shape(),
+                &normal,
+                lambda,
+                problem.constraint(),
+                opts.damping_scale,
+            );
+            if let Some((step, damping_term)) = solved {
+                let (starts, pred) = trial_starts(
+                    problem,
+                    &design,
+                    &params,
+                    &step,
+                    damping_term,
+                    lambda,
+                    models.as_ref(),
+                );
+                let trial: Vec<S::Point> = design.iter().zip(&step).map(|(&x, &d)| x + d).collect();
+                let mut trial_params = starts;
+                let (phi_trial, max_trial) = problem.project_max(&trial, &mut trial_params);
+                evaluations += 1;
+                let rho = (phi - phi_trial) / pred;
+                let trial_feasible = || admits(&trial, &trial_params);
+                if pred > 0.0
+                    && phi_trial.is_finite()
+                    && rho > opts.accept_ratio
+                    && (!feasible || trial_feasible())
+                {
+                    feasible = feasible || trial_feasible();
+                    accepted = true;
+                    let moved = step.iter().fold(0.0_f64, |m, d| m.max(d.max_abs()));
+                    design = trial;
+                    params = trial_params;
+                    // Nielsen's update: shrink the damping by up to 3 when the model was good.
+                    match opts.damping_factors {
+                        Some([down, _]) => lambda = (lambda / down).max(1e-12),
+                        None => lambda *= (1.0 - (2.0 * rho.min(1.0) - 1.0).powi(3)).max(1.0 / 3.0),
+                    }
+                    nu = 2.0;
+                    phi = phi_trial;
+                    max = max_trial;
+                    if moved <= opts.xtol * problem.extent() {
+                        done = Some(StopReason::Converged);
+                    }
+                }
+            }
+            if !accepted {
+                match opts.damping_factors {
+                    Some([_, up]) => lambda *= up,
+                    None => {
+                        lambda *= nu;
+                        nu *= 2.0;
+                    }
+                }
+                if lambda > 1e16 {
+                    done = Some(StopReason::NoProgress);
+                }
+            }
+            history.push(phi);
+            if history.len() > window && history[history.len() - 1 - window] - phi <= opts.ftol * phi {
+                done = done.or(Some(StopReason::Converged));
+            }
+            let state = LsqIterate {
+                iteration: iterations,
+                sum_sq: phi,
+                max,
+                lambda,
+                accepted,
+            };
+            if !observe(&state, &design, &params) && done.is_none() {
+                break StopReason::MaxIterations;
+            }
+        }
+        if let Some(reason) = done {
+            if problem.metric() == Metric::Closest && checks < opts.global_checks && phi > tiny {
+                let feet = problem.feet(&design, Some(&params));
+                evaluations += 1;
+                let phi_global: f64 = feet
+                    .iter()
+                    .enumerate()
+                    .map(|(j, f)| problem.weight(j) * f.dist_sq)
+                    .sum();
+                if phi_global < phi * (1.0 - 1e-9) {
+                    checks += 1;
+                    params = feet.iter().map(|f| f.t).collect();
+                    phi = phi_global;
+                    max = feet.iter().fold(0.0_f64, |m, f| m.max(f.dist_sq)).sqrt();
+                    history.clear();
+                    history.push(phi);
+                    lambda = opts.initial_damping;
+                    nu = 2.0;
+                    continue;
+                }
+            }
+            break reason;
+        }
+    };
+    Ok(LsqFit {
+        design,
+        params,
+        sum_sq: phi,
+        report: SolveReport {
+            iterations,
+            evaluations,
+            seconds: clock.elapsed().as_secs_f64(),
+            stop,
+        },
+    })
 }
 
 /// The fit that `better` prefers (the first on ties), its report carrying the summed
@@ -829,32 +1073,58 @@ impl<P, const K: usize> HasReport for LsqFit<P, K> {
     }
 }
 
-/// The baseline the joint method replaces: `rounds` alternations of a linear least-squares
-/// solve at fixed parameters and a projection of every parameter to its local foot point
-/// (Hoschek's parameter correction), from the problem's parameters. Returns the last design
-/// with its foot points and sum of squares.
-pub fn alternate<S: Shape<K>, const K: usize>(
+/// Hoschek's parameter correction (the baseline the joint method replaces): rounds of a
+/// linear least-squares solve at fixed parameters and a projection of every parameter to its
+/// local foot point, from `design` (projected first) or the linear fit at `params`, at most
+/// `opts.max_iterations` rounds. Returns the last design with its foot points and sum of
+/// squares.
+fn alternate<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
-    rounds: usize,
+    design: Option<Vec<S::Point>>,
+    mut params: Vec<[f64; K]>,
+    opts: &LsqOptions,
+    observe: Observer<'_, S::Point, K>,
 ) -> Result<LsqFit<S::Point, K>> {
     let clock = Instant::now();
-    let rounds = rounds.max(1);
-    let mut params = problem.params().to_vec();
-    let mut design = problem.linear_fit(&params)?;
-    let mut sum_sq = problem.project(&design, &mut params);
-    for _ in 1..rounds {
+    let rounds = opts.max_iterations.max(1);
+    let (mut design, mut iterations, mut evaluations) = match design {
+        Some(x) => (x, 0, 1),
+        None => (problem.linear_fit(&params)?, 1, 0),
+    };
+    let (mut sum_sq, mut max) = problem.project_max(&design, &mut params);
+    let mut stop = StopReason::MaxIterations;
+    loop {
+        let state = LsqIterate {
+            iteration: iterations,
+            sum_sq,
+            max,
+            lambda: 0.0,
+            accepted: true,
+        };
+        if !observe(&state, &design, &params) {
+            break;
+        }
+        if iterations >= rounds {
+            break;
+        }
         design = problem.linear_fit(&params)?;
-        sum_sq = problem.project(&design, &mut params);
+        (sum_sq, max) = problem.project_max(&design, &mut params);
+        iterations += 1;
+        evaluations += 1;
+        if !sum_sq.is_finite() {
+            stop = StopReason::NoProgress;
+            break;
+        }
     }
     Ok(LsqFit {
         design,
         params,
         sum_sq,
         report: SolveReport {
-            iterations: rounds,
-            evaluations: rounds,
+            iterations,
+            evaluations: evaluations.max(1),
             seconds: clock.elapsed().as_secs_f64(),
-            stop: StopReason::MaxIterations,
+            stop,
         },
     })
 }
@@ -865,6 +1135,18 @@ mod tests {
     use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
     use crate::fit::problem::CurveProblem;
     use glam::{DVec2, DVec3};
+
+    /// The fit from the problem's own parameters.
+    fn own<S: Shape<K>, const K: usize>(p: &FitProblem<'_, S, K>, opts: &LsqOptions) -> LsqFit<S::Point, K> {
+        lsq(
+            p,
+            &[Start::Params(p.params().to_vec())],
+            opts,
+            LsqHooks::default(),
+        )
+        .unwrap()
+        .remove(0)
+    }
 
     #[test]
     fn recovers_a_chain_from_points_sampled_off_its_chord_length_parameters() {
@@ -878,7 +1160,7 @@ mod tests {
             .map(|i| chain.eval((i as f64 / 119.0).powf(1.4)))
             .collect();
         let p = CurveProblem::curve(layout, &pts, Metric::Closest).unwrap();
-        let fit = lsq(&p, &LsqOptions::default()).unwrap();
+        let fit = own(&p, &LsqOptions::default());
         assert!(fit.sum_sq < 1e-24, "sum_sq {}", fit.sum_sq);
         let (stats, _) = p.stats(&fit.design);
         assert!(stats.max < 1e-12, "max {}", stats.max);
@@ -902,8 +1184,16 @@ mod tests {
             })
             .collect();
         let p = CurveProblem::curve(layout, &pts, Metric::Closest).unwrap();
-        let joint = lsq(&p, &LsqOptions::default()).unwrap();
-        let slow = alternate(&p, 50).unwrap();
+        let joint = own(&p, &LsqOptions::default());
+        let slow = own(
+            &p,
+            &LsqOptions {
+                method: LsqMethod::Alternate,
+                max_iterations: 50,
+                ..LsqOptions::default()
+            },
+        );
+        assert_eq!(slow.report.iterations, 50);
         assert!(joint.report.converged());
         assert!(joint.sum_sq < slow.sum_sq, "{} vs {}", joint.sum_sq, slow.sum_sq);
         // The optimum is stationary: the gradient of the objective (a sum of `2 φ_i r_j`
@@ -953,7 +1243,7 @@ mod tests {
             .unwrap()
             .with_anchors(&corners)
             .unwrap();
-        let fit = lsq(&p, &LsqOptions::default()).unwrap();
+        let fit = own(&p, &LsqOptions::default());
         assert!(fit.sum_sq < 1e-20, "sum_sq {}", fit.sum_sq);
         let fitted = p.patch_grid(&fit.design).unwrap();
         assert!(fitted.continuity_error() < 1e-9);

@@ -1,10 +1,10 @@
-//! Offset metrics (DESIGN.md §2): the distance of every data point to a chain or grid, and the
+//! Offset metrics (`docs/ARCHITECTURE.md` §2.4): the distance of every data point to a chain or grid, and the
 //! summary figures reports carry (`sum_sq`, `sum`, `rms`, `max`, `max_at`).
 
-use super::foot::{closest_all, Foot, FootOptions, SampleGrid};
 use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{CurveChain, PatchGrid};
+use crate::closest::{Foot, FootOptions};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -215,15 +215,7 @@ pub fn shape_offsets<S: Shape<K>, const K: usize>(
             shape.design_count()
         )));
     }
-    let grid = SampleGrid::new(shape, opts.samples);
-    let mut feet = vec![
-        Foot {
-            t: [0.0; K],
-            dist_sq: 0.0
-        };
-        points.len()
-    ];
-    closest_all(shape, &grid, design, points, None, opts, &mut feet);
+    let feet = crate::closest::feet(shape, design, points, None, opts);
     let d2: Vec<f64> = feet.iter().map(|f| f.dist_sq).collect();
     Ok((OffsetStats::from_dist_sq(Metric::Closest, &d2, points), feet))
 }

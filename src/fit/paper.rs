@@ -1,4 +1,4 @@
-//! The paper's three NACA 4413 cases (WCE 2008, Figs. 9–11; DESIGN.md §1).
+//! The paper's three NACA 4413 cases (WCE 2008, Figs. 9–11; `docs/ARCHITECTURE.md` §2.5).
 
 /// One of the paper's 2D cases: its layout, counts and reported total offset.
 #[derive(Clone, Copy, Debug, PartialEq)]

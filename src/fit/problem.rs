@@ -1,16 +1,25 @@
-//! `FitProblem`: data points, a shape layout and an offset metric; the objective every solver
-//! minimises (sum of squared offsets), its gradient, and the per-point residual blocks of the
-//! Gauss-Newton solver.
+//! `FitProblem`: the one fitting problem every solver takes. It owns the data points, the
+//! shape (a chain or grid layout), the offset metric, the per-point parameters, the anchors
+//! (points tied to fixed parameters), per-point weights, parameter directions held fixed,
+//! linear constraints on the design (the aerofoil rule, the span rule), the start design and
+//! the box bounds; it gives the objective (sum of squared offsets), its gradient, the
+//! per-point residual blocks and linear least squares.
+//!
+//! The solvers: [`lsq`](super::lsq::lsq) (the residual structure), Nelder-Mead and BFGS (the
+//! [`Objective`] of [`FitProblem::objective_fn`]), the GA and CMA-ES (the population
+//! objective of [`super::population`]).
 
-use super::foot::{closest_all, refine, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
+use super::population::Frame;
 use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
+use crate::closest::{closest_all, refine_held, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
 use crate::error::{Error, Result};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// A fitting problem: data points `q_j`, a shape (chain or grid layout) and a metric.
 ///
@@ -24,6 +33,12 @@ use rayon::prelude::*;
 /// (the points there only see the part of the chain near them), and on aerofoils the fit
 /// drifts towards end segments that loop far outside the contour while the offsets shrink
 /// by a few per cent; the optimum is then not a usable shape.
+///
+/// Optional parts, all kept by every solver that can: per-point *weights* `w_j` (the
+/// objective becomes `Σ_j w_j |C(t_j) - q_j|²`; the minimax polish reweights), parameter
+/// directions *held* at the given parameters for every point (a sectioned cloud's span
+/// parameter), a linear [`Constraint`] on the design points, a start design and box bounds
+/// (the evolutionary methods').
 #[derive(Clone, Debug)]
 pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     shape: S,
@@ -31,9 +46,197 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     metric: Metric,
     params: Vec<[f64; K]>,
     anchored: Vec<bool>,
+    weights: Option<Vec<f64>>,
+    held: [bool; K],
+    constraint: Option<Constraint>,
+    start: Option<Vec<S::Point>>,
+    start_flat: Vec<f64>,
+    bounds: Vec<[f64; 2]>,
+    box_extent: f64,
     foot: FootOptions,
-    grid: SampleGrid<K>,
+    /// The foot-point search's samples, built at the first global search.
+    grid: OnceLock<SampleGrid<K>>,
+    /// The evolutionary methods' centred frame, made at first use.
+    frame: OnceLock<Frame>,
     extent: f64,
+}
+
+/// A linear rule for one coordinate of every design point: coordinate `c` of design point
+/// `i` is `Σ w z_k` over the entries `(k, w)` of row `i`, plus `offset[i]`, with `z` this
+/// coordinate's unknowns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoordRule {
+    rows: Vec<Vec<(usize, f64)>>,
+    offset: Vec<f64>,
+    unknowns: usize,
+}
+
+impl CoordRule {
+    /// The coordinate of each of `m` design points is its own unknown.
+    #[must_use]
+    pub fn free(m: usize) -> Self {
+        CoordRule {
+            rows: (0..m).map(|i| vec![(i, 1.0)]).collect(),
+            offset: vec![0.0; m],
+            unknowns: m,
+        }
+    }
+
+    /// The coordinate is fixed at `values` (one per design point): no unknowns.
+    #[must_use]
+    pub fn fixed(values: Vec<f64>) -> Self {
+        CoordRule {
+            rows: vec![Vec::new(); values.len()],
+            offset: values,
+            unknowns: 0,
+        }
+    }
+
+    /// The coordinate is a linear combination of `unknowns` numbers, row `i` for design point
+    /// `i` (entries `(unknown, weight)`).
+    #[must_use]
+    pub fn linear(rows: Vec<Vec<(usize, f64)>>, unknowns: usize) -> Self {
+        let m = rows.len();
+        CoordRule {
+            rows,
+            offset: vec![0.0; m],
+            unknowns,
+        }
+    }
+
+    /// Number of unknowns.
+    #[must_use]
+    pub fn unknowns(&self) -> usize {
+        self.unknowns
+    }
+
+    /// Row `i`: the entries `(unknown, weight)` of design point `i`.
+    #[must_use]
+    pub fn row(&self, i: usize) -> &[(usize, f64)] {
+        &self.rows[i]
+    }
+
+    /// The coordinate of design point `i` for unknowns `z`.
+    #[must_use]
+    pub fn value(&self, i: usize, z: &[f64]) -> f64 {
+        self.rows[i].iter().map(|&(k, w)| w * z[k]).sum::<f64>() + self.offset[i]
+    }
+
+    /// The unknowns that reproduce the coordinates `x` best (exactly when `x` follows the
+    /// rule): the least-squares solution of `A z = x - offset`.
+    fn unknowns_of(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let n = self.unknowns;
+        let mut a = DMatrix::<f64>::zeros(n, n);
+        let mut b = DVector::<f64>::zeros(n);
+        for (i, row) in self.rows.iter().enumerate() {
+            for &(k, w) in row {
+                b[k] += w * (x[i] - self.offset[i]);
+                for &(l, v) in row {
+                    a[(k, l)] += w * v;
+                }
+            }
+        }
+        let z = a.cholesky()?.solve(&b);
+        z.iter().all(|v| v.is_finite()).then(|| z.as_slice().to_vec())
+    }
+}
+
+/// Linear constraints on the design points, one [`CoordRule`] per coordinate: the design is
+/// `A z + c` for the unknowns `z` (coordinate 0's unknowns first, then coordinate 1's, ...).
+/// The aerofoil rule makes every x a combination of 2 or 3 numbers; the span rule fixes the
+/// span coordinate of every design column.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Constraint {
+    coords: Vec<CoordRule>,
+    /// Index of each coordinate's first unknown in `z`.
+    first: Vec<usize>,
+    /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
+    flat: Vec<Vec<(usize, f64)>>,
+}
+
+impl Constraint {
+    /// The constraint of one rule per coordinate.
+    #[must_use]
+    pub fn new(coords: Vec<CoordRule>) -> Self {
+        let mut first = Vec::with_capacity(coords.len());
+        let mut at = 0;
+        for c in &coords {
+            first.push(at);
+            at += c.unknowns;
+        }
+        let m = coords.first().map_or(0, |c| c.rows.len());
+        let flat = (0..m)
+            .flat_map(|i| (0..coords.len()).map(move |c| (i, c)))
+            .map(|(i, c)| {
+                let rows = coords[c].rows.get(i).map_or(&[][..], Vec::as_slice);
+                rows.iter().map(|&(k, w)| (first[c] + k, w)).collect()
+            })
+            .collect();
+        Constraint { coords, first, flat }
+    }
+
+    /// The rule of coordinate `c`.
+    #[must_use]
+    pub fn coord(&self, c: usize) -> &CoordRule {
+        &self.coords[c]
+    }
+
+    /// Number of unknowns, all coordinates together.
+    #[must_use]
+    pub fn unknowns(&self) -> usize {
+        self.coords.iter().map(|c| c.unknowns).sum()
+    }
+
+    /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
+    pub(crate) fn flat_rows(&self) -> &[Vec<(usize, f64)>] {
+        &self.flat
+    }
+
+    /// The design points for unknowns `z`.
+    #[must_use]
+    pub fn design<P: Vector>(&self, z: &[f64]) -> Vec<P> {
+        let m = self.coords.first().map_or(0, |c| c.rows.len());
+        (0..m)
+            .map(|i| {
+                let c: Vec<f64> = (0..P::DIM)
+                    .map(|c| self.coords[c].value(i, &z[self.first[c]..]))
+                    .collect();
+                P::from_coords(&c)
+            })
+            .collect()
+    }
+
+    /// The unknowns of design points that follow the constraint (least squares per
+    /// coordinate); `None` when a rule's unknowns are not determined.
+    #[must_use]
+    pub fn unknowns_of<P: Vector>(&self, design: &[P]) -> Option<Vec<f64>> {
+        let mut z = Vec::with_capacity(self.unknowns());
+        for (c, rule) in self.coords.iter().enumerate() {
+            let x: Vec<f64> = design.iter().map(|p| p.coord(c)).collect();
+            z.extend(rule.unknowns_of(&x)?);
+        }
+        Some(z)
+    }
+
+    fn check(&self, dim: usize, m: usize) -> Result<()> {
+        if self.coords.len() != dim || self.coords.iter().any(|c| c.rows.len() != m) {
+            return Err(Error::invalid(format!(
+                "the constraint has {} coordinate rules for {m} design points; the problem has {dim}                  coordinates",
+                self.coords.len()
+            )));
+        }
+        if self.coords.iter().any(|c| {
+            c.rows
+                .iter()
+                .flatten()
+                .any(|&(k, w)| k >= c.unknowns || !w.is_finite())
+        }) {
+            return Err(Error::invalid(
+                "a constraint row names an unknown it does not have",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// A fitting problem for a chain of curves.
@@ -85,6 +288,34 @@ pub(crate) fn chunked_sum<T: Send>(
     parts.fold(first, merge)
 }
 
+/// Solve the symmetric positive definite `a x = rhs` by Cholesky; when `a` is singular, with
+/// a ridge of `1e-10` of its largest diagonal pulling column `k` of the solution towards
+/// `toward(k)`.
+fn cholesky_ridged(
+    mut a: DMatrix<f64>,
+    mut rhs: DMatrix<f64>,
+    toward: impl Fn(usize) -> f64,
+) -> Result<DMatrix<f64>> {
+    if let Some(ch) = a.clone().cholesky() {
+        return Ok(ch.solve(&rhs));
+    }
+    let n = a.nrows();
+    let mu = 1e-10
+        * (0..n)
+            .map(|i| a[(i, i)])
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
+    for i in 0..n {
+        a[(i, i)] += mu;
+        for k in 0..rhs.ncols() {
+            rhs[(i, k)] += mu * toward(k);
+        }
+    }
+    Ok(a.cholesky()
+        .ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))?
+        .solve(&rhs))
+}
+
 impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     /// A problem from a shape, data points, one parameter per point in `[0, 1]^K` (the
     /// corresponding parameters, also the start of a closest-point fit), a metric and the
@@ -126,18 +357,167 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             });
             extent = extent.max(hi - lo);
         }
-        let grid = SampleGrid::new(&shape, foot.samples);
+        let grid = OnceLock::new();
         let anchored = vec![false; points.len()];
+        let extent = if extent > 0.0 { extent } else { 1.0 };
         Ok(FitProblem {
             shape,
             points,
             metric,
             params,
             anchored,
+            weights: None,
+            held: [false; K],
+            constraint: None,
+            start: None,
+            start_flat: Vec::new(),
+            bounds: Vec::new(),
+            box_extent: extent,
             foot,
             grid,
-            extent: if extent > 0.0 { extent } else { 1.0 },
+            frame: OnceLock::new(),
+            extent,
         })
+    }
+
+    /// The problem with weight `weights[j]` on data point `j` (finite, at least 0), or none
+    /// (all 1).
+    pub fn with_weights(mut self, weights: Option<Vec<f64>>) -> Result<Self> {
+        self.set_weights(weights)?;
+        Ok(self)
+    }
+
+    /// Replace the weights (see [`FitProblem::with_weights`]).
+    pub fn set_weights(&mut self, weights: Option<Vec<f64>>) -> Result<()> {
+        if let Some(w) = &weights {
+            if w.len() != self.points.len() {
+                return Err(Error::invalid(format!(
+                    "{} weights given for {} data points",
+                    w.len(),
+                    self.points.len()
+                )));
+            }
+            if w.iter().any(|&x| !(x >= 0.0) || !x.is_finite()) {
+                return Err(Error::invalid("weights must be finite and at least 0"));
+            }
+        }
+        self.weights = weights;
+        Ok(())
+    }
+
+    /// The weight of data point `j` (1 without weights).
+    #[inline]
+    #[must_use]
+    pub fn weight(&self, j: usize) -> f64 {
+        self.weights.as_ref().map_or(1.0, |w| w[j])
+    }
+
+    /// The problem with the parameter directions marked in `held` kept at every point's given
+    /// parameter (e.g. a sectioned cloud's span parameter `v`): only the others move.
+    #[must_use]
+    pub fn with_held(mut self, held: [bool; K]) -> Self {
+        self.held = held;
+        self
+    }
+
+    /// The parameter directions held at the given parameters.
+    #[must_use]
+    pub fn held(&self) -> [bool; K] {
+        self.held
+    }
+
+    /// The problem with the design points constrained to `constraint`.
+    pub fn with_constraint(mut self, constraint: Constraint) -> Result<Self> {
+        constraint.check(S::Point::DIM, self.design_count())?;
+        self.constraint = Some(constraint);
+        Ok(self)
+    }
+
+    /// The linear constraint on the design, if any.
+    #[must_use]
+    pub fn constraint(&self) -> Option<&Constraint> {
+        self.constraint.as_ref()
+    }
+
+    /// The problem with `start` as its start design (the paper's start for curves; the
+    /// evolutionary methods start from it).
+    pub fn with_start(mut self, start: Vec<S::Point>) -> Result<Self> {
+        if start.len() != self.design_count() {
+            return Err(Error::invalid(format!(
+                "the start has {} design points, the layout {}",
+                start.len(),
+                self.design_count()
+            )));
+        }
+        if start.iter().any(|p| !p.is_finite_point()) {
+            return Err(Error::invalid("the start design must be finite"));
+        }
+        self.start_flat = Self::to_flat(&start);
+        self.start = Some(start);
+        self.frame = OnceLock::new();
+        Ok(self)
+    }
+
+    /// The start design, if one was given.
+    #[must_use]
+    pub fn start_design(&self) -> Option<&[S::Point]> {
+        self.start.as_deref()
+    }
+
+    /// The start design flat (`x0, y0, (z0,) x1, …`; empty without one).
+    #[must_use]
+    pub fn start_flat(&self) -> &[f64] {
+        &self.start_flat
+    }
+
+    /// The problem with box bounds on every design variable: the bounding box of the data and
+    /// the start design, each side grown by `margin` times its largest side (the evolutionary
+    /// methods' search box).
+    pub fn with_bounds(mut self, margin: f64) -> Result<Self> {
+        if !(margin >= 0.0) || !margin.is_finite() {
+            return Err(Error::invalid(format!(
+                "the bounds margin must be a finite number ≥ 0 (a fraction of the data extent), not {margin}"
+            )));
+        }
+        let dim = S::Point::DIM;
+        let mut sides = vec![[f64::INFINITY, f64::NEG_INFINITY]; dim];
+        for p in self.points.iter().chain(self.start.iter().flatten()) {
+            for (c, s) in sides.iter_mut().enumerate() {
+                s[0] = s[0].min(p.coord(c));
+                s[1] = s[1].max(p.coord(c));
+            }
+        }
+        let extent = sides.iter().map(|s| s[1] - s[0]).fold(0.0, f64::max);
+        let extent = if extent > 0.0 { extent } else { 1.0 };
+        for s in &mut sides {
+            s[0] -= margin * extent;
+            s[1] += margin * extent;
+        }
+        self.bounds = (0..self.design_count())
+            .flat_map(|_| sides.iter().copied())
+            .collect();
+        self.box_extent = extent;
+        self.frame = OnceLock::new();
+        Ok(self)
+    }
+
+    /// The frame the evolutionary methods see the problem in: the start and bounds less the
+    /// centre of the bounds' box (see [`Frame`]).
+    pub(crate) fn frame(&self) -> &Frame {
+        self.frame
+            .get_or_init(|| Frame::new(&self.start_flat, &self.bounds, S::Point::DIM))
+    }
+
+    /// `[lower, upper]` of every flat design variable (empty until [`FitProblem::with_bounds`]).
+    #[must_use]
+    pub fn bounds(&self) -> &[[f64; 2]] {
+        &self.bounds
+    }
+
+    /// The largest side of the box the bounds were grown from (data and start), model units.
+    #[must_use]
+    pub fn box_extent(&self) -> f64 {
+        self.box_extent
     }
 
     /// The problem with the given data points anchored at their fixed parameters (replacing
@@ -162,6 +542,28 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     #[must_use]
     pub fn is_anchored(&self, j: usize) -> bool {
         self.anchored[j]
+    }
+
+    /// The anchored data points, with the design points (and weights) of the shape point each
+    /// is tied to (its basis at its fixed parameter, zero weights left out).
+    #[must_use]
+    pub fn anchors(&self) -> Vec<(usize, Vec<(usize, f64)>)> {
+        let mut b = Basis::new();
+        (0..self.points.len())
+            .filter(|&j| self.anchored[j])
+            .map(|j| {
+                self.shape.basis(self.params[j], 0, &mut b);
+                let weights = self
+                    .shape
+                    .support(b.cell)
+                    .iter()
+                    .zip(&b.value)
+                    .filter(|(_, &w)| w != 0.0)
+                    .map(|(&i, &w)| (i as usize, w))
+                    .collect();
+                (j, weights)
+            })
+            .collect()
     }
 
     /// The shape.
@@ -236,8 +638,20 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         t: [f64; K],
         basis: &mut Basis<K>,
     ) -> Residual<S::Point, K> {
-        self.shape.basis(t, 1, basis);
-        let jet = self.shape.jet(basis, design, 1);
+        let prepared = self.shape.prepare(design);
+        self.residual_at(&prepared, design, j, t, basis)
+    }
+
+    /// [`FitProblem::residual`] with the design also prepared ([`Shape::prepare`]).
+    pub fn residual_at(
+        &self,
+        prepared: &S::Prepared<'_>,
+        design: &[S::Point],
+        j: usize,
+        t: [f64; K],
+        basis: &mut Basis<K>,
+    ) -> Residual<S::Point, K> {
+        let jet = self.shape.basis_and_jet(prepared, design, t, basis);
         Residual {
             r: jet.point - self.points[j],
             tangents: jet.d1,
@@ -272,7 +686,8 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         ];
         closest_all(
             &self.shape,
-            &self.grid,
+            self.grid
+                .get_or_init(|| SampleGrid::new(&self.shape, self.foot.samples)),
             design,
             self.points,
             warm,
@@ -282,44 +697,68 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         feet
     }
 
-    /// Move every parameter but the anchored ones to the local closest point by Newton's
-    /// method started from it, returning `Σ |C(t_j) - q_j|²` at the new parameters.
+    /// Move every parameter but the anchored ones (and the held directions) to the local
+    /// closest point by Newton's method started from it, returning `Σ w_j |C(t_j) - q_j|²` at
+    /// the new parameters.
     pub fn project(&self, design: &[S::Point], params: &mut [[f64; K]]) -> f64 {
+        self.project_max(design, params).0
+    }
+
+    /// [`FitProblem::project`], with the largest distance `|C(t_j) - q_j|` of any point.
+    pub fn project_max(&self, design: &[S::Point], params: &mut [[f64; K]]) -> (f64, f64) {
         debug_assert_eq!(
             params.len(),
             self.points.len(),
             "project: one parameter per point"
         );
+        let prepared = self.shape.prepare(design);
         let run = |offset: usize, ts: &mut [[f64; K]]| {
             let mut b = Basis::new();
-            let mut sum = 0.0;
+            let (mut sum, mut max) = (0.0, 0.0_f64);
             for (j, t) in ts.iter_mut().enumerate() {
                 let q = self.points[offset + j];
-                if self.anchored[offset + j] {
+                let d2 = if self.anchored[offset + j] {
                     self.shape.basis(*t, 0, &mut b);
-                    sum += (self.shape.jet(&b, design, 0).point - q).length_squared();
-                    continue;
-                }
-                let f = refine(&self.shape, design, q, *t, self.foot.max_newton, &mut b);
-                *t = f.t;
-                sum += f.dist_sq;
+                    (self.shape.jet(&b, design, 0).point - q).length_squared()
+                } else {
+                    let f = refine_held(&self.shape, &prepared, q, *t, self.held, &self.foot, &mut b);
+                    *t = f.t;
+                    f.dist_sq
+                };
+                sum += self.weight(offset + j) * d2;
+                max = max.max(d2);
             }
-            sum
+            (sum, max)
         };
-        if params.len() < PARALLEL_MIN {
+        let (sum, max) = if params.len() < PARALLEL_MIN {
             run(0, params)
         } else {
             // Per-chunk sums added in order: the same bits on any number of threads.
-            let sums: Vec<f64> = params
+            let parts: Vec<(f64, f64)> = params
                 .par_chunks_mut(CHUNK)
                 .enumerate()
                 .map(|(c, ts)| run(c * CHUNK, ts))
                 .collect();
-            sums.iter().sum()
-        }
+            parts
+                .iter()
+                .fold((0.0, 0.0_f64), |(s, m), &(a, b)| (s + a, m.max(b)))
+        };
+        (sum, max.sqrt())
     }
 
-    /// `Σ |C(t_j) - q_j|²` at the given parameters.
+    /// The distance `|C(t_j) - q_j|` of every data point at its parameter.
+    #[must_use]
+    pub fn distances(&self, design: &[S::Point], params: &[[f64; K]]) -> Vec<f64> {
+        let mut b = Basis::new();
+        let prepared = self.shape.prepare(design);
+        params
+            .iter()
+            .zip(self.points)
+            .map(|(&t, &q)| (self.shape.jet_at(&prepared, t, 0, &mut b).point - q).length())
+            .collect()
+    }
+
+    /// `Σ w_j |C(t_j) - q_j|²` at the given parameters.
     #[must_use]
     pub fn sum_sq_at(&self, design: &[S::Point], params: &[[f64; K]]) -> f64 {
         chunked_sum(
@@ -328,7 +767,8 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             |(acc, b), range| {
                 for j in range {
                     self.shape.basis(params[j], 0, b);
-                    *acc += (self.shape.jet(b, design, 0).point - self.points[j]).length_squared();
+                    *acc += self.weight(j)
+                        * (self.shape.jet(b, design, 0).point - self.points[j]).length_squared();
                 }
             },
             |a, b| (a.0 + b.0, a.1),
@@ -348,7 +788,10 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 let feet = self.feet(design, warm);
                 cache.clear();
                 cache.extend(feet.iter().map(|f| f.t));
-                feet.iter().map(|f| f.dist_sq).sum()
+                feet.iter()
+                    .enumerate()
+                    .map(|(j, f)| self.weight(j) * f.dist_sq)
+                    .sum()
             }
         }
     }
@@ -380,7 +823,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             |(g, b), range| {
                 for j in range {
                     self.shape.basis(params[j], 0, b);
-                    let r = self.shape.jet(b, design, 0).point - self.points[j];
+                    let r = (self.shape.jet(b, design, 0).point - self.points[j]) * self.weight(j);
                     for (&i, &w) in self.shape.support(b.cell).iter().zip(&b.value) {
                         g[i as usize] += r * (2.0 * w);
                     }
@@ -399,7 +842,9 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     }
 
     /// The best design for fixed parameters: the linear least-squares problem
-    /// `min Σ_j |Σ_i φ_i(t_j) x_i - q_j|²`, solved by Cholesky on the normal equations.
+    /// `min Σ_j w_j |Σ_i φ_i(t_j) x_i - q_j|²` (within the constraint, when there is one),
+    /// solved by Cholesky on the normal equations. At fixed parameters the coordinates are
+    /// independent, so a constraint is solved coordinate by coordinate on its own unknowns.
     ///
     /// Where the parameters leave design points undetermined (a cell without data), a tiny
     /// Tikhonov term (`1e-10` of the largest diagonal) pulls them towards the data centroid.
@@ -419,8 +864,9 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     self.shape.basis(params[j], 0, b);
                     let support = self.shape.support(b.cell);
                     let q = self.points[j];
+                    let w = self.weight(j);
                     for (a, &ia) in support.iter().enumerate() {
-                        let wa = b.value[a];
+                        let wa = w * b.value[a];
                         for (c, &ib) in support.iter().enumerate() {
                             ata[ia as usize * m + ib as usize] += wa * b.value[c];
                         }
@@ -436,34 +882,60 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 a
             },
         );
-        let mut a = DMatrix::from_row_slice(m, m, &ata);
-        let mut rhs = DMatrix::from_row_slice(m, dim, &atq);
-        let sol = match a.clone().cholesky() {
-            Some(ch) => ch.solve(&rhs),
+        let centroid: Vec<f64> = (0..dim)
+            .map(|k| self.points.iter().map(|p| p.coord(k)).sum::<f64>() / self.points.len() as f64)
+            .collect();
+        let design: Vec<S::Point> = match &self.constraint {
             None => {
-                let mu = 1e-10
-                    * (0..m)
-                        .map(|i| a[(i, i)])
-                        .fold(0.0, f64::max)
-                        .max(f64::MIN_POSITIVE);
-                let n = self.points.len() as f64;
-                for i in 0..m {
-                    a[(i, i)] += mu;
-                    for k in 0..dim {
-                        rhs[(i, k)] += mu * self.points.iter().map(|p| p.coord(k)).sum::<f64>() / n;
+                let a = DMatrix::from_row_slice(m, m, &ata);
+                let rhs = DMatrix::from_row_slice(m, dim, &atq);
+                let sol = cholesky_ridged(a, rhs, |k| centroid[k])?;
+                (0..m)
+                    .map(|i| {
+                        let c: Vec<f64> = (0..dim).map(|k| sol[(i, k)]).collect();
+                        S::Point::from_coords(&c)
+                    })
+                    .collect()
+            }
+            Some(con) => {
+                // Per coordinate: (Aᵀ N A) z = Aᵀ (N⁻ q - N b), with N the normal matrix.
+                let mut coords = vec![vec![0.0; m]; dim];
+                for (k, x) in coords.iter_mut().enumerate() {
+                    let rule = con.coord(k);
+                    let n = rule.unknowns();
+                    let mut a = DMatrix::<f64>::zeros(n, n);
+                    let mut rhs = DMatrix::<f64>::zeros(n, 1);
+                    for i in 0..m {
+                        let nb: f64 = (0..m).map(|l| ata[i * m + l] * rule.offset[l]).sum();
+                        for &(p, wp) in rule.row(i) {
+                            rhs[(p, 0)] += wp * (atq[i * dim + k] - nb);
+                            for l in 0..m {
+                                let v = ata[i * m + l];
+                                if v != 0.0 {
+                                    for &(r, wr) in rule.row(l) {
+                                        a[(p, r)] += wp * v * wr;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let z = if n > 0 {
+                        cholesky_ridged(a, rhs, |_| centroid[k])?.as_slice().to_vec()
+                    } else {
+                        Vec::new()
+                    };
+                    for (i, xi) in x.iter_mut().enumerate() {
+                        *xi = rule.value(i, &z);
                     }
                 }
-                a.cholesky()
-                    .ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))?
-                    .solve(&rhs)
+                (0..m)
+                    .map(|i| {
+                        let c: Vec<f64> = (0..dim).map(|k| coords[k][i]).collect();
+                        S::Point::from_coords(&c)
+                    })
+                    .collect()
             }
         };
-        let design: Vec<S::Point> = (0..m)
-            .map(|i| {
-                let c: Vec<f64> = (0..dim).map(|k| sol[(i, k)]).collect();
-                S::Point::from_coords(&c)
-            })
-            .collect();
         if design.iter().any(|p| !p.is_finite_point()) {
             return Err(Error::Numerical(
                 "the least-squares solution is not finite".into(),
@@ -553,7 +1025,8 @@ impl<S: Shape<K>, const K: usize> Objective for ProblemObjective<'_, '_, S, K> {
 impl<'a, P: Vector> FitProblem<'a, CurveShape<P>, 1> {
     /// A chain-fitting problem; every point gets its normalised chord-length parameter (see
     /// [`chord_length_params`]), the first and last points are anchored at `t = 0` and
-    /// `t = 1`, and the foot-point search has its default options.
+    /// `t = 1`, the start is the paper's ([`increment_start`]), and the foot-point search
+    /// has its default options.
     pub fn curve(layout: ChainLayout, points: &'a [P], metric: Metric) -> Result<Self> {
         Self::curve_with(layout, points, metric, FootOptions::default(), true)
     }
@@ -575,7 +1048,8 @@ impl<'a, P: Vector> FitProblem<'a, CurveShape<P>, 1> {
             )));
         }
         let params = chord_length_params(points)?.into_iter().map(|t| [t]).collect();
-        let problem = Self::new(CurveShape::new(layout), points, params, metric, foot)?;
+        let start = increment_start(points, m)?;
+        let problem = Self::new(CurveShape::new(layout), points, params, metric, foot)?.with_start(start)?;
         if anchor_ends {
             problem.with_anchors(&[0, points.len() - 1])
         } else {

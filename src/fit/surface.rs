@@ -12,7 +12,7 @@
 //! from the final parameters.
 
 use super::evo::{fit_grid_evo, Algorithm, EvoHooks, EvoOptions, EvoSummary};
-use super::lsq::{levenberg_marquardt_observed, LsqIterate, LsqOptions};
+use super::lsq::{lsq, LsqFit, LsqHooks, LsqIterate, LsqOptions, Start};
 use super::objective::{SolveReport, StopReason};
 use super::offset::{Metric, OffsetStats};
 use super::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
@@ -468,15 +468,11 @@ fn main_stage(
     let start = problem.linear_fit(problem.params())?;
     let Some((algorithm, polish)) = opts.method.evolutionary() else {
         progress(SurfaceProgress::Stage { name, points });
-        let fit = levenberg_marquardt_observed(
+        let fit = observed_lsq(
             problem,
-            start,
-            problem.params().to_vec(),
+            Start::Design(start, problem.params().to_vec()),
             &opts.lsq,
-            &mut |it: &LsqIterate| {
-                progress(SurfaceProgress::Iteration(*it));
-                true
-            },
+            progress,
         )?;
         stages.push(SurfaceStage {
             name,
@@ -519,6 +515,26 @@ fn main_stage(
         params,
         evolution: Some(fit.summary),
     })
+}
+
+/// One least-squares fit from `start`, every iteration reported to `progress`.
+fn observed_lsq(
+    problem: &GridProblem<'_, DVec3>,
+    start: Start<DVec3, 2>,
+    opts: &LsqOptions,
+    progress: &mut dyn FnMut(SurfaceProgress),
+) -> Result<LsqFit<DVec3, 2>> {
+    let mut observe = |it: &LsqIterate, _: &[DVec3], _: &[[f64; 2]]| {
+        progress(SurfaceProgress::Iteration(*it));
+        true
+    };
+    let hooks = LsqHooks {
+        guard: None,
+        observe: Some(&mut observe),
+    };
+    lsq(problem, &[start], opts, hooks)?
+        .pop()
+        .ok_or_else(|| Error::Numerical("lsq: no fit".into()))
 }
 
 /// [`fit_surface`] with hooks into an evolutionary run (progress, checkpoints, resume).
@@ -575,11 +591,7 @@ pub fn fit_surface_with(
                 name: "full",
                 points: n,
             });
-            let fit =
-                levenberg_marquardt_observed(&full, design, params, &polish, &mut |it: &LsqIterate| {
-                    progress(SurfaceProgress::Iteration(*it));
-                    true
-                })?;
+            let fit = observed_lsq(&full, Start::Design(design, params), &polish, progress)?;
             params = fit.params;
             stages.push(SurfaceStage {
                 name: "full",

@@ -1,5 +1,6 @@
 //! Aerofoil and point-cloud geometry: NACA generators, Selig/Lednicer `.dat` and CSV/XYZ
-//! readers and writers, blade definitions (JSON, windIO v1/v2, AeroDyn 15) and lofting.
+//! readers and writers, population files, blade definitions (JSON, windIO v1/v2, AeroDyn
+//! 15) and lofting.
 
 mod aerodyn;
 mod blade;
@@ -9,6 +10,7 @@ mod io;
 mod loft;
 mod naca;
 mod points;
+mod population;
 mod windio;
 
 pub use blade::{
@@ -22,3 +24,4 @@ pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,
     write_csv_to, write_curve_csv, Cloud, Format, Grid, Loaded, Loaded2, Loaded3, LoadedPoints,
 };
+pub use population::{parse_population, read_population};

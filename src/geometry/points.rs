@@ -56,7 +56,9 @@ pub struct Loaded<P> {
     /// Things that were repaired while reading (dropped duplicates, ignored columns), for the
     /// caller to show: the library never prints.
     pub warnings: Vec<String>,
-    /// For clouds with `section,index` columns that form a complete section-major grid.
+    /// For clouds whose header names a `section` (or `station`) column in which every section
+    /// has the same number of points (ordered by an `index` or `point` column, else by file
+    /// order) and no index repeats within a section; the points are then section-major.
     pub grid: Option<Grid>,
 }
 
@@ -85,13 +87,16 @@ pub enum LoadedPoints {
     Cloud(Loaded3),
 }
 
-/// Read a 2D curve: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y` (detected by content).
+/// Read a 2D curve: Selig or Lednicer `.dat`, or CSV/XYZ rows of `x y` (detected by content),
+/// or CSV under a header naming `x` and `y` (and optionally `index` or `point`, which orders
+/// the points) case-insensitively in any order, other columns (text too) ignored.
 pub fn read_curve(path: &Path) -> Result<Loaded2> {
     parse_curve(&io::read_text(path)?, path)
 }
 
 /// Read a 3D cloud: CSV/XYZ rows of `x y z`, or a header naming `x`, `y`, `z` (and optionally
-/// `section`, `index`) in any order.
+/// `section` or `station`, `index` or `point`) case-insensitively in any order, other columns
+/// (text too) ignored.
 pub fn read_cloud(path: &Path) -> Result<Loaded3> {
     parse_cloud(&io::read_text(path)?, path)
 }
@@ -212,48 +217,235 @@ enum Want {
 struct Header {
     /// Number of fields every data row must have.
     fields: usize,
+    /// A delimited header (fields separated by `,` or `;`): its rows are split on those alone,
+    /// so text columns may hold blanks. False for a header separated by blanks.
+    delimited: bool,
+    /// The column names, lower case.
+    names: Vec<String>,
     /// Positions of x, y and (if present) z.
     coords: Vec<usize>,
-    /// Positions of `section` and `index` when both are present.
-    grid: Option<(usize, usize)>,
+    /// Position of the section column (`section` or `station`), used for 3D clouds.
+    section: Option<usize>,
+    /// Position of the order column within a section (`index` or `point`).
+    index: Option<usize>,
     /// Names of the columns that are ignored.
     ignored: Vec<String>,
 }
 
-impl Header {
-    /// A header if every field is a column name (letters, digits, `_-.()[]/`, optionally
-    /// quoted; not a number) and both `x` and `y` are among them.
-    fn detect(fields: &[&str]) -> Option<Header> {
-        let names: Vec<String> = fields
-            .iter()
-            .map(|f| f.trim_matches(|c| c == '"' || c == '\'').to_ascii_lowercase())
-            .collect();
-        let column_name = |n: &String| {
-            io::parse_number(n) == Err(BadNumber::NotNumeric)
-                && n.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "_-.()[]/".contains(c))
-        };
-        if !names.iter().all(column_name) {
-            return None;
+/// What the first line of a file is, as far as headers go.
+enum FirstLine {
+    /// A header naming the x and y columns.
+    Header(Header),
+    /// A delimited line of column names without an x or a y column: the error message.
+    NoCoordinates(String),
+    /// Not a header: a name line or data.
+    Other,
+}
+
+/// A column name without the blanks and quotes around it, in lower case.
+fn column_name(field: &str) -> String {
+    let f = field.trim();
+    let unquoted = ['"', '\'']
+        .iter()
+        .find_map(|&q| f.strip_prefix(q).and_then(|g| g.strip_suffix(q)))
+        .unwrap_or(f);
+    unquoted.trim().to_ascii_lowercase()
+}
+
+/// True when `line` has a `,` or `;` outside double quotes.
+fn is_delimited(line: &str) -> bool {
+    let mut quoted = false;
+    line.bytes().any(|b| {
+        if b == b'"' {
+            quoted = !quoted;
         }
-        let find = |n: &str| names.iter().position(|x| x == n);
-        let (x, y) = (find("x")?, find("y")?);
+        !quoted && (b == b',' || b == b';')
+    })
+}
+
+/// Split a delimited line on `,` and `;` alone, fields trimmed of blanks. A field that starts
+/// with a double quote runs to its closing quote (`""` inside is a quote) and is returned
+/// without the quotes, so it may hold separators.
+fn split_delimited<'a>(line: &'a str, out: &mut Vec<&'a str>) -> std::result::Result<(), String> {
+    out.clear();
+    let b = line.as_bytes();
+    let blank = |c: u8| c == b' ' || c == b'\t';
+    let is_sep = |c: u8| c == b',' || c == b';';
+    let trim = |f: &'a str| f.trim_matches(|c| c == ' ' || c == '\t');
+    if !b.contains(&b'"') {
+        // The common case, a row of numbers: one pass over the bytes.
+        let mut start = 0;
+        for (i, &c) in b.iter().enumerate() {
+            if is_sep(c) {
+                out.push(trim(&line[start..i]));
+                start = i + 1;
+            }
+        }
+        out.push(trim(&line[start..]));
+        return Ok(());
+    }
+    let mut i = 0;
+    loop {
+        while i < b.len() && blank(b[i]) {
+            i += 1;
+        }
+        if i < b.len() && b[i] == b'"' {
+            let start = i + 1;
+            let mut j = start;
+            loop {
+                match b[j..].iter().position(|&c| c == b'"') {
+                    Some(k) if b.get(j + k + 1) == Some(&b'"') => j += k + 2,
+                    Some(k) => {
+                        j += k;
+                        break;
+                    }
+                    None => return Err(format!("unclosed quote in '{}'", io::excerpt(line))),
+                }
+            }
+            out.push(&line[start..j]);
+            i = j + 1;
+            while i < b.len() && blank(b[i]) {
+                i += 1;
+            }
+            if i < b.len() && !is_sep(b[i]) {
+                return Err(format!("text after a closing quote in '{}'", io::excerpt(line)));
+            }
+        } else {
+            let start = i;
+            while i < b.len() && !is_sep(b[i]) {
+                i += 1;
+            }
+            out.push(line[start..i].trim_matches(|c| c == ' ' || c == '\t'));
+        }
+        if i >= b.len() {
+            return Ok(());
+        }
+        i += 1; // the separator
+    }
+}
+
+impl Header {
+    /// Classify the first line of a file (comment removed). A delimited line (`,` or `;`) of
+    /// two or more fields that are not numbers is a header when it names `x` and `y`
+    /// (case-insensitive, any order, any other columns); when it names neither and its fields are
+    /// single words it is a header without coordinates. A blank-separated line is a header when
+    /// every field is a column name (letters, digits, `_-.()[]/`) and two of them are `x` and `y`.
+    fn classify(content: &str) -> FirstLine {
+        let not_number = |f: &str| io::parse_number(f.trim()) == Err(BadNumber::NotNumeric);
+        let mut fields = Vec::new();
+        let delimited = is_delimited(content) && split_delimited(content, &mut fields).is_ok();
+        if !delimited {
+            let plain = |f: &&str| {
+                f.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "_-.()[]/".contains(c))
+            };
+            if io::split_fields(content, &mut fields).is_err()
+                || !fields
+                    .iter()
+                    .all(|f| not_number(&column_name(f)) && plain(&column_name(f).as_str()))
+            {
+                return FirstLine::Other;
+            }
+        } else if fields.len() < 2 || !fields.iter().all(|f| !f.trim().is_empty() && not_number(f)) {
+            return FirstLine::Other;
+        }
+        let names: Vec<String> = fields.iter().map(|f| column_name(f)).collect();
+        let find = |alias: &[&str]| alias.iter().find_map(|a| names.iter().position(|n| n == a));
+        let (Some(x), Some(y)) = (find(&["x"]), find(&["y"])) else {
+            let words = fields.iter().all(|f| !f.trim().contains([' ', '\t']));
+            return if delimited && words {
+                let missing: Vec<&str> = [("x", find(&["x"])), ("y", find(&["y"]))]
+                    .iter()
+                    .filter(|(_, at)| at.is_none())
+                    .map(|(n, _)| *n)
+                    .collect();
+                FirstLine::NoCoordinates(format!(
+                    "the header '{}' names no {} column (columns are found by name, \
+                     case-insensitively: x, y, optional z, section or station, index or point)",
+                    io::excerpt(content),
+                    missing.join(" and no ")
+                ))
+            } else {
+                FirstLine::Other
+            };
+        };
         let mut coords = vec![x, y];
-        if let Some(z) = find("z") {
+        if let Some(z) = find(&["z"]) {
             coords.push(z);
         }
-        let grid = find("section").zip(find("index"));
-        let used = |i: usize| coords.contains(&i) || grid.is_some_and(|(s, k)| s == i || k == i);
-        let ignored = (0..names.len())
-            .filter(|&i| !used(i))
-            .map(|i| names[i].clone())
-            .collect();
-        Some(Header {
-            fields: fields.len(),
+        FirstLine::Header(Header {
+            fields: names.len(),
+            delimited,
             coords,
-            grid,
-            ignored,
+            section: find(&["section", "station"]),
+            index: find(&["index", "point"]),
+            ignored: Vec::new(),
+            names,
         })
+    }
+
+    /// Settle which columns are used for points of `dims` coordinates (the section column only
+    /// in 3D) and list the others as ignored.
+    fn settle(&mut self, dims: usize) {
+        if dims < 3 {
+            self.section = None;
+        }
+        let used = |i: usize| self.coords.contains(&i) || self.section == Some(i) || self.index == Some(i);
+        self.ignored = (0..self.names.len())
+            .filter(|&i| !used(i))
+            .map(|i| self.names[i].clone())
+            .collect();
+    }
+
+    /// Split one data row into `fields` and read the used ones: the coordinates into `coords`,
+    /// and the section and index values.
+    fn row<'a>(
+        &self,
+        content: &'a str,
+        fields: &mut Vec<&'a str>,
+        coords: &mut Vec<f64>,
+    ) -> std::result::Result<(Option<f64>, Option<f64>), String> {
+        if self.delimited {
+            split_delimited(content, fields)?;
+            // A single trailing separator is tolerated.
+            if fields.len() == self.fields + 1 && fields.last().is_some_and(|f| f.is_empty()) {
+                fields.pop();
+            }
+        } else {
+            io::split_fields(content, fields)?;
+        }
+        if fields.len() != self.fields {
+            let empty = if fields.iter().any(|f| f.is_empty()) {
+                format!("empty field in '{}': ", io::excerpt(content))
+            } else {
+                String::new()
+            };
+            return Err(format!(
+                "{empty}{} fields, but the header names {}",
+                fields.len(),
+                self.fields
+            ));
+        }
+        let number = |c: usize| match io::parse_number(fields[c]) {
+            Ok(v) => Ok(v),
+            Err(BadNumber::NotNumeric) => Err(format!(
+                "expected a number in column '{}', found '{}'",
+                self.names[c],
+                io::excerpt(fields[c])
+            )),
+            Err(BadNumber::NotFinite) => Err(format!(
+                "'{}' in column '{}' is not a finite number",
+                io::excerpt(fields[c]),
+                self.names[c]
+            )),
+        };
+        for &c in &self.coords {
+            coords.push(number(c)?);
+        }
+        Ok((
+            self.section.map(number).transpose()?,
+            self.index.map(number).transpose()?,
+        ))
     }
 }
 
@@ -261,18 +453,15 @@ impl Header {
 /// comment, a header or a data row).
 pub(crate) fn reads_as_name(line: &str) -> bool {
     let content = io::strip_comment(line);
-    if content.trim().is_empty() {
+    if content.trim().is_empty() || !matches!(Header::classify(content), FirstLine::Other) {
         return false;
     }
     let mut fields = Vec::new();
     match io::split_fields(content, &mut fields) {
         Err(_) => true,
-        Ok(_) => {
-            !fields
-                .iter()
-                .all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric))
-                && Header::detect(&fields).is_none()
-        }
+        Ok(_) => !fields
+            .iter()
+            .all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric)),
     }
 }
 
@@ -286,8 +475,11 @@ struct Table {
     values: Vec<f64>,
     /// 1-based file line of every row.
     lines: Vec<usize>,
-    /// `section, index` of every row when the header names them.
-    grid_cols: Option<Vec<(f64, f64)>>,
+    /// The section and index values of every row, when the header names those columns.
+    sections: Option<Vec<f64>>,
+    indices: Option<Vec<f64>>,
+    /// The names of the section and index columns, for warnings.
+    key_names: (String, String),
     warnings: Vec<String>,
 }
 
@@ -315,7 +507,9 @@ impl Table {
             dims: 0,
             values: Vec::new(),
             lines: Vec::new(),
-            grid_cols: None,
+            sections: None,
+            indices: None,
+            key_names: (String::new(), String::new()),
             warnings: Vec::new(),
         };
         let mut state = State::Start;
@@ -334,6 +528,57 @@ impl Table {
                     blocks.push(t.lines.len());
                 }
                 continue;
+            }
+            if let Some(h) = &header {
+                let (section, index) = h
+                    .row(content, &mut fields, &mut t.values)
+                    .map_err(|m| perr(no, m))?;
+                if let (Some(v), Some(all)) = (section, t.sections.as_mut()) {
+                    all.push(v);
+                }
+                if let (Some(v), Some(all)) = (index, t.indices.as_mut()) {
+                    all.push(v);
+                }
+                t.lines.push(no);
+                continue;
+            }
+            if matches!(state, State::Start) {
+                match Header::classify(content) {
+                    FirstLine::Header(mut h) => {
+                        t.dims = match (want, h.coords.len()) {
+                            (Want::Two, 3) => {
+                                return Err(perr(
+                                    no,
+                                    "the header names a z column: this is a 3D cloud, not a 2D curve".into(),
+                                ))
+                            }
+                            (Want::Three, 2) => {
+                                return Err(perr(
+                                    no,
+                                    "the header names no z column: this is a 2D curve, not a 3D cloud".into(),
+                                ))
+                            }
+                            (_, n) => n,
+                        };
+                        h.settle(t.dims);
+                        if !h.ignored.is_empty() {
+                            t.warnings.push(format!(
+                                "ignored column(s) {} of the header",
+                                h.ignored.join(", ")
+                            ));
+                        }
+                        let name = |c: Option<usize>| c.map_or_else(String::new, |c| h.names[c].clone());
+                        t.key_names = (name(h.section), name(h.index));
+                        t.sections = h.section.map(|_| Vec::new());
+                        t.indices = h.index.map(|_| Vec::new());
+                        t.format = Format::Csv;
+                        header = Some(h);
+                        state = State::Rows;
+                        continue;
+                    }
+                    FirstLine::NoCoordinates(message) => return Err(perr(no, message)),
+                    FirstLine::Other => {}
+                }
             }
             let split = io::split_fields(content, &mut fields);
             let numeric_looking = || {
@@ -357,35 +602,6 @@ impl Table {
                     {
                         t.format = if hard { Format::Csv } else { Format::Xyz };
                         state = State::Rows;
-                    } else if let Some(h) = Header::detect(&fields) {
-                        t.dims = match (want, h.coords.len()) {
-                            (Want::Two, 3) => {
-                                return Err(perr(
-                                    no,
-                                    "the header names a z column: this is a 3D cloud, not a 2D curve".into(),
-                                ))
-                            }
-                            (Want::Three, 2) => {
-                                return Err(perr(
-                                    no,
-                                    "the header names no z column: this is a 2D curve, not a 3D cloud".into(),
-                                ))
-                            }
-                            (_, n) => n,
-                        };
-                        if !h.ignored.is_empty() {
-                            t.warnings.push(format!(
-                                "ignored column(s) {} of the header",
-                                h.ignored.join(", ")
-                            ));
-                        }
-                        if h.grid.is_some() {
-                            t.grid_cols = Some(Vec::new());
-                        }
-                        t.format = Format::Csv;
-                        header = Some(h);
-                        state = State::Rows;
-                        continue;
                     } else {
                         t.name = Some(raw.trim().to_string());
                         state = State::AfterName;
@@ -412,7 +628,7 @@ impl Table {
                 }
                 State::Rows => {}
             }
-            // A data row.
+            // A data row without a header: numbers only.
             vals.clear();
             for f in &fields {
                 match io::parse_number(f) {
@@ -428,8 +644,7 @@ impl Table {
                     }
                 }
             }
-            let expected = header.as_ref().map_or(row_fields, |h| h.fields);
-            if expected == 0 {
+            if row_fields == 0 {
                 // The first row fixes the layout.
                 let n = vals.len();
                 let ok = match want {
@@ -450,23 +665,13 @@ impl Table {
                 if t.format == Format::Selig && n == 3 {
                     t.format = Format::Xyz;
                 }
-            } else if vals.len() != expected {
-                let what = if header.is_some() {
-                    "the header names"
-                } else {
-                    "the first row has"
-                };
-                return Err(perr(no, format!("{} fields, but {what} {expected}", vals.len())));
+            } else if vals.len() != row_fields {
+                return Err(perr(
+                    no,
+                    format!("{} fields, but the first row has {row_fields}", vals.len()),
+                ));
             }
-            match &header {
-                Some(h) => {
-                    t.values.extend(h.coords.iter().map(|&c| vals[c]));
-                    if let (Some((s, i)), Some(g)) = (h.grid, t.grid_cols.as_mut()) {
-                        g.push((vals[s], vals[i]));
-                    }
-                }
-                None => t.values.extend_from_slice(&vals),
-            }
+            t.values.extend_from_slice(&vals);
             t.lines.push(no);
         }
         let n = t.lines.len();
@@ -494,20 +699,86 @@ impl Table {
         Ok(t)
     }
 
+    /// Put the rows in the order their section and index columns give: sections by ascending
+    /// section value, points within a section by ascending index (file order without an index
+    /// column). Returns the section structure when every section has the same number of points
+    /// and no index repeats within a section; otherwise the rows keep file order and a warning
+    /// says why the columns were ignored.
+    fn arrange(&mut self) -> Option<Grid> {
+        let (sections, indices) = (self.sections.take(), self.indices.take());
+        let (s_name, i_name) = std::mem::take(&mut self.key_names);
+        let n = self.lines.len();
+        let mut order: Vec<usize> = (0..n).collect();
+        let by_index = |a: &usize, b: &usize| {
+            indices
+                .as_ref()
+                .map_or(std::cmp::Ordering::Equal, |i| i[*a].total_cmp(&i[*b]))
+        };
+        let repeated = |order: &[usize], same_group: &dyn Fn(usize, usize) -> bool| {
+            let i = indices.as_ref()?;
+            order
+                .windows(2)
+                .find(|w| same_group(w[0], w[1]) && i[w[0]] == i[w[1]])
+                .map(|w| (self.lines[w[0]], self.lines[w[1]]))
+        };
+        let grid = match &sections {
+            Some(s) => {
+                order.sort_by(|a, b| s[*a].total_cmp(&s[*b]).then_with(|| by_index(a, b)));
+                let mut runs: Vec<(f64, usize)> = Vec::new();
+                for &k in &order {
+                    match runs.last_mut() {
+                        Some((v, len)) if *v == s[k] => *len += 1,
+                        _ => runs.push((s[k], 1)),
+                    }
+                }
+                let per = runs[0].1;
+                if let Some((a, b)) = repeated(&order, &|a, b| s[a] == s[b]) {
+                    self.warnings.push(format!(
+                        "the {s_name}/{i_name} columns are ignored: lines {a} and {b} repeat a point of one {s_name}"
+                    ));
+                    None
+                } else if let Some(&(v, len)) = runs.iter().find(|r| r.1 != per) {
+                    self.warnings.push(format!(
+                        "the {s_name} column is ignored: {s_name} {} has {per} points, {s_name} {v} has {len}",
+                        runs[0].0
+                    ));
+                    None
+                } else {
+                    Some(Grid {
+                        sections: runs.len(),
+                        per_section: per,
+                    })
+                }
+            }
+            None => {
+                order.sort_by(by_index);
+                if let Some((a, b)) = repeated(&order, &|_, _| true) {
+                    self.warnings.push(format!(
+                        "the {i_name} column is ignored: lines {a} and {b} have the same {i_name}"
+                    ));
+                    order.sort();
+                }
+                None
+            }
+        };
+        if (sections.is_some() && grid.is_none()) || order.iter().enumerate().all(|(k, &o)| k == o) {
+            return grid;
+        }
+        let d = self.dims;
+        self.values = order
+            .iter()
+            .flat_map(|&k| self.values[k * d..(k + 1) * d].iter().copied())
+            .collect();
+        self.lines = order.iter().map(|&k| self.lines[k]).collect();
+        grid
+    }
+
     /// Build points, the grid and the duplicate warnings.
     fn finish<P: Vector>(mut self, path: &Path, make: impl Fn(&[f64]) -> P) -> Result<Loaded<P>> {
+        let grid = self.arrange();
         let dims = self.dims;
         let mut points: Vec<P> = self.values.chunks_exact(dims).map(make).collect();
         let mut dropped = Vec::new();
-        let grid = self.grid_cols.take().and_then(|cols| {
-            let g = grid_of(&cols);
-            if g.is_none() {
-                self.warnings.push(
-                    "the section/index columns do not form a complete section-major grid; ignored".into(),
-                );
-            }
-            g
-        });
         if grid.is_none() {
             let mut keep = 0;
             for k in 0..points.len() {
@@ -557,27 +828,6 @@ impl Table {
             grid,
         })
     }
-}
-
-/// The grid described by `(section, index)` pairs, if they enumerate a complete section-major
-/// grid `0..sections × 0..per_section` in order.
-fn grid_of(cols: &[(f64, f64)]) -> Option<Grid> {
-    let per = cols.iter().map(|&(_, i)| i).fold(0.0, f64::max);
-    if !(per >= 0.0 && per.fract() == 0.0 && per < cols.len() as f64) {
-        return None;
-    }
-    let per = per as usize + 1;
-    if !cols.len().is_multiple_of(per) {
-        return None;
-    }
-    let ok = cols
-        .iter()
-        .enumerate()
-        .all(|(k, &(s, i))| s == (k / per) as f64 && i == (k % per) as f64);
-    ok.then_some(Grid {
-        sections: cols.len() / per,
-        per_section: per,
-    })
 }
 
 #[cfg(test)]
@@ -644,9 +894,132 @@ mod tests {
 
     #[test]
     fn broken_grid_columns_are_ignored_with_a_warning() {
-        let l = parse_cloud("x,y,z,section,index\n0,0,0,0,1\n1,0,0,0,0\n", p()).unwrap();
+        // Sections of 2 and 1 points: no grid, file order kept.
+        let l = parse_cloud("x,y,z,section,index\n0,0,0,0,1\n1,0,0,0,0\n2,0,0,1,0\n", p()).unwrap();
         assert_eq!(l.grid, None);
+        assert_eq!(l.points[0], DVec3::ZERO);
         assert_eq!(l.warnings.len(), 1);
+        assert!(
+            l.warnings[0].contains("section 0 has 2 points, section 1 has 1"),
+            "{:?}",
+            l.warnings
+        );
+        // An index repeated within a section.
+        let l = parse_cloud("x,y,z,section,index\n0,0,0,0,0\n1,0,0,0,0\n", p()).unwrap();
+        assert_eq!(l.grid, None);
+        assert!(l.warnings[0].contains("lines 2 and 3"), "{:?}", l.warnings);
+    }
+
+    /// The blade cloud people have: named columns in their own order, text and extra columns,
+    /// stations and points instead of sections and indices.
+    const STATIONS: &str = "Station,Point,radius,chord,twist_deg,airfoil,X,Y,Z\n\
+        0,0,1.5,3.5,13.3,Cylinder1_coords.txt,1,0,1.5\n\
+        0,1,1.5,3.5,13.3,Cylinder1_coords.txt,0,1,1.5\n\
+        0,2,1.5,3.5,13.3,Cylinder1_coords.txt,-1,0,1.5\n\
+        1,0,2.5,3.4,12.0,\"FFA-W3-301, blended\",1,0,2.5\n\
+        1,1,2.5,3.4,12.0,\"FFA-W3-301, blended\",0,1,2.5\n\
+        1,2,2.5,3.4,12.0,\"FFA-W3-301, blended\",-1,0,2.5\n";
+
+    #[test]
+    fn stations_and_points_give_the_grid() {
+        let l = parse_cloud(STATIONS, p()).unwrap();
+        assert_eq!(
+            l.grid,
+            Some(Grid {
+                sections: 2,
+                per_section: 3
+            })
+        );
+        assert_eq!(l.points[1], DVec3::new(0.0, 1.0, 1.5));
+        assert_eq!(l.points[5], DVec3::new(-1.0, 0.0, 2.5));
+        assert_eq!(l.format, Format::Csv);
+        assert_eq!(
+            l.warnings,
+            ["ignored column(s) radius, chord, twist_deg, airfoil of the header"]
+        );
+    }
+
+    #[test]
+    fn rows_in_any_order_are_sorted_by_section_and_index() {
+        // The rows of STATIONS reversed: the same cloud.
+        let mut lines: Vec<&str> = STATIONS.lines().collect();
+        lines[1..].reverse();
+        let l = parse_cloud(&lines.join("\n"), p()).unwrap();
+        assert_eq!(l, parse_cloud(STATIONS, p()).unwrap());
+        // Sections without an index column keep their file order within a section.
+        let l = parse_cloud("section,x,y,z\n5,0,0,1\n2,0,0,0\n5,1,0,1\n2,1,0,0\n", p()).unwrap();
+        assert_eq!(l.grid.map(|g| (g.sections, g.per_section)), Some((2, 2)));
+        let x: Vec<f64> = l.points.iter().map(|q| q.x + 10.0 * q.z).collect();
+        assert_eq!(x, [0.0, 1.0, 10.0, 11.0]);
+    }
+
+    #[test]
+    fn a_2d_header_in_any_order_with_text_columns() {
+        let l = parse_curve("label,y,x\nte,0,1\nle,0.1,0\n\"lower, te\",-0.01,1\n", p()).unwrap();
+        assert_eq!(
+            l.points,
+            [DVec2::new(1.0, 0.0), DVec2::new(0.0, 0.1), DVec2::new(1.0, -0.01)]
+        );
+        assert_eq!(l.warnings, ["ignored column(s) label of the header"]);
+        // An index (or point) column orders a curve.
+        let l = parse_curve("point;X;Y\n2;0;1\n0;2;0\n1;1;1\n", p()).unwrap();
+        assert_eq!(
+            l.points,
+            [DVec2::new(2.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)]
+        );
+        // Text columns may hold blanks, and commas in quotes.
+        let l = parse_curve("name; x; y\n\"NACA 4413, upper\"; 1; 0\nle, 0; 0\n", p()).unwrap();
+        assert_eq!(l.points, [DVec2::new(1.0, 0.0), DVec2::ZERO]);
+    }
+
+    #[test]
+    fn a_header_without_x_and_y_names_its_line() {
+        for (text, missing) in [
+            ("station,point,radius,chord\n0,0,1,2\n", "no x and no y column"),
+            ("# scan\nX,z\n0,1\n", "no y column"),
+        ] {
+            let err = parse_cloud(text, p()).unwrap_err();
+            let line = if text.starts_with('#') { 2 } else { 1 };
+            assert!(matches!(err, Error::Parse { line: l, .. } if l == line), "{err}");
+            assert!(err.to_string().contains(missing), "{err}");
+            assert!(err.to_string().starts_with("t.csv:"), "{err}");
+        }
+        // A name line with commas and blanks is still a name.
+        let l = parse_curve("S1223 (Selig, high lift)\n1 0\n0 0\n", p()).unwrap();
+        assert_eq!(l.name, "S1223 (Selig, high lift)");
+        assert_eq!(l.format, Format::Selig);
+    }
+
+    #[test]
+    fn bad_values_in_named_columns_name_the_column_and_line() {
+        let err = parse_cloud("x,y,z,note\n0,0,0,a\n1,?,0,b\n", p()).unwrap_err();
+        assert!(matches!(err, Error::Parse { line: 3, .. }), "{err}");
+        assert!(err.to_string().contains("column 'y'"), "{err}");
+        let err = parse_cloud("x,y,z,note\n0,0,0\n", p()).unwrap_err();
+        assert!(
+            err.to_string().contains("3 fields, but the header names 4"),
+            "{err}"
+        );
+        let err = parse_curve("x,y,note\n0,0,\"open\n", p()).unwrap_err();
+        assert!(err.to_string().contains("unclosed quote"), "{err}");
+    }
+
+    #[test]
+    fn names_written_by_the_selig_writer_read_back_as_names() {
+        for name in [
+            "NACA 4413",
+            "x,y",
+            "station,point",
+            "S1223 (Selig, high lift)",
+            "x y",
+        ] {
+            let header_like = !reads_as_name(name);
+            let mut buf = Vec::new();
+            super::dat::write_selig_to(&mut buf, name, &[DVec2::X, DVec2::ZERO]).unwrap();
+            let back = parse_curve(std::str::from_utf8(&buf).unwrap(), p()).unwrap();
+            assert_eq!(back.format, Format::Selig, "{name}");
+            assert_eq!(back.name.starts_with("aerofoil: "), header_like, "{name}");
+        }
     }
 
     #[test]

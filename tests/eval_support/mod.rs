@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
-use bezchain::eval::nearest::{curve_nearest, grid_nearest};
+use bezchain::closest::{chain_feet, grid_feet, FootOptions};
 use bezchain::eval::{
     CpuEvaluator, EvalLayout, Fitness, GpuContext, GpuEvaluator, GpuOptions, PopulationEvaluator, Simd,
     Targets,
@@ -191,9 +191,9 @@ pub fn foot_points_on_base(case: &mut Case) {
             )
             .unwrap();
             let pts: Vec<DVec2> = case.targets.points().iter().map(|p| p.truncate()).collect();
-            let t: Vec<f64> = curve_nearest(&chain, &pts, 32)
-                .into_iter()
-                .map(|(t, _)| t)
+            let t: Vec<f64> = chain_feet(&chain, &pts, &samples(32))
+                .iter()
+                .map(|f| f.t[0])
                 .collect();
             case.targets = Targets::curve(&pts, &t).unwrap();
         }
@@ -206,9 +206,9 @@ pub fn foot_points_on_base(case: &mut Case) {
                     .collect(),
             )
             .unwrap();
-            let uv: Vec<DVec2> = grid_nearest(&grid, case.targets.points(), 12)
-                .into_iter()
-                .map(|(uv, _)| uv)
+            let uv: Vec<DVec2> = grid_feet(&grid, case.targets.points(), &samples(12))
+                .iter()
+                .map(|f| DVec2::from_array(f.t))
                 .collect();
             case.targets = Targets::grid(case.targets.points(), &uv).unwrap();
         }
@@ -266,9 +266,9 @@ pub fn truth_closest(case: &Case) -> Vec<(f64, f64)> {
                     )
                     .unwrap();
                     let pts: Vec<DVec2> = case.targets.points().iter().map(|p| p.truncate()).collect();
-                    curve_nearest(&chain, &pts, 32)
-                        .into_iter()
-                        .map(|(_, e)| e)
+                    chain_feet(&chain, &pts, &samples(32))
+                        .iter()
+                        .map(|f| f.dist_sq)
                         .collect()
                 }
                 EvalLayout::Grid(g) => {
@@ -277,9 +277,9 @@ pub fn truth_closest(case: &Case) -> Vec<(f64, f64)> {
                         d.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect(),
                     )
                     .unwrap();
-                    grid_nearest(&grid, case.targets.points(), 12)
-                        .into_iter()
-                        .map(|(_, e)| e)
+                    grid_feet(&grid, case.targets.points(), &samples(12))
+                        .iter()
+                        .map(|f| f.dist_sq)
                         .collect()
                 }
             };
@@ -349,4 +349,12 @@ pub fn worst_against(got: &[Fitness], want: &[(f64, f64)]) -> (f64, f64) {
     got.iter().zip(want).fold((0.0f64, 0.0f64), |(s, m), (g, w)| {
         (s.max(rel(g.sum_sq.into(), w.0)), m.max(rel(g.max.into(), w.1)))
     })
+}
+
+/// The library's closest-point search with `n` samples per segment or patch side.
+fn samples(n: usize) -> FootOptions {
+    FootOptions {
+        samples: n,
+        ..FootOptions::default()
+    }
 }

@@ -8,7 +8,7 @@
 //! the seed, the generation and the individual (see `rng`).
 
 use super::cmaes::CmaesState;
-use super::problem::{Fnv, Score};
+use super::objective::{Fnv, Score};
 use super::{Algorithm, Progress};
 use crate::error::{Error, Result};
 use std::path::Path;

@@ -11,7 +11,7 @@
 //! result does not depend on the number of threads.
 
 use super::ga::to_f32;
-use super::problem::{EvoProblem, Score};
+use super::objective::{PopulationObjective, Score};
 use super::rng::{normal, Streams};
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
@@ -260,7 +260,7 @@ impl Cmaes {
     /// Draw the samples of generation `generation` into `samples`.
     pub(crate) fn sample(
         &mut self,
-        problem: &EvoProblem,
+        problem: &dyn PopulationObjective,
         opts: &CmaesOptions,
         streams: &Streams,
         generation: u64,

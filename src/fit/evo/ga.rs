@@ -7,7 +7,7 @@
 //! generation `g` draws only from its own random stream `(seed, g, k)`, so pairs are bred in
 //! parallel and the result does not depend on the number of threads.
 
-use super::problem::{EvoProblem, Score};
+use super::objective::{PopulationObjective, Score};
 use super::rng::{normal, uniform, Streams};
 use crate::error::{Error, Result};
 use rand_chacha::ChaCha8Rng;
@@ -95,7 +95,7 @@ impl GaOptions {
 /// deviation of `spread` (model units), clamped to the bounds. Row `k` draws from stream
 /// `(seed, 0, k)`.
 pub(crate) fn initial_population(
-    problem: &EvoProblem,
+    problem: &dyn PopulationObjective,
     size: usize,
     spread: f64,
     streams: &Streams,
@@ -175,7 +175,7 @@ impl Ga {
     /// Breed generation `generation` into `next` from the current population and scores.
     pub(crate) fn breed(
         &mut self,
-        problem: &EvoProblem,
+        problem: &dyn PopulationObjective,
         opts: &GaOptions,
         streams: &Streams,
         generation: u64,

@@ -2,19 +2,14 @@
 //! evaluator (one evaluator call per generation, on the GPU or the CPU), for curve chains and
 //! patch grids alike.
 //!
-//! - [`EvoProblem`]: a layout, its data, anchors, box bounds and the start design.
+//! - [`PopulationObjective`]: what they optimise, a box-bounded vector with a start, scored a
+//!   population at a time; the fitting problem is one ([`crate::fit::population`]: closest-
+//!   point offsets on the population evaluator), any other objective can be.
 //! - [`Evolution`]: one run, generation by generation ([`Evolution::step`]), with
 //!   [`Evolution::checkpoint`] / [`Evolution::resume`] that continue bit-identically.
 //! - [`evolve`]: a whole run with a per-generation callback; [`polish`] runs the
 //!   least-squares fit from its result (the `ga+lsq` and `cmaes+lsq` methods);
 //!   [`fit_grid_evo`] does both for a patch grid (curves: [`crate::fit::fit_curve`]).
-//!
-//! **Objective.** The evaluator measures each individual's closest-point offsets: every free
-//! data point starts at its foot point on the best design so far (projected in f64 every
-//! [`EvoOptions::reproject_every`] generations) and follows [`EvoOptions::newton`] clamped
-//! Newton steps of its own, free to cross segment and patch borders. Anchored points (a
-//! chain's ends, tied to the first and last data points as in `fit_curve`) add their squared
-//! distance in f64. The final design is re-measured in f64 with a global foot-point search.
 //!
 //! **Reproducibility.** Random numbers come from ChaCha8 streams fixed by the seed, the
 //! generation and the individual; sorting breaks ties by index; sums over individuals run in
@@ -24,19 +19,18 @@
 pub mod checkpoint;
 pub mod cmaes;
 pub mod ga;
-pub mod problem;
+pub mod objective;
 mod rng;
 
 pub use checkpoint::Checkpoint;
 pub use cmaes::{default_lambda, CmaesOptions, CmaesState};
 pub use ga::GaOptions;
-pub use problem::{EvoProblem, Score};
+pub use objective::{Fnv, PopulationObjective, Score, Scorer};
 
 use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};
-use self::problem::{Fnv, Session, SessionOptions};
 use self::rng::Streams;
-use super::lsq::{lsq_each_guarded, Guard, LsqOptions, Start};
+use super::lsq::{lsq, Guard, LsqHooks, LsqOptions, Start};
 use super::objective::{SolveReport, StopReason};
 use super::offset::{grid_offset_stats, OffsetStats};
 use super::problem::{FitProblem, GridProblem};
@@ -301,13 +295,14 @@ enum Engine {
 
 /// One evolutionary run on a problem, advanced a generation at a time.
 pub struct Evolution<'p> {
-    problem: &'p EvoProblem,
+    problem: &'p dyn PopulationObjective,
     algorithm: Algorithm,
     options: EvoOptions,
     fingerprint: u64,
     size: usize,
     streams: Streams,
-    session: Session,
+    scorer: Box<dyn Scorer + 'p>,
+    effort: Effort,
     engine: Engine,
     generation: u64,
     evaluations: u64,
@@ -321,7 +316,12 @@ pub struct Evolution<'p> {
 }
 
 /// The fingerprint of a run: the problem's, the method and the options that shape the run.
-fn run_fingerprint(problem: &EvoProblem, algorithm: Algorithm, options: &EvoOptions, size: usize) -> u64 {
+fn run_fingerprint(
+    problem: &dyn PopulationObjective,
+    algorithm: Algorithm,
+    options: &EvoOptions,
+    size: usize,
+) -> u64 {
     let mut h = Fnv::new();
     h.bytes(&problem.fingerprint().to_le_bytes());
     h.bytes(algorithm.name().as_bytes());
@@ -373,20 +373,24 @@ fn best_index(scores: &[Score]) -> usize {
 impl<'p> Evolution<'p> {
     /// Start a run: check the options, project the data onto the start, build the evaluator
     /// and evaluate generation 0 (the GA's initial population; CMA-ES's start point).
-    pub fn new(problem: &'p EvoProblem, algorithm: Algorithm, options: &EvoOptions) -> Result<Self> {
+    pub fn new(
+        problem: &'p dyn PopulationObjective,
+        algorithm: Algorithm,
+        options: &EvoOptions,
+    ) -> Result<Self> {
         options.check()?;
         let n = problem.dim();
         let size = options.size(algorithm, n);
         let streams = Streams::new(options.seed);
-        let (params, _) = problem.project(problem.start(), options.samples)?;
-        let mut session = Session::new(problem, params, &session_options(options))?;
+        let mut scorer = problem.scorer(None, options)?;
+        let mut effort = Effort::default();
         let spread = options.spread * problem.extent();
         let clock = Instant::now();
         let (engine, best, best_score, evaluations) = match algorithm {
             Algorithm::Ga => {
                 let pop = initial_population(problem, size, spread, &streams);
                 let mut scores = vec![Score::WORST; size];
-                session.evaluate(problem, &pop, &mut scores)?;
+                score(&mut *scorer, &mut effort, &pop, &mut scores)?;
                 let k = best_index(&scores);
                 let best = pop[k * n..(k + 1) * n].to_vec();
                 let s = scores[k];
@@ -401,7 +405,7 @@ impl<'p> Evolution<'p> {
                     .map(|(&x, &[lo, hi])| ga::to_f32(x.clamp(lo, hi), lo, hi))
                     .collect();
                 let mut s = [Score::WORST];
-                session.evaluate(problem, &start, &mut s)?;
+                score(&mut *scorer, &mut effort, &start, &mut s)?;
                 let state = CmaesState::new(problem.start(), spread);
                 (Engine::Cmaes(Cmaes::new(state, size)), start, s[0], 1)
             }
@@ -424,7 +428,8 @@ impl<'p> Evolution<'p> {
             options: options.clone(),
             size,
             streams,
-            session,
+            scorer,
+            effort,
             engine,
             generation: 0,
             evaluations,
@@ -444,7 +449,7 @@ impl<'p> Evolution<'p> {
     /// may differ. On the same backend the continuation is bit-identical to a run that was
     /// never interrupted.
     pub fn resume(
-        problem: &'p EvoProblem,
+        problem: &'p dyn PopulationObjective,
         algorithm: Algorithm,
         options: &EvoOptions,
         checkpoint: &Checkpoint,
@@ -467,9 +472,7 @@ impl<'p> Evolution<'p> {
                 checkpoint.fingerprint
             )));
         }
-        let mut session = Session::new(problem, checkpoint.params.clone(), &session_options(options))?;
-        session.eval_seconds = checkpoint.eval_seconds;
-        session.point_evals = checkpoint.point_evals;
+        let scorer = problem.scorer(Some(checkpoint.params.clone()), options)?;
         let engine = match (&checkpoint.cmaes, algorithm) {
             (None, Algorithm::Ga) => {
                 Engine::Ga(Ga::new(checkpoint.population.clone(), checkpoint.scores.clone()))
@@ -491,7 +494,11 @@ impl<'p> Evolution<'p> {
             options: options.clone(),
             size,
             streams: Streams::new(options.seed),
-            session,
+            scorer,
+            effort: Effort {
+                eval_seconds: checkpoint.eval_seconds,
+                point_evals: checkpoint.point_evals,
+            },
             engine,
             generation: checkpoint.generation,
             evaluations: checkpoint.evaluations,
@@ -512,21 +519,18 @@ impl<'p> Evolution<'p> {
         let problem = self.problem;
         let n = problem.dim();
         let design: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
-        if g.is_multiple_of(self.options.reproject_every as u64) {
-            self.session.reproject(problem, &design, self.options.samples)?;
-        }
-        // Every generation (so that a resumed run re-anchors exactly as an uninterrupted one).
-        self.session.anchor(&design)?;
+        self.scorer.recentre(g, &design)?;
+        let (scorer, effort) = (&mut *self.scorer, &mut self.effort);
         let (pop, scores): (&[f32], &[Score]) = match &mut self.engine {
             Engine::Ga(ga) => {
                 ga.breed(problem, &self.options.ga, &self.streams, g);
-                self.session.evaluate(problem, &ga.next, &mut ga.next_scores)?;
+                score(scorer, effort, &ga.next, &mut ga.next_scores)?;
                 ga.advance();
                 (&ga.population, &ga.scores)
             }
             Engine::Cmaes(es) => {
                 es.sample(problem, &self.options.cmaes, &self.streams, g);
-                self.session.evaluate(problem, &es.samples, &mut es.scores)?;
+                score(scorer, effort, &es.samples, &mut es.scores)?;
                 es.update();
                 (&es.samples, &es.scores)
             }
@@ -573,7 +577,7 @@ impl<'p> Evolution<'p> {
                 return Some(EvoStop::Condition);
             }
             let last: Vec<f64> = es.scores.iter().map(|s| s.sum_sq).collect();
-            let tol = |level: f64| o.cmaes.tol_fun * self.session.resolution(level);
+            let tol = |level: f64| o.cmaes.tol_fun * self.scorer.resolution(level);
             if es.state.flat(self.problem.dim(), self.size, &last, tol) {
                 return Some(EvoStop::Flat);
             }
@@ -603,15 +607,15 @@ impl<'p> Evolution<'p> {
         Checkpoint {
             fingerprint: self.fingerprint,
             algorithm: self.algorithm,
-            backend: self.session.info().to_string(),
+            backend: self.scorer.info().to_string(),
             dim: self.problem.dim(),
             size: self.size,
             generation: self.generation,
             evaluations: self.evaluations,
             seconds: self.seconds(),
-            eval_seconds: self.session.eval_seconds,
-            point_evals: self.session.point_evals,
-            params: self.session.params().to_vec(),
+            eval_seconds: self.effort.eval_seconds,
+            point_evals: self.effort.point_evals,
+            params: self.scorer.state(),
             best: self.best.clone(),
             best_score: self.best_score,
             stall_reference: self.stall_reference,
@@ -647,8 +651,8 @@ impl<'p> Evolution<'p> {
         self.size
     }
 
-    /// The best individual so far (f32, as evaluated, relative to the problem's
-    /// [`origin`](EvoProblem::origin)) and its score.
+    /// The best individual so far (f32, as evaluated, in the objective's frame: see
+    /// [`PopulationObjective::absolute`]) and its score.
     #[must_use]
     pub fn best(&self) -> (&[f32], Score) {
         (&self.best, self.best_score)
@@ -663,7 +667,7 @@ impl<'p> Evolution<'p> {
     /// The backend and adapter that run the evaluations.
     #[must_use]
     pub fn info(&self) -> &BackendInfo {
-        self.session.info()
+        self.scorer.info()
     }
 
     /// CMA-ES's strategy (`None` for the GA).
@@ -684,8 +688,8 @@ impl<'p> Evolution<'p> {
     /// Individual × point evaluations per second of evaluator time.
     #[must_use]
     pub fn evals_per_second(&self) -> f64 {
-        if self.session.eval_seconds > 0.0 {
-            self.session.point_evals as f64 / self.session.eval_seconds
+        if self.effort.eval_seconds > 0.0 {
+            self.effort.point_evals as f64 / self.effort.eval_seconds
         } else {
             0.0
         }
@@ -694,20 +698,19 @@ impl<'p> Evolution<'p> {
     /// End the run: re-measure the candidates in f64 (the best individual; for CMA-ES also
     /// the mean) and return the better.
     pub fn finish(self, stop: EvoStop) -> Result<EvoResult> {
-        let samples = self.options.samples.max(48);
         let mut candidates = vec![self.best.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>()];
         if let Engine::Cmaes(es) = &self.engine {
             candidates.push(es.state.mean.clone());
         }
         let mut best: Option<(Vec<f64>, f64)> = None;
         for c in candidates {
-            let m = self.problem.measure(&c, samples)?;
+            let c = self.problem.absolute(&c);
+            let m = self.problem.measure(&c, &self.options)?;
             if best.as_ref().is_none_or(|(_, b)| m < *b) {
                 best = Some((c, m));
             }
         }
         let (design, sum_sq) = best.ok_or_else(|| Error::Numerical("no candidate design".into()))?;
-        let design = self.problem.absolute(&design);
         if design.iter().any(|x| !x.is_finite()) || !sum_sq.is_finite() {
             return Err(Error::Numerical(format!(
                 "{} produced a non-finite design",
@@ -727,21 +730,34 @@ impl<'p> Evolution<'p> {
             },
             stop,
             size: self.size,
-            backend: self.session.info().clone(),
-            eval_seconds: self.session.eval_seconds,
-            point_evals: self.session.point_evals,
+            backend: self.scorer.info().clone(),
+            eval_seconds: self.effort.eval_seconds,
+            point_evals: self.effort.point_evals,
             evals_per_second: self.evals_per_second(),
             history: self.history,
         })
     }
 }
 
-fn session_options(options: &EvoOptions) -> SessionOptions {
-    SessionOptions {
-        backend: options.backend,
-        newton: options.newton,
-        gpu: options.gpu.clone(),
-    }
+/// Seconds spent scoring and individual × work-unit evaluations done.
+#[derive(Clone, Copy, Debug, Default)]
+struct Effort {
+    eval_seconds: f64,
+    point_evals: u64,
+}
+
+/// Score `population` into `scores`, counting the time and the work in `effort`.
+fn score(
+    scorer: &mut dyn Scorer,
+    effort: &mut Effort,
+    population: &[f32],
+    scores: &mut [Score],
+) -> Result<()> {
+    let clock = Instant::now();
+    scorer.evaluate(population, scores)?;
+    effort.eval_seconds += clock.elapsed().as_secs_f64();
+    effort.point_evals += (scores.len() * scorer.work()) as u64;
+    Ok(())
 }
 
 /// The outcome of an evolutionary run.
@@ -787,7 +803,7 @@ pub struct EvoHooks<'a> {
 
 /// A whole run: from the start (or `hooks.resume`) until a stop criterion holds.
 pub fn evolve(
-    problem: &EvoProblem,
+    problem: &dyn PopulationObjective,
     algorithm: Algorithm,
     options: &EvoOptions,
     hooks: &mut EvoHooks<'_>,
@@ -824,11 +840,9 @@ pub struct EvoSummary {
     pub polish_from_evolved: Option<bool>,
 }
 
-/// The least-squares polish: Levenberg-Marquardt on `problem` from `design` and its foot
-/// points, kept where `guard` admits once it holds (see [`levenberg_marquardt_guarded`]).
-/// Returns the polished design and the solver's report.
-///
-/// [`levenberg_marquardt_guarded`]: crate::fit::lsq::levenberg_marquardt_guarded
+/// The least-squares polish: [`lsq`](crate::fit::lsq::lsq) on `problem` from `design` and its
+/// foot points, kept where `guard` admits once it holds. Returns the polished design and the
+/// solver's report.
 pub fn polish<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: Vec<S::Point>,
@@ -836,7 +850,8 @@ pub fn polish<S: Shape<K>, const K: usize>(
     guard: Option<Guard<'_, S::Point, K>>,
 ) -> Result<(Vec<S::Point>, SolveReport)> {
     let params: Vec<[f64; K]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
-    let fit = lsq_each_guarded(problem, &[Start::Design(design, params)], opts, guard)?
+    let hooks = LsqHooks { guard, observe: None };
+    let fit = lsq(problem, &[Start::Design(design, params)], opts, hooks)?
         .into_iter()
         .next()
         .ok_or_else(|| Error::Numerical("lsq: the polish produced no fit".into()))?;
@@ -847,7 +862,7 @@ pub fn polish<S: Shape<K>, const K: usize>(
 /// `problem` under `guard`: the design, the combined report and the summary.
 #[allow(clippy::too_many_arguments)]
 pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
-    evo: &EvoProblem,
+    evo: &dyn PopulationObjective,
     problem: &FitProblem<'_, S, K>,
     algorithm: Algorithm,
     polish_after: bool,
@@ -917,10 +932,19 @@ pub fn fit_grid_evo(
     lsq: &LsqOptions,
     hooks: &mut EvoHooks<'_>,
 ) -> Result<GridEvoFit> {
-    let evo = EvoProblem::grid(points, layout.clone(), start, options.margin)?;
-    let problem = GridProblem::grid(layout, points, params, super::offset::Metric::Closest)?;
-    let (design, report, summary) =
-        evolve_then_polish(&evo, &problem, algorithm, polish_after, options, lsq, None, hooks)?;
+    let problem = GridProblem::grid(layout, points, params, super::offset::Metric::Closest)?
+        .with_start(start.to_vec())?
+        .with_bounds(options.margin)?;
+    let (design, report, summary) = evolve_then_polish(
+        &problem,
+        &problem,
+        algorithm,
+        polish_after,
+        options,
+        lsq,
+        None,
+        hooks,
+    )?;
     let grid = problem.patch_grid(&design)?;
     let closest = grid_offset_stats(&grid, points)?;
     Ok(GridEvoFit {

@@ -7,12 +7,9 @@
 //! non-zero `φ_i`. Every fitting routine (foot points, least squares, gradients) works through
 //! this trait, so the curve and the surface fits share one implementation.
 
+use super::{ChainLayout, GridLayout};
 use crate::bezier::Vector;
-use crate::chain::{ChainLayout, GridLayout};
 use std::marker::PhantomData;
-
-/// Highest degree per direction whose basis fits the fixed scratch arrays.
-const MAX_DEGREE: usize = 16;
 
 /// The basis of a shape at one parameter: the cell holding it and, over that cell's support,
 /// the values `φ_i`, first derivatives `∂φ_i/∂t_k` and second derivatives `∂²φ_i/∂t_k∂t_l`
@@ -108,6 +105,41 @@ pub trait Shape<const K: usize>: Sync {
         self.jet(scratch, design, order)
     }
 
+    /// A design prepared for evaluation at many parameters (see [`Shape::prepare`]).
+    type Prepared<'d>: Sync
+    where
+        Self: 'd;
+
+    /// Prepare `design` for [`Shape::jet_at`]: chains keep their expanded Bezier control
+    /// points, so that each evaluation is a Horner scheme on one segment's points; grids keep
+    /// the design as it is.
+    fn prepare<'d>(&self, design: &'d [Self::Point]) -> Self::Prepared<'d>;
+
+    /// The point and its derivatives up to `order` at global parameter `t` of a prepared
+    /// design (the same as [`Shape::eval_jet`] to rounding); `scratch` is working space.
+    fn jet_at(
+        &self,
+        prepared: &Self::Prepared<'_>,
+        t: [f64; K],
+        order: usize,
+        scratch: &mut Basis<K>,
+    ) -> Jet<Self::Point, K>;
+
+    /// The basis at `t` (its values; shapes may fill more) and the point with its first
+    /// derivatives there, the design given both prepared and as it is: what a residual and
+    /// its Jacobian take. The default fills the basis with first derivatives and applies
+    /// [`Shape::jet`].
+    fn basis_and_jet(
+        &self,
+        _prepared: &Self::Prepared<'_>,
+        design: &[Self::Point],
+        t: [f64; K],
+        out: &mut Basis<K>,
+    ) -> Jet<Self::Point, K> {
+        self.basis(t, 1, out);
+        self.jet(out, design, 1)
+    }
+
     /// Evaluate the shape from its basis at some parameter and the design points.
     #[must_use]
     fn jet(&self, basis: &Basis<K>, design: &[Self::Point], order: usize) -> Jet<Self::Point, K> {
@@ -138,258 +170,10 @@ pub trait Shape<const K: usize>: Sync {
     }
 }
 
-/// The one-dimensional basis of a chain layout: per segment, the design points it depends on
-/// and the local block of the extraction map, with its first and second differences, so that
-/// the basis and its derivatives cost one Bernstein recurrence and three small products.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChainBasis {
-    layout: ChainLayout,
-    supports: Vec<Vec<u32>>,
-    /// Per segment, `L`: the extraction map restricted to the segment's `d + 1` control
-    /// points and its `n` supporting design points, stored `n x (d + 1)` (row `a` holds
-    /// design point `a`'s weights in the control points).
-    local: Vec<Vec<f64>>,
-    /// Per segment, `n x d`: the hodograph's weights `d (L[r+1] - L[r])`.
-    local_d1: Vec<Vec<f64>>,
-    /// Per segment, `n x (d - 1)`: `d (d - 1) (L[r+2] - 2 L[r+1] + L[r])`.
-    local_d2: Vec<Vec<f64>>,
-    /// `1 / h[k]` per segment.
-    inv_len: Vec<f64>,
-    /// True when the breaks are uniform, so the segment is found by one multiplication.
-    uniform: bool,
-    /// For non-uniform breaks: the segment holding the start of each of [`LOOKUP`] equal bins
-    /// of `[0, 1]`, so that locating a parameter scans at most a few breaks.
-    lookup: Vec<u32>,
-}
-
-/// Bins of the segment lookup table of non-uniform chains.
-const LOOKUP: usize = 256;
-
-impl ChainBasis {
-    /// The basis of `layout` (degree at most 16).
-    #[must_use]
-    pub fn new(layout: ChainLayout) -> Self {
-        let d = layout.degree();
-        debug_assert!(d <= MAX_DEGREE, "ChainBasis: degree {d} above {MAX_DEGREE}");
-        let map = layout.map();
-        let segments = layout.segments();
-        let mut basis = ChainBasis {
-            supports: Vec::with_capacity(segments),
-            local: Vec::with_capacity(segments),
-            local_d1: Vec::with_capacity(segments),
-            local_d2: Vec::with_capacity(segments),
-            inv_len: (0..segments).map(|k| 1.0 / layout.segment_length(k)).collect(),
-            uniform: layout
-                .breaks()
-                .iter()
-                .enumerate()
-                .all(|(k, &b)| (b - k as f64 / segments as f64).abs() <= 4.0 * f64::EPSILON),
-            lookup: Vec::new(),
-            layout: layout.clone(),
-        };
-        if !basis.uniform {
-            basis.lookup = (0..LOOKUP)
-                .map(|i| layout.locate(i as f64 / LOOKUP as f64).0 as u32)
-                .collect();
-        }
-        for k in 0..segments {
-            let mut support: Vec<u32> = (k * d..=(k + 1) * d)
-                .flat_map(|r| map.row(r).0.to_vec())
-                .collect();
-            support.sort_unstable();
-            support.dedup();
-            // A B-spline segment depends on exactly d + 1 control points; should rounding have
-            // dropped a weight, pad with zero-weight neighbours so every segment has d + 1.
-            let cols = map.cols() as u32;
-            let mut next = 0;
-            while support.len() < d + 1 && next < cols {
-                if support.binary_search(&next).is_err() {
-                    support.push(next);
-                    support.sort_unstable();
-                }
-                next += 1;
-            }
-            let n = support.len();
-            let mut block = vec![0.0; (d + 1) * n];
-            for (r, row) in block.chunks_mut(n).enumerate() {
-                let (idx, w) = map.row(k * d + r);
-                for (&j, &wj) in idx.iter().zip(w) {
-                    // `support` holds every index of these rows, so the search always succeeds.
-                    if let Ok(a) = support.binary_search(&j) {
-                        row[a] += wj;
-                    }
-                }
-            }
-            let df = d as f64;
-            let d1: Vec<f64> = (0..d * n).map(|i| df * (block[i + n] - block[i])).collect();
-            let d2: Vec<f64> = (0..d.saturating_sub(1) * n)
-                .map(|i| df * (df - 1.0) * (block[i + 2 * n] - 2.0 * block[i + n] + block[i]))
-                .collect();
-            // Stored transposed, one row per support point, so each basis function is one
-            // contiguous dot product with the Bernstein values.
-            let transpose = |m: &[f64], rows: usize| -> Vec<f64> {
-                let mut t = vec![0.0; m.len()];
-                for r in 0..rows {
-                    for a in 0..n {
-                        t[a * rows + r] = m[r * n + a];
-                    }
-                }
-                t
-            };
-            basis.local.push(transpose(&block, d + 1));
-            basis.local_d1.push(transpose(&d1, d));
-            basis.local_d2.push(transpose(&d2, d.saturating_sub(1)));
-            basis.supports.push(support);
-        }
-        basis
-    }
-
-    /// The layout.
-    #[must_use]
-    pub fn layout(&self) -> &ChainLayout {
-        &self.layout
-    }
-
-    /// Design indices supporting segment `k`.
-    #[must_use]
-    pub fn support(&self, k: usize) -> &[u32] {
-        &self.supports[k]
-    }
-
-    /// The extraction map restricted to segment `k`: row `a` holds support point `a`'s weights
-    /// in the segment's `degree + 1` Bezier control points.
-    #[must_use]
-    pub fn local(&self, k: usize) -> &[f64] {
-        &self.local[k]
-    }
-
-    /// Number of design points supporting each segment (the same for every segment).
-    #[must_use]
-    pub fn support_len(&self) -> usize {
-        self.supports.first().map_or(0, Vec::len)
-    }
-
-    /// The segment holding global parameter `t` (clamped to `[0, 1]`) and the local parameter,
-    /// as [`ChainLayout::locate`] finds them.
-    #[inline]
-    fn locate(&self, t: f64) -> (usize, f64) {
-        let s = self.inv_len.len();
-        if !self.uniform {
-            // The bin's first segment, then forward past every break at or below t (the same
-            // segment as ChainLayout::locate: the last whose break is <= t).
-            let t = t.clamp(0.0, 1.0);
-            let breaks = self.layout.breaks();
-            let mut k = self
-                .lookup
-                .get(((t * LOOKUP as f64) as usize).min(LOOKUP - 1))
-                .map_or(0, |&k| k as usize);
-            while k + 1 < s && breaks[k + 1] <= t {
-                k += 1;
-            }
-            return (
-                k,
-                ((t - breaks[k]) / self.layout.segment_length(k)).clamp(0.0, 1.0),
-            );
-        }
-        let t = t.clamp(0.0, 1.0);
-        let k = ((t * s as f64) as usize).min(s - 1);
-        let breaks = self.layout.breaks();
-        // Rounding of t * s can put a parameter next to a break in the wrong segment.
-        let k = if t < breaks[k] {
-            k - 1
-        } else if k + 1 < s && t >= breaks[k + 1] {
-            k + 1
-        } else {
-            k
-        };
-        (k, ((t - breaks[k]) * self.inv_len[k]).clamp(0.0, 1.0))
-    }
-
-    /// The basis at global parameter `t`: fills `value`, and up to `order` derivatives with
-    /// respect to `t`, over the support of the returned segment (each slice at least as long
-    /// as the support; derivative slices of orders not asked for are left alone).
-    pub fn eval(&self, t: f64, order: usize, value: &mut [f64], d1: &mut [f64], d2: &mut [f64]) -> usize {
-        let (k, u) = self.locate(t);
-        // Fixed-size paths for the usual degrees keep every buffer on the stack, unrolled.
-        match self.layout.degree() {
-            1 => self.eval_fixed::<2>(k, u, order, value, d1, d2),
-            2 => self.eval_fixed::<3>(k, u, order, value, d1, d2),
-            3 => self.eval_fixed::<4>(k, u, order, value, d1, d2),
-            4 => self.eval_fixed::<5>(k, u, order, value, d1, d2),
-            5 => self.eval_fixed::<6>(k, u, order, value, d1, d2),
-            6 => self.eval_fixed::<7>(k, u, order, value, d1, d2),
-            7 => self.eval_fixed::<8>(k, u, order, value, d1, d2),
-            _ => self.eval_fixed::<{ MAX_DEGREE + 1 }>(k, u, order, value, d1, d2),
-        }
-        k
-    }
-
-    /// [`ChainBasis::eval`] in segment `k` at local `u`, with buffers of `N >= degree + 1`.
-    #[inline]
-    fn eval_fixed<const N: usize>(
-        &self,
-        k: usize,
-        u: f64,
-        order: usize,
-        value: &mut [f64],
-        d1: &mut [f64],
-        d2: &mut [f64],
-    ) {
-        let d = self.layout.degree();
-        debug_assert!(d < N, "eval_fixed: buffer of {N} too small for degree {d}");
-        let v = 1.0 - u;
-        // Bernstein polynomials of degree d - 2, d - 1 and d by the triangular recurrence,
-        // each level kept for the derivatives.
-        let mut levels = [[0.0; N]; 3];
-        levels[0][0] = 1.0;
-        let mut cur = 0;
-        for j in 1..=d {
-            let (prev, next) = (cur, (cur + 1) % 3);
-            let mut saved = 0.0;
-            for i in 0..j {
-                let tmp = levels[prev][i];
-                levels[next][i] = saved + v * tmp;
-                saved = u * tmp;
-            }
-            levels[next][j] = saved;
-            cur = next;
-        }
-        // After the loop `cur` holds degree d, the one before it d - 1, before that d - 2.
-        let (ld, ld1, ld2) = (cur, (cur + 2) % 3, (cur + 1) % 3);
-        let n = self.supports[k].len();
-        let dot = |m: &[f64], w: &[f64], out: &mut [f64], scale: f64| {
-            let len = w.len();
-            for (x, row) in out[..n].iter_mut().zip(m.chunks_exact(len.max(1))) {
-                *x = scale * row.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
-            }
-        };
-        dot(&self.local[k], &levels[ld][..=d], value, 1.0);
-        if order >= 1 {
-            if d >= 1 {
-                dot(&self.local_d1[k], &levels[ld1][..d], d1, self.inv_len[k]);
-            } else {
-                d1[..n].fill(0.0);
-            }
-        }
-        if order >= 2 {
-            if d >= 2 {
-                dot(
-                    &self.local_d2[k],
-                    &levels[ld2][..d - 1],
-                    d2,
-                    self.inv_len[k] * self.inv_len[k],
-                );
-            } else {
-                d2[..n].fill(0.0);
-            }
-        }
-    }
-}
-
 /// A chain of Bezier curves as a [`Shape`] of parameter dimension 1.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CurveShape<P> {
-    chain: ChainBasis,
+    layout: ChainLayout,
     _point: PhantomData<fn() -> P>,
 }
 
@@ -398,7 +182,7 @@ impl<P: Vector> CurveShape<P> {
     #[must_use]
     pub fn new(layout: ChainLayout) -> Self {
         CurveShape {
-            chain: ChainBasis::new(layout),
+            layout,
             _point: PhantomData,
         }
     }
@@ -406,41 +190,89 @@ impl<P: Vector> CurveShape<P> {
     /// The layout.
     #[must_use]
     pub fn layout(&self) -> &ChainLayout {
-        self.chain.layout()
+        &self.layout
     }
 }
 
 impl<P: Vector> Shape<1> for CurveShape<P> {
     type Point = P;
+    type Prepared<'d> = Vec<P>;
+
+    fn prepare<'d>(&self, design: &'d [P]) -> Vec<P> {
+        self.layout.bezier(design)
+    }
+
+    /// The basis values, and the point and tangent by Horner's scheme.
+    fn basis_and_jet(&self, ctrl: &Vec<P>, _design: &[P], t: [f64; 1], out: &mut Basis<1>) -> Jet<P, 1> {
+        self.basis(t, 0, out);
+        self.jet_at(ctrl, t, 1, out)
+    }
+
+    /// Horner's scheme on the segment's Bezier control points and their differences.
+    fn jet_at(&self, ctrl: &Vec<P>, t: [f64; 1], order: usize, _scratch: &mut Basis<1>) -> Jet<P, 1> {
+        let [point, d1, d2] = self.layout.segment_jet(ctrl, t[0], order);
+        Jet {
+            point,
+            d1: [d1],
+            d2: [[d2]],
+        }
+    }
 
     fn design_count(&self) -> usize {
-        self.chain.layout().design_count()
+        self.layout.design_count()
     }
 
     fn cell_count(&self) -> usize {
-        self.chain.layout().segments()
+        self.layout.segments()
     }
 
     fn support(&self, cell: usize) -> &[u32] {
-        self.chain.support(cell)
+        self.layout.support(cell)
     }
 
     fn cell_box(&self, cell: usize) -> ([f64; 1], [f64; 1]) {
-        let b = self.chain.layout().breaks();
+        let b = self.layout.breaks();
         ([b[cell]], [b[cell + 1]])
     }
 
+    /// From the layout's basis on the stack, without filling `scratch`.
+    fn eval_jet(&self, t: [f64; 1], order: usize, design: &[P], _scratch: &mut Basis<1>) -> Jet<P, 1> {
+        let b = self.layout.basis(t[0], order);
+        let zero = P::ZERO;
+        let mut jet = Jet {
+            point: zero,
+            d1: [zero],
+            d2: [[zero]],
+        };
+        for a in 0..=self.layout.degree() {
+            let x = design[b.first + a];
+            jet.point += x * b.value[a];
+            if order >= 1 {
+                jet.d1[0] += x * b.d1[a];
+            }
+            if order >= 2 {
+                jet.d2[0][0] += x * b.d2[a];
+            }
+        }
+        jet
+    }
+
     fn basis(&self, t: [f64; 1], order: usize, out: &mut Basis<1>) {
-        let n = self.chain.support_len();
+        let n = self.layout.degree() + 1;
         out.resize(n, order);
-        let d1: &mut [f64] = bytemuck::cast_slice_mut(&mut out.d1[..]);
-        let d2: &mut [f64] = bytemuck::cast_slice_mut(&mut out.d2[..]);
-        out.cell = self.chain.eval(t[0], order, &mut out.value, d1, d2);
-        debug_assert_eq!(
-            self.chain.support(out.cell).len(),
-            n,
-            "segments share a support size"
-        );
+        let b = self.layout.basis(t[0], order);
+        out.cell = b.segment;
+        out.value.copy_from_slice(&b.value[..n]);
+        if order >= 1 {
+            for (o, &x) in out.d1.iter_mut().zip(&b.d1[..n]) {
+                *o = [x];
+            }
+        }
+        if order >= 2 {
+            for (o, &x) in out.d2.iter_mut().zip(&b.d2[..n]) {
+                *o = [[x]];
+            }
+        }
     }
 }
 
@@ -450,8 +282,8 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
 /// (patch `a` along u, `b` along v) has index `a * pv + b`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridShape<P> {
-    u: ChainBasis,
-    v: ChainBasis,
+    u: ChainLayout,
+    v: ChainLayout,
     supports: Vec<Vec<u32>>,
     _point: PhantomData<fn() -> P>,
 }
@@ -460,12 +292,11 @@ impl<P: Vector> GridShape<P> {
     /// The shape of patch grids with this layout.
     #[must_use]
     pub fn new(layout: GridLayout) -> Self {
-        let u = ChainBasis::new(layout.u);
-        let v = ChainBasis::new(layout.v);
-        let nv = v.layout().design_count() as u32;
+        let (u, v) = (layout.u, layout.v);
+        let nv = v.design_count() as u32;
         let mut supports = Vec::new();
-        for a in 0..u.layout().segments() {
-            for b in 0..v.layout().segments() {
+        for a in 0..u.segments() {
+            for b in 0..v.segments() {
                 let s: Vec<u32> = u
                     .support(a)
                     .iter()
@@ -485,15 +316,24 @@ impl<P: Vector> GridShape<P> {
     /// The layout.
     #[must_use]
     pub fn layout(&self) -> GridLayout {
-        GridLayout::new(self.u.layout().clone(), self.v.layout().clone())
+        GridLayout::new(self.u.clone(), self.v.clone())
     }
 }
 
 impl<P: Vector> Shape<2> for GridShape<P> {
     type Point = P;
+    type Prepared<'d> = &'d [P];
+
+    fn prepare<'d>(&self, design: &'d [P]) -> &'d [P] {
+        design
+    }
+
+    fn jet_at(&self, design: &&[P], t: [f64; 2], order: usize, scratch: &mut Basis<2>) -> Jet<P, 2> {
+        self.eval_jet(t, order, design, scratch)
+    }
 
     fn design_count(&self) -> usize {
-        self.u.layout().design_count() * self.v.layout().design_count()
+        self.u.design_count() * self.v.design_count()
     }
 
     fn cell_count(&self) -> usize {
@@ -505,9 +345,9 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     }
 
     fn cell_box(&self, cell: usize) -> ([f64; 2], [f64; 2]) {
-        let pv = self.v.layout().segments();
+        let pv = self.v.segments();
         let (a, b) = (cell / pv, cell % pv);
-        let (bu, bv) = (self.u.layout().breaks(), self.v.layout().breaks());
+        let (bu, bv) = (self.u.breaks(), self.v.breaks());
         ([bu[a], bv[b]], [bu[a + 1], bv[b + 1]])
     }
 
@@ -515,12 +355,12 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     /// combination of `d (d - 1) Δ²P`), and the bilinear interpolant on a grid of local spacing
     /// `h` is within `h² (max|S_uu| + max|S_vv|) / 8` of the patch.
     fn sample_deviation(&self, cell: usize, design: &[P], samples: usize) -> Option<f64> {
-        let pv = self.v.layout().segments();
+        let pv = self.v.segments();
         let (a, b) = (cell / pv, cell % pv);
-        let (du, dv) = (self.u.layout().degree(), self.v.layout().degree());
+        let (du, dv) = (self.u.degree(), self.v.degree());
         let (su, sv) = (self.u.support(a), self.v.support(b));
         let (lu, lv) = (self.u.local(a), self.v.local(b));
-        let nv = self.v.layout().design_count();
+        let nv = self.v.design_count();
         let (wu, wv) = (du + 1, dv + 1);
         // T[i][c] = Σ_j Lv[j][c] x[su[i], sv[j]], then net[r][c] = Σ_i Lu[i][r] T[i][c].
         let mut half = vec![P::ZERO; su.len() * wv];
@@ -568,20 +408,13 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     /// By the tensor structure: each supporting row of design points is combined with the v
     /// basis, then the rows with the u basis (about half the work of the 16-term sums).
     fn eval_jet(&self, t: [f64; 2], order: usize, design: &[P], _scratch: &mut Basis<2>) -> Jet<P, 2> {
-        let (mut vu, mut du, mut ddu) = (
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-        );
-        let (mut vv, mut dv, mut ddv) = (
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-        );
-        let a = self.u.eval(t[0], order, &mut vu, &mut du, &mut ddu);
-        let b = self.v.eval(t[1], order, &mut vv, &mut dv, &mut ddv);
+        let bu = self.u.basis(t[0], order);
+        let bv = self.v.basis(t[1], order);
+        let (a, b) = (bu.segment, bv.segment);
+        let (vu, du, ddu) = (&bu.value, &bu.d1, &bu.d2);
+        let (vv, dv, ddv) = (&bv.value, &bv.d1, &bv.d2);
         let (su, sv) = (self.u.support(a), self.v.support(b));
-        let nv = self.v.layout().design_count();
+        let nv = self.v.design_count();
         let zero = P::ZERO;
         let mut jet = Jet {
             point: zero,
@@ -617,20 +450,13 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     }
 
     fn basis(&self, t: [f64; 2], order: usize, out: &mut Basis<2>) {
-        let (mut vu, mut du, mut ddu) = (
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-        );
-        let (mut vv, mut dv, mut ddv) = (
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-            [0.0; MAX_DEGREE + 1],
-        );
-        let a = self.u.eval(t[0], order, &mut vu, &mut du, &mut ddu);
-        let b = self.v.eval(t[1], order, &mut vv, &mut dv, &mut ddv);
+        let bu = self.u.basis(t[0], order);
+        let bv = self.v.basis(t[1], order);
+        let (a, b) = (bu.segment, bv.segment);
+        let (vu, du, ddu) = (&bu.value, &bu.d1, &bu.d2);
+        let (vv, dv, ddv) = (&bv.value, &bv.d1, &bv.d2);
         let (nu, nv) = (self.u.support(a).len(), self.v.support(b).len());
-        out.cell = a * self.v.layout().segments() + b;
+        out.cell = a * self.v.segments() + b;
         out.resize(nu * nv, order);
         for i in 0..nu {
             for j in 0..nv {

@@ -1,0 +1,229 @@
+//! The emulation of an outside checker: the closest-point search of the shared checker
+//! `shared/tools/verify.py`, step for step, and the projection check built on it.
+//!
+//! This is deliberately *not* the library's closest-point search ([`crate::closest`]): its
+//! job is to behave like a simple downstream tool, so that a report's offsets are ones such a
+//! tool can reproduce. It samples every patch at the 7 × 7 local parameters `k / 6`, takes the
+//! four nearest samples of all and runs at most 25 Gauss-Newton steps clamped to each one's
+//! patch, with `verify.py`'s arithmetic (de Casteljau as `a + (b - a) t`). A grid whose
+//! overhangs or folds trap that search reports offsets such a tool cannot reproduce; the
+//! projection check says so, and the adaptive surface search accepts only layouts whose
+//! offsets this search confirms.
+
+use crate::chain::PatchGrid;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// The coarse search passes when its rms and max are within this factor of the exact ones.
+pub const AGREEMENT: f64 = 1.001;
+
+/// What a coarse sampled search finds on a fitted grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProjectionCheck {
+    /// Root mean square of the coarse distances.
+    pub rms: f64,
+    /// Largest coarse distance.
+    pub max: f64,
+    /// Whether both are within [`AGREEMENT`] of the exact closest-point rms and max.
+    pub agrees: bool,
+}
+
+/// The distances the checker's sampled search ([`sampled_offsets`]) finds from `points` to
+/// `grid` (upper bounds of the true ones), compared with the exact `rms` and `max`.
+#[must_use]
+pub fn projection_check(grid: &PatchGrid<DVec3>, points: &[DVec3], rms: f64, max: f64) -> ProjectionCheck {
+    let d = sampled_offsets(grid, points);
+    let n = d.len().max(1) as f64;
+    let coarse_rms = (d.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let coarse_max = d.iter().copied().fold(0.0, f64::max);
+    let slack = |exact: f64| exact * AGREEMENT + 1e-15;
+    ProjectionCheck {
+        rms: coarse_rms,
+        max: coarse_max,
+        agrees: coarse_rms <= slack(rms) && coarse_max <= slack(max),
+    }
+}
+
+/// De Casteljau's algorithm with `verify.py`'s arithmetic (`a + (b - a) t`, in order).
+fn casteljau(ctrl: &mut [DVec3], t: f64) -> DVec3 {
+    let n = ctrl.len();
+    for r in 1..n {
+        for i in 0..n - r {
+            ctrl[i] = ctrl[i] + (ctrl[i + 1] - ctrl[i]) * t;
+        }
+    }
+    ctrl[0]
+}
+
+/// One patch's control points (rows along u) and its evaluation with `verify.py`'s arithmetic.
+struct CheckPatch {
+    du: usize,
+    dv: usize,
+    ctrl: Vec<DVec3>,
+}
+
+impl CheckPatch {
+    fn eval(&self, u: f64, v: f64) -> DVec3 {
+        let mut rows: Vec<DVec3> = self
+            .ctrl
+            .chunks(self.dv + 1)
+            .map(|r| casteljau(&mut r.to_vec(), v))
+            .collect();
+        casteljau(&mut rows, u)
+    }
+
+    fn partials(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
+        let (du, dv) = (self.du as f64, self.dv as f64);
+        let mut rows = Vec::with_capacity(self.du + 1);
+        let mut drows = Vec::with_capacity(self.du + 1);
+        for r in self.ctrl.chunks(self.dv + 1) {
+            rows.push(casteljau(&mut r.to_vec(), v));
+            let mut d: Vec<DVec3> = r.windows(2).map(|w| (w[1] - w[0]) * dv).collect();
+            drows.push(casteljau(&mut d, v));
+        }
+        let p = casteljau(&mut rows.clone(), u);
+        let mut dr: Vec<DVec3> = rows.windows(2).map(|w| (w[1] - w[0]) * du).collect();
+        let pu = casteljau(&mut dr, u);
+        let pv = casteljau(&mut drows, u);
+        (p, pu, pv)
+    }
+}
+
+fn dist2(a: DVec3, b: DVec3) -> f64 {
+    let d = a - b;
+    d.x * d.x + d.y * d.y + d.z * d.z
+}
+
+/// The closest-point search of the shared checker `shared/tools/verify.py`, step for step:
+/// every patch sampled at the 7 x 7 local parameters `k / 6`, the four best samples of all
+/// (ties kept in sampling order, as Python's stable sort keeps them)
+/// refined by at most 25 clamped Gauss-Newton steps in their patch. Returns every point's
+/// distance: the distance to a point of the surface, so never below the true closest-point
+/// distance. [`projection_check`] compares it with a fit's exact offsets;
+/// [`crate::adaptive::adapt_surface`] accepts a layout only when it meets the tolerance too,
+/// so that the checker confirms what the report claims.
+#[must_use]
+pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
+    let l = grid.layout();
+    let (du, dv) = (l.u.degree(), l.v.degree());
+    let (pu, pv) = l.patches();
+    let patches: Vec<CheckPatch> = (0..pu)
+        .flat_map(|i| (0..pv).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let p = grid.patch(i, j);
+            let ctrl = (0..=du)
+                .flat_map(|a| (0..=dv).map(move |b| (a, b)))
+                .map(|(a, b)| p.at(a, b))
+                .collect();
+            CheckPatch { du, dv, ctrl }
+        })
+        .collect();
+    let samples: Vec<(usize, f64, f64, DVec3)> = patches
+        .iter()
+        .enumerate()
+        .flat_map(|(k, p)| {
+            (0..=6).flat_map(move |a| {
+                (0..=6).map(move |b| {
+                    let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
+                    (k, u, v, p.eval(u, v))
+                })
+            })
+        })
+        .collect();
+    points
+        .par_iter()
+        .map(|&q| {
+            // (distance², sample index): Python's stable sort by distance keeps ties in
+            // sampling order.
+            let mut cands: Vec<(f64, usize)> = samples
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (dist2(s.3, q), i))
+                .collect();
+            let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+            let four = 4.min(cands.len());
+            cands.select_nth_unstable_by(four - 1, by);
+            cands[..four].sort_by(by);
+            let mut best = cands[0].0;
+            for &(_, i) in &cands[..four] {
+                let (k, u0, v0, _) = samples[i];
+                let p = &patches[k];
+                let (mut u, mut v) = (u0, v0);
+                for _ in 0..25 {
+                    let (s, su, sv) = p.partials(u, v);
+                    let r = s - q;
+                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
+                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
+                    let det = a11 * a22 - a12 * a12;
+                    if det.abs() < 1e-300 {
+                        break;
+                    }
+                    let du_ = (b1 * a22 - b2 * a12) / det;
+                    let dv_ = (a11 * b2 - a12 * b1) / det;
+                    let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
+                    if (un - u).abs() + (vn - v).abs() < 1e-14 {
+                        break;
+                    }
+                    u = un;
+                    v = vn;
+                }
+                best = best.min(dist2(p.eval(u, v), q));
+            }
+            best.sqrt()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::{ChainLayout, Continuity, GridLayout};
+
+    /// A 2 × 2 bicubic C1 grid over the unit square at `z = bump·x·y` (a plane when 0).
+    fn grid(bump: f64) -> PatchGrid<DVec3> {
+        let u = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
+        let v = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
+        let layout = GridLayout::new(u, v);
+        let (mu, mv) = layout.design_shape();
+        let design = (0..mu)
+            .flat_map(|i| {
+                (0..mv).map(move |j| {
+                    let (x, y) = (i as f64 / (mu - 1) as f64, j as f64 / (mv - 1) as f64);
+                    DVec3::new(x, y, bump * x * y)
+                })
+            })
+            .collect();
+        PatchGrid::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn a_plane_is_measured_exactly_by_the_coarse_search() {
+        // Points at height 0.01 above a plane: every distance is 0.01.
+        let g = grid(0.0);
+        let points: Vec<DVec3> = (0..50)
+            .map(|k| {
+                let (a, b) = ((k % 7) as f64 / 7.0 + 0.03, (k / 7) as f64 / 8.0 + 0.02);
+                g.eval(a, b) + DVec3::Z * 0.01
+            })
+            .collect();
+        let check = projection_check(&g, &points, 0.01, 0.01);
+        assert!(check.agrees, "{check:?}");
+        assert!(
+            (check.rms - 0.01).abs() < 1e-12 && (check.max - 0.01).abs() < 1e-12,
+            "{check:?}"
+        );
+    }
+
+    #[test]
+    fn distances_smaller_than_the_coarse_search_finds_do_not_agree() {
+        // Claimed offsets of zero for points 0.01 off the surface: the check must refuse them,
+        // since the coarse search can only find distances at least the true ones.
+        let g = grid(0.3);
+        let points: Vec<DVec3> = (0..20)
+            .map(|k| g.eval(k as f64 / 20.0, 0.5) + DVec3::Z * 0.01)
+            .collect();
+        let check = projection_check(&g, &points, 0.0, 0.0);
+        assert!(!check.agrees, "{check:?}");
+        assert!(check.max > 0.005, "{check:?}");
+    }
+}
