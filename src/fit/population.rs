@@ -139,9 +139,15 @@ impl<S: EvalShape<K>, const K: usize> FitProblem<'_, S, K> {
     /// Global closest-point parameters of the free data points on the flat design `design`
     /// (f64, `n` samples per segment or patch side), with their squared distances.
     fn project_free(&self, design: &[f64], n: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
-        let design = Self::from_flat(design);
         let free: Vec<S::Point> = self.free_points().iter().map(|&j| self.points()[j]).collect();
-        feet(self.shape(), &design, &free, None, &samples(n))
+        self.project_points(design, &free, n)
+    }
+
+    /// Global closest-point parameters of `points` on the flat design `design`, with their
+    /// squared distances.
+    fn project_points(&self, design: &[f64], points: &[S::Point], n: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
+        let design = Self::from_flat(design);
+        feet(self.shape(), &design, points, None, &samples(n))
             .iter()
             .map(|f| (uv(f.t), f.dist_sq))
             .unzip()
@@ -265,9 +271,15 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
     ) -> Result<Box<dyn Scorer + 's>> {
         self.check_population()?;
         let free = self.free_points();
+        // The free points in the frame (subtracted in f64, before the evaluator rounds
+        // anything): the evaluator's targets, and projected onto designs in the frame, so that
+        // the foot parameters' rounding does not depend on where the data sit either.
+        let frame = self.frame();
+        let origin = S::Point::from_coords(frame.origin());
+        let pts: Vec<S::Point> = free.iter().map(|&j| self.points()[j] - origin).collect();
         let params = match state {
             Some(p) => p,
-            None => self.project_free(self.start_flat(), options.samples).0,
+            None => self.project_points(&frame.start, &pts, options.samples).0,
         };
         if params.len() != free.len() {
             return Err(Error::invalid(format!(
@@ -276,10 +288,6 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
                 free.len()
             )));
         }
-        // The targets in the frame (subtracted in f64, before the evaluator rounds anything).
-        let frame = self.frame();
-        let origin = S::Point::from_coords(frame.origin());
-        let pts: Vec<S::Point> = free.iter().map(|&j| self.points()[j] - origin).collect();
         let mut evaluator = build_evaluator(
             &self.shape().eval_layout(),
             &S::targets(&pts, &params)?,
@@ -291,10 +299,18 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
             },
         )?;
         evaluator.set_reference(&frame.start)?;
+        // The anchored points in the frame too, indexed 0.. in `anchors`.
+        let anchors = self.anchors();
         Ok(Box::new(FitScorer {
             problem: self,
-            anchors: self.anchors(),
+            anchor_points: anchors.iter().map(|(j, _)| self.points()[*j] - origin).collect(),
+            anchors: anchors
+                .into_iter()
+                .enumerate()
+                .map(|(k, (_, w))| (k, w))
+                .collect(),
             free: free.len(),
+            points: pts,
             evaluator,
             params,
             fitness: Vec::new(),
@@ -318,7 +334,12 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
 /// holds.
 struct FitScorer<'s, 'a, S: Shape<K>, const K: usize> {
     problem: &'s FitProblem<'a, S, K>,
+    /// The anchors' weights, each on its point in `anchor_points`.
     anchors: Vec<(usize, Vec<(usize, f64)>)>,
+    /// The anchored data points in the frame.
+    anchor_points: Vec<S::Point>,
+    /// The free data points in the frame, in the evaluator's order.
+    points: Vec<S::Point>,
     free: usize,
     evaluator: Box<dyn PopulationEvaluator>,
     params: Vec<[f64; 2]>,
@@ -334,12 +355,11 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
         self.fitness.resize(scores.len(), Fitness::default());
         self.evaluator.evaluate(population, &mut self.fitness)?;
         let dim = S::Point::DIM;
-        let origin = self.problem.frame().origin();
         for (k, (s, f)) in scores.iter_mut().zip(&self.fitness).enumerate() {
             let row = &population[k * n..(k + 1) * n];
             let (a_sum, a_max) =
-                FitProblem::<S, K>::anchor_terms(&self.anchors, self.problem.points(), |i, c| {
-                    f64::from(row[i * dim + c]) + origin[c]
+                FitProblem::<S, K>::anchor_terms(&self.anchors, &self.anchor_points, |i, c| {
+                    f64::from(row[i * dim + c])
                 });
             let sum_sq = f64::from(f.sum_sq) + a_sum;
             *s = if sum_sq.is_finite() && f.max.is_finite() {
@@ -359,8 +379,7 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
     /// it every generation (so that a resumed run re-anchors exactly as an uninterrupted one).
     fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()> {
         if generation.is_multiple_of(self.reproject_every) {
-            let absolute = self.problem.frame().absolute(best);
-            let (params, _) = self.problem.project_free(&absolute, self.samples);
+            let (params, _) = self.problem.project_points(best, &self.points, self.samples);
             self.evaluator.set_params(&params)?;
             self.params = params;
         }
