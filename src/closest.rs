@@ -37,6 +37,8 @@
 //! [`feet`] is the whole search for many points (on rayon's pool for large sets);
 //! [`chain_feet`] and [`grid_feet`] apply it to a [`CurveChain`] or a [`PatchGrid`].
 
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::bezier::Vector;
 use crate::chain::shape::{Basis, CurveShape, GridShape, Jet, Shape};
 use crate::chain::{CurveChain, PatchGrid};

@@ -78,7 +78,7 @@ const SURFACE: [&str; 13] = [
 ];
 const OFFSET: [&str; 6] = ["metric", "sum_sq", "sum", "rms", "max", "max_at"];
 const FIT: [&str; 5] = ["method", "iterations", "evaluations", "seconds", "backend"];
-const FIT_OPTIONAL: [&str; 2] = ["stages", "evals_per_second"];
+const FIT_OPTIONAL: [&str; 3] = ["stages", "evals_per_second", "stopped"];
 
 fn assert_common_blocks(rep: &Value, dims: usize) {
     assert_keys(&rep["offset"], &OFFSET, &[], "offset");

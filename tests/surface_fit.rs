@@ -149,6 +149,7 @@ fn the_papers_blade_with_four_by_two_bicubic_patches() {
             backend: "cpu".into(),
             stages: Vec::new(),
             evals_per_second: None,
+            stopped: None,
         },
         InputInfo {
             path: "paper".into(),

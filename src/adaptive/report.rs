@@ -81,6 +81,7 @@ impl AdaptReport {
             backend: "cpu".into(),
             stages: vec![],
             evals_per_second: None,
+            stopped: None,
         };
         AdaptReport {
             curve: CurveReport::new(&result.chain, offset, fit, input),
@@ -172,6 +173,7 @@ impl SurfaceAdaptReport {
             backend: "cpu".into(),
             stages: vec![],
             evals_per_second: None,
+            stopped: None,
         };
         SurfaceAdaptReport {
             surface: SurfaceReport::new(&result.grid, offset, fit, input),

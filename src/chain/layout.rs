@@ -38,6 +38,13 @@ pub const MAX_DEGREE: usize = 7;
 /// Basis functions non-zero on a segment, at most: `MAX_DEGREE + 1`.
 pub const MAX_SUPPORT: usize = MAX_DEGREE + 1;
 
+/// The most segments a chain may have (a bound checked before its breaks are made).
+pub const MAX_SEGMENTS: usize = 1 << 20;
+
+/// The most control-point × design-point weights a layout is built from (256 MiB of f64; a
+/// cubic C1 chain of about 2,300 segments).
+const MAX_MAP_WEIGHTS: usize = 1 << 25;
+
 /// Continuity across the joins of a chain, for the layouts with the same continuity at every
 /// join (the `C0`/`C1`/`C2` constructors).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -154,6 +161,11 @@ impl ChainLayout {
         if segments == 0 {
             return Err(Error::invalid("segments must be at least 1"));
         }
+        if segments > MAX_SEGMENTS {
+            return Err(Error::invalid(format!(
+                "{segments} segments is more than a chain may have ({MAX_SEGMENTS})"
+            )));
+        }
         let breaks = (0..=segments).map(|k| k as f64 / segments as f64).collect();
         Self::with_breaks(degree, breaks, continuity)
     }
@@ -225,6 +237,16 @@ impl ChainLayout {
             spans.push(knots.len() - 1);
         }
         knots.extend(std::iter::repeat_n(1.0, degree + 1));
+        // The map is built from dense rows of weights: bounded before it is made.
+        let (rows, cols) = ((breaks.len() - 1) * degree + 1, knots.len() - degree - 1);
+        if rows.saturating_mul(cols) > MAX_MAP_WEIGHTS {
+            return Err(Error::invalid(format!(
+                "{} segments of degree {degree} are more than a chain may have: its {rows} control \
+                 points over {cols} design points are more than the {MAX_MAP_WEIGHTS} weights the \
+                 layout is built from",
+                breaks.len() - 1
+            )));
+        }
         let map = ExtractionMap::for_knots(degree, &breaks, &knots);
         // The continuity every join has at least; a chain without joins is as smooth as its
         // degree allows the constructors to say.

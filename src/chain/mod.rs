@@ -3,6 +3,8 @@
 //! (degree, breaks, the continuity of every join, knot insertion, the basis), the sparse
 //! extraction map `expanded = E · design`, `CurveChain` and `PatchGrid`.
 
+#![allow(clippy::needless_range_loop)]
+
 mod curve_chain;
 mod layout;
 mod map;

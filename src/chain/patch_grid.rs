@@ -132,7 +132,7 @@ impl<P: Vector> PatchGrid<P> {
         let layout = GridLayout::new(c1(&self.layout.u)?, c1(&self.layout.v)?);
         let (mu, mv) = layout.net_shape();
         let (du, dv) = (layout.u.degree(), layout.v.degree());
-        let keep = |r: usize, d: usize, m: usize| r % d != 0 || r == 0 || r == m - 1;
+        let keep = |r: usize, d: usize, m: usize| !r.is_multiple_of(d) || r == 0 || r == m - 1;
         let design: Vec<P> = (0..mu)
             .filter(|&r| keep(r, du, mu))
             .flat_map(|r| (0..mv).filter(move |&c| keep(c, dv, mv)).map(move |c| (r, c)))

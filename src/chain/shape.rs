@@ -198,7 +198,7 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
     type Point = P;
     type Prepared<'d> = Vec<P>;
 
-    fn prepare<'d>(&self, design: &'d [P]) -> Vec<P> {
+    fn prepare(&self, design: &[P]) -> Vec<P> {
         self.layout.bezier(design)
     }
 

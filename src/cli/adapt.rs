@@ -1,8 +1,9 @@
 //! `bezchain adapt`: the chain with the fewest stored scalars whose offsets meet a tolerance
 //! (the paper's Figs. 7 and 8), for one tolerance or a sweep.
 
-use super::{say, usage, warn_all, write_json, Target};
-use anyhow::{anyhow, Result};
+use super::output::{Output, Outputs};
+use super::{usage, warn_all};
+use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{
     adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore,
 };
@@ -69,12 +70,16 @@ pub(crate) fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRo
     s
 }
 
-/// Write one report as a JSON object, several (a sweep) as an array.
-pub(crate) fn write_reports<T: serde::Serialize>(target: Option<&Target>, reports: &[T]) -> Result<()> {
-    match (target, reports) {
+/// One report as a JSON object, several (a sweep) as an array.
+pub(crate) fn put_reports<T: serde::Serialize>(
+    outs: &mut Outputs,
+    json: Option<Output>,
+    reports: &[T],
+) -> Result<()> {
+    match (json, reports) {
         (None, _) => Ok(()),
-        (Some(t), [one]) => write_json(t, one),
-        (Some(t), many) => write_json(t, &many),
+        (Some(o), [one]) => outs.put_json(o, one),
+        (Some(o), many) => outs.put_json(o, &many),
     }
 }
 
@@ -96,11 +101,16 @@ pub struct Args {
     /// and `y` columns; ordered along the curve (or by an `index` or `point` column).
     pub input: PathBuf,
     /// Tolerance in the data's units (a fraction of the data's extent with `--relative`).
-    #[arg(long, required_unless_present = "sweep")]
+    #[arg(long, required_unless_present = "sweep", allow_negative_numbers = true)]
     pub tol: Option<f64>,
     /// Several tolerances, comma-separated: one search each, a table of stored scalars
     /// against tolerance (the plot and the reports are those of the last).
-    #[arg(long, value_delimiter = ',', conflicts_with = "tol")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "tol",
+        allow_negative_numbers = true
+    )]
     pub sweep: Vec<f64>,
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
@@ -249,7 +259,15 @@ pub(crate) fn held_out_and_search(
 
 /// Run the search(es), print the table, write the outputs.
 pub fn run(args: Args) -> Result<()> {
-    args.cad.check()?;
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let cad = args.cad.add(&mut outs)?;
+    if args.max_scalars == Some(0) {
+        return Err(usage(
+            "--max-scalars 0: a chain stores at least a few scalars; give a positive count",
+        ));
+    }
     let loaded = read_curve(&args.input)?;
     warn_all(&args.input, &loaded.warnings);
     let points = &loaded.points;
@@ -260,6 +278,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     if tols.is_empty() {
         return Err(usage("give --tol T or --sweep T1,T2,..."));
+    }
+    if let Some(t) = tols.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+        return Err(usage(format!(
+            "--tol {t}: the tolerance must be a positive number"
+        )));
     }
     let scale = if args.relative { extent(points) } else { 1.0 };
     let base = AdaptOptions {
@@ -275,8 +298,8 @@ pub fn run(args: Args) -> Result<()> {
         search_points: args.search_points,
         ..AdaptOptions::default()
     };
-    let json_target = args.json.as_deref().map(Target::parse);
-    let out = |text: &str| say(json_target.as_ref(), text);
+    let to_stderr = outs.uses_stdout();
+    let out = |text: &str| super::output::say(to_stderr, text);
     let name = args.input.display().to_string();
     let input = InputInfo {
         path: name.clone(),
@@ -290,7 +313,8 @@ pub fn run(args: Args) -> Result<()> {
             tol: t * scale,
             ..base
         };
-        let r = adapt_curve(points, &opts)?;
+        let r = adapt_curve(points, &opts)
+            .with_context(|| format!("{}: adapting to {:.3e}", args.input.display(), opts.tol))?;
         if let Some(m) = &r.message {
             failures.push(m.clone());
         }
@@ -316,15 +340,16 @@ pub fn run(args: Args) -> Result<()> {
             .collect();
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
-    write_reports(json_target.as_ref(), &reports)?;
+    put_reports(&mut outs, json, &reports)?;
     if args.cad.wanted() {
         let shapes = reports
             .iter()
             .map(bezchain::export::CadShape::from_adapt_report)
             .collect::<bezchain::Result<Vec<_>>>()?;
-        args.cad.write(&shapes, &super::export::stem(&args.input))?;
+        args.cad
+            .put(&mut outs, &cad, &shapes, &super::export::stem(&args.input))?;
     }
-    if let (Some(path), Some((opts, r))) = (&args.svg, results.last()) {
+    if let (Some(o), Some((opts, r))) = (svg, results.last()) {
         let offsets = bezchain::fit::shape_offsets(
             &bezchain::fit::CurveShape::new(r.chain.layout().clone()),
             r.chain.design(),
@@ -347,8 +372,10 @@ pub fn run(args: Args) -> Result<()> {
             chain: &r.chain,
             offsets: &offsets,
         };
-        Target::parse(path).write(plot.to_svg()?.as_bytes())?;
+        outs.put(o, plot.to_svg()?.as_bytes())?;
     }
+    // Written whether or not the tolerance was met (the exit status says which).
+    outs.commit()?;
     if !failures.is_empty() {
         return Err(anyhow!("{}", failures.join("; ")));
     }

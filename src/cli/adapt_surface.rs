@@ -1,9 +1,10 @@
 //! `bezchain adapt-surface`: the patch grid with the fewest stored scalars whose offsets from a
 //! sectioned 3D cloud meet a tolerance, for one tolerance or a sweep.
 
-use super::adapt::{sweep_table, write_reports, NormArg, SweepRow};
-use super::{say, usage, warn_all, Target};
-use anyhow::{anyhow, Result};
+use super::adapt::{put_reports, sweep_table, NormArg, SweepRow};
+use super::output::Outputs;
+use super::{usage, warn_all};
+use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{
     adapt_surface, AdaptedSurface, Breaks, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
 };
@@ -22,11 +23,16 @@ pub struct Args {
     pub cloud: PathBuf,
     /// Tolerance in the data's units (a fraction of the largest section's chord with
     /// `--relative`).
-    #[arg(long, required_unless_present = "sweep")]
+    #[arg(long, required_unless_present = "sweep", allow_negative_numbers = true)]
     pub tol: Option<f64>,
     /// Several tolerances, comma-separated: one search each, a table of stored scalars against
     /// tolerance (the report is an array).
-    #[arg(long, value_delimiter = ',', conflicts_with = "tol")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "tol",
+        allow_negative_numbers = true
+    )]
     pub sweep: Vec<f64>,
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
@@ -147,7 +153,14 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
 
 /// Run the search(es), print the summary, write the report.
 pub fn run(args: Args) -> Result<()> {
-    args.cad.check()?;
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let cad = args.cad.add(&mut outs)?;
+    if args.max_scalars == Some(0) {
+        return Err(usage(
+            "--max-scalars 0: a patch grid stores at least a few scalars; give a positive count",
+        ));
+    }
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let Some(grid) = loaded.grid else {
@@ -177,8 +190,8 @@ pub fn run(args: Args) -> Result<()> {
         max_scalars: args.max_scalars,
         ..SurfaceAdaptOptions::default()
     };
-    let json_target = args.json.as_deref().map(Target::parse);
-    let out = |text: &str| say(json_target.as_ref(), text);
+    let to_stderr = outs.uses_stdout();
+    let out = |text: &str| super::output::say(to_stderr, text);
     let name = args.cloud.display().to_string();
     let input = InputInfo {
         path: name.clone(),
@@ -195,7 +208,8 @@ pub fn run(args: Args) -> Result<()> {
         if opts.tol <= 0.0 || !opts.tol.is_finite() {
             return Err(usage(format!("--tol {t}: the tolerance must be positive")));
         }
-        let r = adapt_surface(points, grid, &opts)?;
+        let r = adapt_surface(points, grid, &opts)
+            .with_context(|| format!("{}: adapting to {:.3e}", args.cloud.display(), opts.tol))?;
         if let Some(m) = &r.message {
             failures.push(m.clone());
         }
@@ -221,14 +235,17 @@ pub fn run(args: Args) -> Result<()> {
             .collect();
         out(&sweep_table(&name, points.len(), base.norm, &rows));
     }
-    write_reports(json_target.as_ref(), &reports)?;
+    put_reports(&mut outs, json, &reports)?;
     if args.cad.wanted() {
         let shapes = reports
             .iter()
             .map(bezchain::export::CadShape::from_surface_adapt_report)
             .collect::<bezchain::Result<Vec<_>>>()?;
-        args.cad.write(&shapes, &super::export::stem(&args.cloud))?;
+        args.cad
+            .put(&mut outs, &cad, &shapes, &super::export::stem(&args.cloud))?;
     }
+    // Written whether or not the tolerance was met (the exit status says which).
+    outs.commit()?;
     if !failures.is_empty() {
         return Err(anyhow!("{}", failures.join("; ")));
     }

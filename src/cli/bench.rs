@@ -1,10 +1,12 @@
 //! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, with its real
 //! FLOPs against the machine's FP32 FMA peak.
 
-use super::{parse_backend, write_json, Target};
+use super::output::Outputs;
+use super::{bounded, parse_backend};
 use anyhow::Result;
 use bezchain::eval::bench::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
+use bezchain::fit::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
 use std::path::PathBuf;
 
 /// Arguments of `bezchain bench`.
@@ -63,6 +65,38 @@ pub fn run(args: Args) -> Result<()> {
             )));
         }
     }
+    bounded(
+        "--population",
+        args.population as u64,
+        MAX_POPULATION as u64,
+        "the default is 1024",
+    )?;
+    bounded(
+        "--points",
+        args.points as u64,
+        MAX_BENCH_POINTS as u64,
+        "the default is 4096",
+    )?;
+    for (flag, p) in [
+        ("--patches (u)", args.patches[0]),
+        ("--patches (v)", args.patches[1]),
+    ] {
+        bounded(flag, p as u64, MAX_BENCH_PATCHES as u64, "the default is 2x2")?;
+    }
+    bounded("--runs", args.runs as u64, 1000, "the default is 7")?;
+    // At most 3 (3 PU + 1)(3 PV + 1) design variables an individual (the expanded net).
+    let vars = 3 * (3 * args.patches[0] + 1) * (3 * args.patches[1] + 1);
+    bounded(
+        "--population",
+        args.population as u64,
+        (MAX_POPULATION_VALUES / vars) as u64,
+        &format!(
+            "a generation holds at most {MAX_POPULATION_VALUES} design variables ({vars} an individual \
+             here); ask for fewer individuals or patches"
+        ),
+    )?;
+    let mut outs = Outputs::new();
+    let out = outs.add("--json", &args.json)?;
     let opts = BenchOptions {
         population: args.population,
         points: args.points,
@@ -76,5 +110,12 @@ pub fn run(args: Args) -> Result<()> {
         ..BenchOptions::default()
     };
     let report = run_bench(&opts)?;
-    write_json(&Target::parse(&args.json), &report)
+    outs.put_json(out, &report)?;
+    outs.commit()
 }
+
+/// The most target points a benchmark may ask for (96 MB of f32 points and parameters).
+const MAX_BENCH_POINTS: usize = 1 << 22;
+
+/// The most bicubic patches a benchmark grid may have along each direction.
+const MAX_BENCH_PATCHES: usize = 256;

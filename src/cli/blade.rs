@@ -1,8 +1,12 @@
 //! `bezchain blade`: loft a blade definition into a point cloud.
 
-use super::{warn_all, Target};
-use anyhow::Result;
-use bezchain::geometry::{write_csv_to, Axes, Blade, Blend, LoftOptions};
+use super::output::Outputs;
+use super::{usage, warn_all};
+use anyhow::{Context, Result};
+use bezchain::geometry::{
+    check_scale, write_csv_to, Axes, Blade, Blend, LoftOptions, Precision, MAX_CLOUD_POINTS,
+    MIN_SECTION_POINTS,
+};
 use std::path::PathBuf;
 
 /// Arguments of `bezchain blade`.
@@ -33,6 +37,29 @@ pub struct Args {
 
 /// Loft the blade and write the cloud.
 pub fn run(args: Args) -> Result<()> {
+    // A section has at least MIN_SECTION_POINTS points, so these bound the cloud before the
+    // blade is read.
+    let per = args
+        .points_per_section
+        .unwrap_or(MIN_SECTION_POINTS)
+        .max(MIN_SECTION_POINTS);
+    super::bounded(
+        "--points-per-section",
+        args.points_per_section.unwrap_or(0) as u64,
+        (MAX_CLOUD_POINTS / 2) as u64,
+        "a few hundred points a section resolve an aerofoil",
+    )?;
+    super::bounded(
+        "--sections",
+        args.sections.unwrap_or(0) as u64,
+        (MAX_CLOUD_POINTS / per) as u64,
+        &format!(
+            "a cloud has at most {MAX_CLOUD_POINTS} points (at least {per} a section); a few hundred \
+             sections resolve a blade"
+        ),
+    )?;
+    let mut outs = Outputs::new();
+    let out = outs.add("--output", &args.output)?;
     let blade = Blade::from_file(&args.blade)?;
     warn_all(&args.blade, &blade.warnings);
     let opts = LoftOptions {
@@ -42,17 +69,30 @@ pub fn run(args: Args) -> Result<()> {
         shuffle: args.shuffle,
         seed: args.seed,
     };
-    let cloud = blade.loft(&opts)?;
+    let cloud = blade
+        .loft(&opts)
+        .with_context(|| format!("{}: lofting", args.blade.display()))?;
+    // The cloud must be data the readers take back (its squares inside f64).
+    if let Err((at, message)) = check_scale(&cloud.points, Precision::F64) {
+        let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
+        return Err(usage(format!(
+            "{}: the lofted cloud{at}: {message} (with --noise {})",
+            args.blade.display(),
+            args.noise
+        )));
+    }
     let mut text = Vec::with_capacity(cloud.points.len() * 64);
     write_csv_to(&mut text, &cloud.points, cloud.grid)?;
-    Target::parse(&args.output).write(&text)?;
+    outs.put(out, &text)?;
+    let to = if outs.uses_stdout() {
+        "standard output".to_string()
+    } else {
+        args.output.display().to_string()
+    };
+    outs.commit()?;
     let shape = match cloud.grid {
         Some(g) => format!("{} sections × {} points", g.sections, g.per_section),
         None => "unordered".to_string(),
-    };
-    let to = match Target::parse(&args.output) {
-        Target::Stdout => "standard output".to_string(),
-        Target::File(path) => path.display().to_string(),
     };
     let blend = match blade.blend {
         Blend::Radius => "each station its own aerofoil",

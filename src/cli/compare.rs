@@ -1,11 +1,12 @@
 //! `bezchain compare`: the paper's optimiser comparison on its three NACA 4413 cases, one table.
 
 use super::fit::{backend_name, load};
-use super::{say, usage, write_json, Target};
+use super::output::Outputs;
+use super::{bounded, usage};
 use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::Backend;
-use bezchain::fit::evo::{EvoOptions, GA_GENERATIONS, GA_POPULATION};
+use bezchain::fit::evo::{EvoOptions, GA_GENERATIONS, GA_POPULATION, MAX_GENERATIONS, MAX_POPULATION};
 use bezchain::fit::{fit_curve, FitOptions, Method, PAPER_CASES};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -74,6 +75,20 @@ pub fn run(args: Args) -> Result<()> {
             args.generations
         )));
     }
+    bounded(
+        "--population",
+        args.population as u64,
+        MAX_POPULATION as u64,
+        &format!("the default is {GA_POPULATION}"),
+    )?;
+    bounded(
+        "--generations",
+        args.generations as u64,
+        MAX_GENERATIONS as u64,
+        &format!("the default is {GA_GENERATIONS}"),
+    )?;
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
     let evo = EvoOptions {
         population: Some(args.population as usize),
         generations: Some(args.generations as usize),
@@ -84,11 +99,11 @@ pub fn run(args: Args) -> Result<()> {
     evo.check()?;
     let clock = Instant::now();
     let loaded = load(&args.input)?;
-    let json_target = args.json.as_deref().map(Target::parse);
     let mut rows = Vec::new();
     let mut backends = Vec::new();
     // Rows are printed as they finish: the whole table takes tens of seconds.
-    let emit = |text: &str| say(json_target.as_ref(), text);
+    let to_stderr = outs.uses_stdout();
+    let emit = |text: &str| super::output::say(to_stderr, text);
     let mut table = String::new();
     table += &format!(
         "{}: {} points. Counts are the paper's; sum_sq is the closest-point sum of squares, re-measured.\n\n",
@@ -163,8 +178,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     tail += &format!("\ntotal {:.1} s\n", clock.elapsed().as_secs_f64());
     emit(&tail);
-    if let Some(target) = &json_target {
-        write_json(target, &rows)?;
+    if let Some(o) = json {
+        outs.put_json(o, &rows)?;
     }
-    Ok(())
+    outs.commit()
 }

@@ -1,12 +1,16 @@
 //! `bezchain eval`: the fitness of a population of designs against data, the door for
 //! optimisers outside bezchain.
 
-use super::{parse_backend, Target};
+use super::output::Outputs;
+use super::{parse_backend, usage};
 use anyhow::Result;
+use bezchain::bezier::Vector;
 use bezchain::eval::Backend;
 use bezchain::export::Report;
 use bezchain::fit::population::{eval_curve_population, eval_grid_population, BatchOptions};
-use bezchain::geometry::{read_cloud, read_curve, read_population};
+use bezchain::geometry::{
+    check_design_scale, check_scale, read_cloud, read_curve, read_population, Precision,
+};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -40,36 +44,80 @@ pub struct Args {
     pub output: PathBuf,
 }
 
+/// Refuse data or individuals whose squared distances overflow the evaluator's f32, naming the
+/// file and the point or individual (`dim` coordinates a design point).
+fn check_f32<P: Vector>(args: &Args, points: &[P], population: &[f64], n_vars: usize) -> Result<()> {
+    if let Err((at, message)) = check_scale(points, Precision::F32) {
+        let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
+        return Err(usage(format!("{}{at}: {message}", args.points.display())));
+    }
+    for (k, individual) in population.chunks_exact(n_vars).enumerate() {
+        if let Err((i, message)) = check_design_scale(individual, points) {
+            return Err(usage(format!(
+                "{}: individual {} (its row {} of values), variable {}: {message}",
+                args.population.display(),
+                k + 1,
+                k + 1,
+                i + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Evaluate and write the fitness file.
 pub fn run(args: Args) -> Result<()> {
+    let mut outs = Outputs::new();
+    let out = outs.add("--output", &args.output)?;
     let opts = BatchOptions {
         backend: args.backend,
         newton: args.newton,
         repeat: args.repeat,
         ..BatchOptions::default()
     };
+    let in_report = |e: bezchain::Error| anyhow::Error::from(e).context(args.report.display().to_string());
     let result = match Report::read(&args.report)? {
         Report::Curve(rep) => {
-            let layout = rep.layout()?;
+            let layout = rep.layout().map_err(in_report)?;
             let points = read_curve(&args.points)?;
             super::warn_all(&args.points, &points.warnings);
-            let pop = read_population(&args.population, 2 * layout.design_count())?;
+            let n_vars = 2 * layout.design_count();
+            let pop = read_population(&args.population, n_vars)?;
+            check_f32(&args, &points.points, &pop, n_vars)?;
             eval_curve_population(&layout, &points.points, &pop, &opts)?
         }
         Report::Surface(rep) => {
-            let layout = rep.layout()?;
+            let layout = rep.layout().map_err(in_report)?;
             let points = read_cloud(&args.points)?;
             super::warn_all(&args.points, &points.warnings);
             let (nu, nv) = layout.design_shape();
-            let pop = read_population(&args.population, 3 * nu * nv)?;
+            let n_vars = 3 * nu * nv;
+            let pop = read_population(&args.population, n_vars)?;
+            check_f32(&args, &points.points, &pop, n_vars)?;
             eval_grid_population(&layout, &points.points, &pop, &opts)?
         }
     };
+    // The checks above keep every square inside f32; a non-finite fitness is still never
+    // printed as a result.
+    if let Some(k) = result
+        .fitness
+        .iter()
+        .position(|f| !(f.sum_sq.is_finite() && f.max.is_finite()))
+    {
+        anyhow::bail!(
+            "{}: individual {}: the evaluator's fitness is not finite (sum_sq {}, max {})",
+            args.population.display(),
+            k + 1,
+            result.fitness[k].sum_sq,
+            result.fitness[k].max
+        );
+    }
     let mut text = String::with_capacity(result.fitness.len() * 32);
     for f in &result.fitness {
         let _ = writeln!(text, "{:e},{:e}", f.sum_sq, f.max);
     }
-    Target::parse(&args.output).write(text.as_bytes())?;
+    outs.put(out, text.as_bytes())?;
+    outs.commit()?;
     eprintln!(
         "{} individuals evaluated on {}",
         result.fitness.len(),

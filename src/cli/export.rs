@@ -1,7 +1,8 @@
 //! CAD outputs: the `--step`/`--iges` flags shared by `fit`, `adapt`, `fit-surface` and
 //! `adapt-surface`, and `bezchain export REPORT.json`, which writes them from a saved report.
 
-use super::{usage, Target};
+use super::output::{Output, Outputs};
+use super::usage;
 use anyhow::{Context, Result};
 use bezchain::export::{iges_text, step_text, utc_now, CadShape, CadUnit};
 use std::path::{Path, PathBuf};
@@ -32,57 +33,38 @@ impl CadArgs {
         self.step.is_some() || self.iges.is_some()
     }
 
-    /// Refuse, before any work, outputs that cannot be written: standard output, or a file in
-    /// a folder that does not exist.
-    pub fn check(&self) -> Result<()> {
-        for (flag, path) in [("--step", &self.step), ("--iges", &self.iges)] {
-            match path.as_deref().map(Target::parse) {
-                Some(Target::Stdout) => return Err(usage(format!("{flag}: give a file name, not -"))),
-                Some(Target::File(p)) => {
-                    let dir = p
-                        .parent()
-                        .filter(|d| !d.as_os_str().is_empty())
-                        .unwrap_or(Path::new("."));
-                    if !dir.is_dir() {
-                        return Err(usage(format!(
-                            "{flag} {}: the folder {} does not exist",
-                            p.display(),
-                            dir.display()
-                        )));
-                    }
-                }
-                None => {}
-            }
-        }
-        Ok(())
+    /// Check the outputs asked for before any work (a file name, not `-`; see
+    /// [`Outputs::add`]) and add them to the run's outputs.
+    pub fn add(&self, outs: &mut Outputs) -> Result<CadOutputs> {
+        let mut add = |flag: &str, path: &Option<PathBuf>| match path.as_deref() {
+            Some(p) if p.as_os_str() == "-" => Err(usage(format!("{flag}: give a file name, not -"))),
+            Some(p) => outs.add(flag, p).map(Some),
+            None => Ok(None),
+        };
+        Ok(CadOutputs {
+            step: add("--step", &self.step)?,
+            iges: add("--iges", &self.iges)?,
+        })
     }
 
-    /// The files asked for, made in memory; `name` names the product inside them.
-    pub fn files(&self, shapes: &[CadShape], name: &str) -> Result<Vec<(Target, Vec<u8>)>> {
+    /// Make the files asked for into their outputs; `name` names the product inside them.
+    pub fn put(&self, outs: &mut Outputs, to: &CadOutputs, shapes: &[CadShape], name: &str) -> Result<()> {
         let now = utc_now();
-        let mut out = Vec::new();
-        if let Some(p) = &self.step {
-            out.push((
-                Target::parse(p),
-                step_text(shapes, self.cad_unit, name, &now)?.into_bytes(),
-            ));
+        if let Some(o) = to.step {
+            outs.put(o, step_text(shapes, self.cad_unit, name, &now)?.as_bytes())?;
         }
-        if let Some(p) = &self.iges {
-            out.push((
-                Target::parse(p),
-                iges_text(shapes, self.cad_unit, name, &now)?.into_bytes(),
-            ));
-        }
-        Ok(out)
-    }
-
-    /// Write the files asked for (each whole or not at all); `name` names the product.
-    pub fn write(&self, shapes: &[CadShape], name: &str) -> Result<()> {
-        for (target, bytes) in self.files(shapes, name)? {
-            target.write(&bytes)?;
+        if let Some(o) = to.iges {
+            outs.put(o, iges_text(shapes, self.cad_unit, name, &now)?.as_bytes())?;
         }
         Ok(())
     }
+}
+
+/// The STEP and IGES outputs of a run, from [`CadArgs::add`].
+#[derive(Clone, Copy, Debug)]
+pub struct CadOutputs {
+    step: Option<Output>,
+    iges: Option<Output>,
 }
 
 /// The stem of `path`, to name a product.
@@ -105,11 +87,13 @@ pub fn run(args: Args) -> Result<()> {
     if !args.cad.wanted() {
         return Err(usage("give --step FILE and/or --iges FILE"));
     }
-    args.cad.check()?;
+    let mut outs = Outputs::new();
+    let cad = args.cad.add(&mut outs)?;
     let shapes = CadShape::read_reports(&args.report)?;
     args.cad
-        .write(&shapes, &stem(&args.report))
+        .put(&mut outs, &cad, &shapes, &stem(&args.report))
         .with_context(|| format!("{}: exporting", args.report.display()))?;
+    outs.commit()?;
     let what = |s: &CadShape| match s {
         CadShape::Curve(c) => format!(
             "B-spline curve, degree {}, {} control points",

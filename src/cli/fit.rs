@@ -1,17 +1,22 @@
 //! `bezchain fit`: fit a chain of Bezier curves to a 2D contour and report it; the evolutionary
 //! methods with a progress bar, a history file and checkpoints.
 
-use super::{say, usage, warn_all, write_json, Target};
+use super::output::{Output, Outputs};
+use super::{usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::{Backend, BackendInfo};
 use bezchain::export::{CurvePlot, CurveReport, FitInfo, InputInfo, OffsetReport};
-use bezchain::fit::evo::{Checkpoint, EvoHooks, EvoOptions, Evolution};
-use bezchain::fit::{fit_curve_with, point_offsets, CurveFit, FitOptions, Method, Metric, OffsetStats};
+use bezchain::fit::evo::{
+    Algorithm, Checkpoint, EvoHooks, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION,
+};
+use bezchain::fit::{
+    fit_curve_with, point_offsets, CurveFit, FitOptions, Method, Metric, OffsetStats, SolveReport,
+};
 use bezchain::geometry::{read_curve, Loaded2};
 use glam::DVec2;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -132,6 +137,20 @@ impl EvoArgs {
         Ok((evo, resume))
     }
 
+    /// Refuse, before the run, a population whose generation would not fit in memory for
+    /// `n` design variables of `algorithm` (`None`: not evolutionary).
+    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Algorithm>, n: usize) -> Result<()> {
+        match algorithm {
+            Some(a) => opts.check_size(a, n).map_err(|e| {
+                usage(format!(
+                    "--population {}: {e}; ask for fewer individuals or a smaller layout",
+                    opts.size(a, n)
+                ))
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// The flags given, by name (to refuse them for methods that do not use them).
     pub fn given(&self) -> Vec<&'static str> {
         let mut v = Vec::new();
@@ -166,12 +185,24 @@ impl EvoArgs {
             if p < 4 {
                 return Err(usage(format!("--population must be at least 4, not {p}")));
             }
+            super::bounded(
+                "--population",
+                p as u64,
+                MAX_POPULATION as u64,
+                "a few thousand individuals are plenty for these problems",
+            )?;
             o.population = Some(p as usize);
         }
         if let Some(g) = self.generations {
             if g < 1 {
                 return Err(usage(format!("--generations must be at least 1, not {g}")));
             }
+            super::bounded(
+                "--generations",
+                g as u64,
+                MAX_GENERATIONS as u64,
+                "stop on --target or --stall instead, or continue with --resume",
+            )?;
             o.generations = Some(g as usize);
         }
         if let Some(b) = self.backend {
@@ -262,6 +293,7 @@ pub fn fit_info(fit: &CurveFit<DVec2>) -> FitInfo {
         backend: "cpu".to_string(),
         stages: Vec::new(),
         evals_per_second: None,
+        stopped: curve_cap(fit).map(String::from),
     };
     if let Some(evo) = &fit.evolution {
         info.backend = backend_name(&evo.run.backend);
@@ -283,11 +315,26 @@ pub fn fit_info(fit: &CurveFit<DVec2>) -> FitInfo {
                     },
                     stages: Vec::new(),
                     evals_per_second: (k == 0).then_some(evo.run.evals_per_second),
+                    // A generation limit is the evolutionary stage's own end, not a cap.
+                    stopped: if k == 0 {
+                        None
+                    } else {
+                        s.report.cap().map(String::from)
+                    },
                 })
                 .collect();
         }
     }
     info
+}
+
+/// The cap that cut a curve fit short: the solver's, or an evolutionary method's polish's (a
+/// generation limit is the evolutionary stage's own end, not a cap).
+fn curve_cap(fit: &CurveFit<DVec2>) -> Option<&'static str> {
+    match &fit.evolution {
+        Some(evo) => evo.stages[1..].iter().find_map(|s| s.report.cap()),
+        None => fit.report.cap(),
+    }
 }
 
 /// The report of a finished curve fit.
@@ -304,28 +351,32 @@ pub struct Monitor {
     bar: Option<ProgressBar>,
     plain: bool,
     last_line: Instant,
-    /// The history file, created at the first generation (a run that fails before it leaves
-    /// an existing file alone).
-    history_path: Option<PathBuf>,
-    history: Option<std::io::BufWriter<std::fs::File>>,
+    /// The history file, written to its temporary file as the run goes and put in place with
+    /// the run's other outputs.
+    history: Option<Output>,
     written: usize,
-    checkpoint: Option<PathBuf>,
+    /// The checkpoint, replaced during the run (and put back as it was if the run fails).
+    checkpoint: Option<Output>,
     every: u64,
 }
 
 impl Monitor {
-    /// A monitor for the runs that `args` ask for.
-    pub fn new(args: &EvoArgs) -> Self {
-        Monitor {
+    /// A monitor for the runs that `args` ask for; their `--history` and `--checkpoint` paths
+    /// are checked now and join the run's outputs.
+    pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
+        Ok(Monitor {
             bar: None,
             plain: !args.quiet && !std::io::stderr().is_terminal(),
             last_line: Instant::now(),
-            history_path: args.history.clone(),
-            history: None,
+            history: outs.add_opt("--history", args.history.as_deref())?,
             written: 0,
-            checkpoint: args.checkpoint.clone(),
+            checkpoint: args
+                .checkpoint
+                .as_deref()
+                .map(|p| outs.add_interim("--checkpoint", p))
+                .transpose()?,
             every: args.checkpoint_every.unwrap_or(10) as u64,
-        }
+        })
     }
 
     /// Start the progress bar (unless quiet or not on a terminal).
@@ -346,11 +397,7 @@ impl Monitor {
 
     /// After a generation: the bar (or an occasional line), new history lines, a checkpoint
     /// when due.
-    pub fn generation(&mut self, run: &Evolution<'_>) -> bezchain::Result<()> {
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| bezchain::Error::Io { path, source }
-        };
+    pub fn generation(&mut self, run: &Evolution<'_>, outs: &mut Outputs) -> bezchain::Result<()> {
         let h = run.history();
         let Some(last) = h.last() else { return Ok(()) };
         let ips = last.evaluations as f64 / last.seconds.max(1e-9);
@@ -376,29 +423,29 @@ impl Monitor {
             );
             self.last_line = Instant::now();
         }
-        if let Some(path) = &self.history_path {
-            if self.history.is_none() {
-                let file = std::fs::File::create(path).map_err(io(path))?;
-                let mut w = std::io::BufWriter::new(file);
-                writeln!(w, "generation,best,mean,evaluations,seconds").map_err(io(path))?;
-                self.history = Some(w);
+        if let Some(o) = self.history {
+            let path = outs.path(o).to_path_buf();
+            let io = |source| bezchain::Error::Io {
+                path: path.clone(),
+                source,
+            };
+            let w = outs.writer(o)?;
+            if self.written == 0 {
+                writeln!(w, "generation,best,mean,evaluations,seconds").map_err(io)?;
             }
-        }
-        if let (Some(path), Some(w)) = (&self.history_path, &mut self.history) {
             for p in &h[self.written..] {
                 writeln!(
                     w,
                     "{},{:e},{:e},{},{:.6}",
                     p.generation, p.best, p.mean, p.evaluations, p.seconds
                 )
-                .map_err(io(path))?;
+                .map_err(io)?;
             }
             self.written = h.len();
-            w.flush().map_err(io(path))?;
         }
-        if let Some(path) = &self.checkpoint {
+        if let Some(o) = self.checkpoint {
             if run.generation() % self.every == 0 || run.stop().is_some() {
-                run.checkpoint().write(path)?;
+                outs.interim(o, &run.checkpoint().to_bytes())?;
             }
         }
         Ok(())
@@ -410,34 +457,115 @@ impl Monitor {
             bar.finish_and_clear();
         }
     }
+
+    /// After a finished run: a history file with no generation in it still gets its header.
+    pub fn close(&mut self, outs: &mut Outputs) -> Result<()> {
+        if let (Some(o), 0) = (self.history, self.written) {
+            outs.put(o, b"generation,best,mean,evaluations,seconds\n")?;
+        }
+        Ok(())
+    }
+}
+
+/// Say on the terminal that a method stopped at its evaluation or iteration cap (the report
+/// says so too, as `"stopped"`).
+pub fn warn_cap(input: &Path, method: &str, cap: &str, report: &SolveReport) {
+    eprintln!(
+        "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
+         before converging: the result is the best found so far",
+        input.display(),
+        report.iterations,
+        report.evaluations,
+        report.seconds
+    );
+}
+
+/// Refuse, before the fit, a layout with more design points than the data can determine; the
+/// message gives the most segments that fit.
+fn check_segments(args: &Args, points: usize) -> Result<ChainLayout> {
+    let fits = |s: usize| {
+        ChainLayout::uniform(args.degree, s, args.continuity).is_ok_and(|l| l.design_count() <= points)
+    };
+    let too_many = |design: String| {
+        // Design points grow with the segments: the most that fit, by bisection.
+        let (mut lo, mut hi) = (0, points.min(args.segments));
+        while lo < hi {
+            let mid = (lo + hi).div_ceil(2);
+            if fits(mid) {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        let hint = match lo {
+            0 => "use a lower --degree or more data points".to_string(),
+            s => format!("use at most --segments {s} at degree {}", args.degree),
+        };
+        usage(format!(
+            "--segments {}: {design}, more than the {points} data points of {} can determine; {hint}",
+            args.segments,
+            args.input.display()
+        ))
+    };
+    // Each segment adds at least one design point: far too many are refused before the layout
+    // is built.
+    if args.segments > 4 * points.max(64) {
+        return Err(too_many(format!(
+            "{} segments need more than {} design points",
+            args.segments, args.segments
+        )));
+    }
+    let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity).map_err(|e| {
+        usage(format!(
+            "--degree {} --segments {}: {e}",
+            args.degree, args.segments
+        ))
+    })?;
+    if layout.design_count() > points {
+        return Err(too_many(format!(
+            "degree {} with {} segments has {} design points",
+            args.degree,
+            args.segments,
+            layout.design_count()
+        )));
+    }
+    Ok(layout)
 }
 
 /// Fit, report and plot.
 pub fn run(args: Args) -> Result<()> {
-    args.cad.check()?;
+    // Every output is checked (and its temporary file made) before the work.
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let cad = args.cad.add(&mut outs)?;
+    let mut monitor = Monitor::new(&args.evo, &mut outs)?;
+    let evolutionary = args.method.evolutionary();
+    let (evo, resume) = args.evo.settings(evolutionary.is_some(), &args.method)?;
     let loaded = load(&args.input)?;
-    let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity)?;
-    let evolutionary = args.method.evolutionary().is_some();
-    let (evo, resume) = args.evo.settings(evolutionary, &args.method)?;
+    let layout = check_segments(&args, loaded.points.len())?;
+    args.evo
+        .check_size(&evo, evolutionary.map(|e| e.0), 2 * layout.design_count())?;
     let opts = FitOptions {
         method: args.method,
         metric: args.metric,
         evo,
         ..FitOptions::default()
     };
-    let mut monitor = Monitor::new(&args.evo);
     let quiet = args.evo.quiet;
     let mut started = false;
+    let outs_in_run = &mut outs;
+    let monitor_in_run = &mut monitor;
     let mut on_generation = |run: &Evolution<'_>| {
         if !started {
-            monitor.start_bar(run, quiet);
+            monitor_in_run.start_bar(run, quiet);
             started = true;
         }
-        monitor.generation(run)
+        monitor_in_run.generation(run, outs_in_run)
     };
     let resume_path = args.evo.resume.clone();
     let mut hooks = EvoHooks {
-        on_generation: if evolutionary {
+        on_generation: if evolutionary.is_some() {
             Some(&mut on_generation)
         } else {
             None
@@ -451,6 +579,10 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => format!("{}: resuming from {}", args.input.display(), p.display()),
         None => format!("{}: fitting {} points", args.input.display(), loaded.points.len()),
     })?;
+    monitor.close(&mut outs)?;
+    if let Some(cap) = curve_cap(&fit) {
+        warn_cap(&args.input, &fit.method.to_string(), cap, &fit.report);
+    }
     if fit.span_ratio > FitOptions::default().max_span_ratio {
         eprintln!(
             "warning: {}: the fitted chain doubles back on itself (span ratio {:.1}): its closest-point \
@@ -461,15 +593,15 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let rep = report(&fit, &args.input, loaded.points.len());
-    let json_target = args.json.as_deref().map(Target::parse);
-    if let Some(target) = &json_target {
-        write_json(target, &rep)?;
+    if let Some(o) = json {
+        outs.put_json(o, &rep)?;
     }
     if args.cad.wanted() {
         let shape = bezchain::export::CadShape::from_curve_report(&rep)?;
-        args.cad.write(&[shape], &super::export::stem(&args.input))?;
+        args.cad
+            .put(&mut outs, &cad, &[shape], &super::export::stem(&args.input))?;
     }
-    if let Some(path) = &args.svg {
+    if let Some(o) = svg {
         let offsets = point_offsets(&fit.chain, &loaded.points)?;
         let l = fit.chain.layout();
         let title = format!(
@@ -490,9 +622,10 @@ pub fn run(args: Args) -> Result<()> {
             offsets: &offsets,
         }
         .to_svg()?;
-        Target::parse(path).write(svg.as_bytes())?;
+        outs.put(o, svg.as_bytes())?;
     }
-    say(json_target.as_ref(), &summary(&args.input, &loaded, &fit));
+    outs.commit()?;
+    outs.say(&summary(&args.input, &loaded, &fit));
     Ok(())
 }
 

@@ -2,7 +2,8 @@
 //! the report, meshes and a picture.
 
 use super::fit::{backend_name, EvoArgs, Monitor};
-use super::{parse_pair, say, usage, warn_all, Target};
+use super::output::Outputs;
+use super::{parse_pair, usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
 use bezchain::export::{
@@ -180,6 +181,13 @@ fn offset_report(fit: &SurfaceFit) -> OffsetReport {
     }
 }
 
+/// The cap that cut a surface fit short: that of a least-squares stage (a generation limit is
+/// the evolutionary stage's own end, not a cap).
+fn surface_cap(fit: &SurfaceFit) -> Option<&'static str> {
+    let skip = usize::from(fit.evolution.is_some());
+    fit.stages[skip..].iter().find_map(|s| s.report.cap())
+}
+
 /// The JSON report of a finished fit: the stages with the evolutionary run's backend and
 /// throughput.
 fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) -> SurfaceReport {
@@ -203,6 +211,11 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
                 },
                 stages: Vec::new(),
                 evals_per_second: if evolutionary { rate } else { None },
+                stopped: if evolutionary {
+                    None
+                } else {
+                    s.report.cap().map(String::from)
+                },
             }
         })
         .collect();
@@ -214,6 +227,7 @@ fn report(fit: &SurfaceFit, method: SurfaceMethod, input: &Path, points: usize) 
         backend: evo_backend.unwrap_or_else(|| "cpu".into()),
         stages,
         evals_per_second: rate,
+        stopped: surface_cap(fit).map(String::from),
     };
     SurfaceReport::new(
         &fit.grid,
@@ -249,7 +263,12 @@ pub fn run(args: Args) -> Result<()> {
             lo: 0.0,
             hi: 1.0,
         };
-        layout.grid_layout(&unit).map_err(|e| usage(e.to_string()))?;
+        layout.grid_layout(&unit).map_err(|e| {
+            usage(format!(
+                "--patches {}x{} --breaks-u {} --breaks-v {}: {e}",
+                args.patches[0], args.patches[1], args.breaks_u, args.breaks_v
+            ))
+        })?;
     }
     let evolutionary = args.method.evolutionary().is_some();
     let (evo, resume) = args.evo.settings(evolutionary, &args.method)?;
@@ -260,33 +279,24 @@ pub fn run(args: Args) -> Result<()> {
     if !(16..=16384).contains(&png_w) || !(16..=16384).contains(&png_h) {
         return Err(usage("--png-size must be between 16x16 and 16384x16384"));
     }
-    // Outputs whose folder is missing are refused now, not after a long fit (and not after
-    // some of the other outputs were written).
-    args.cad.check()?;
-    for (flag, path) in [
-        ("--json", &args.json),
-        ("--obj", &args.obj),
-        ("--stl", &args.stl),
-        ("--png", &args.png),
-        ("--svg", &args.svg),
-    ] {
-        if let Some(Target::File(path)) = path.as_deref().map(Target::parse) {
-            let dir = path
-                .parent()
-                .filter(|d| !d.as_os_str().is_empty())
-                .unwrap_or(Path::new("."));
-            if !dir.is_dir() {
-                return Err(usage(format!(
-                    "{flag} {}: the folder {} does not exist",
-                    path.display(),
-                    dir.display()
-                )));
-            }
-        }
-    }
+    // Every output is checked (and its temporary file made) now, not after a long fit.
+    let mut outs = Outputs::new();
+    let json = outs.add_opt("--json", args.json.as_deref())?;
+    let obj = outs.add_opt("--obj", args.obj.as_deref())?;
+    let stl = outs.add_opt("--stl", args.stl.as_deref())?;
+    let png = outs.add_opt("--png", args.png.as_deref())?;
+    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let cad = args.cad.add(&mut outs)?;
+    let mut monitor = Monitor::new(&args.evo, &mut outs)?;
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let n = loaded.points.len();
+    check_patches(&args, &layout, n)?;
+    args.evo.check_size(
+        &evo,
+        args.method.evolutionary().map(|e| e.0),
+        3 * design_net(&layout).map_or(0, |(nu, nv)| nu * nv),
+    )?;
     let structure = match loaded.grid {
         Some(g) => format!("{} sections x {} points", g.sections, g.per_section),
         None => "unordered".into(),
@@ -324,7 +334,15 @@ pub fn run(args: Args) -> Result<()> {
     let (fit, check) = match searched {
         Some(search) if !evolutionary => (search.fit, Some(search.check)),
         _ => (
-            fit_with_progress(&args, &loaded.points, loaded.grid, &layout, &opts, resume)?,
+            fit_with_progress(
+                &args,
+                &loaded.points,
+                loaded.grid,
+                &layout,
+                &opts,
+                resume,
+                (&mut monitor, &mut outs),
+            )?,
             None,
         ),
     };
@@ -345,30 +363,28 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
+    if let Some(cap) = surface_cap(&fit) {
+        super::fit::warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
+    }
     let rep = report(&fit, args.method, &args.cloud, n);
-    let json_target = args.json.as_deref().map(Target::parse);
     let name = args
         .cloud
         .file_stem()
         .map_or_else(|| "surface".to_string(), |s| s.to_string_lossy().into_owned());
-    // Every output is made in memory before the first is written, so a failure while making
-    // one leaves none behind; each file is then written whole or not at all (atomic rename).
-    let mut outputs: Vec<(Target, Vec<u8>)> = Vec::new();
-    if let Some(target) = json_target.clone() {
-        let mut text = serde_json::to_string_pretty(&rep)?;
-        text.push('\n');
-        outputs.push((target, text.into_bytes()));
+    // Every output is made into its temporary file; all are put in place together at the end.
+    if let Some(o) = json {
+        outs.put_json(o, &rep)?;
     }
-    if args.obj.is_some() || args.stl.is_some() {
+    if obj.is_some() || stl.is_some() {
         let mesh = SurfaceMesh::from_grid(&fit.grid, args.mesh_density)?;
-        if let Some(path) = &args.obj {
-            outputs.push((Target::parse(path), mesh.to_obj(&name).into_bytes()));
+        if let Some(o) = obj {
+            outs.put(o, mesh.to_obj(&name).as_bytes())?;
         }
-        if let Some(path) = &args.stl {
-            outputs.push((Target::parse(path), mesh.to_stl(&name)));
+        if let Some(o) = stl {
+            outs.put(o, &mesh.to_stl(&name))?;
         }
     }
-    if args.png.is_some() || args.svg.is_some() {
+    if png.is_some() || svg.is_some() {
         let mut ropts = RenderOptions {
             width: png_w as u32,
             height: png_h as u32,
@@ -400,26 +416,49 @@ pub fn run(args: Args) -> Result<()> {
                 v.eye = DVec3::new(v.eye.y, v.eye.x, v.eye.z);
             }
         }
-        if let Some(path) = &args.png {
+        if let Some(o) = png {
             let image = render(&fit.grid, &ropts)?;
-            outputs.push((Target::parse(path), image.to_png()?));
+            outs.put(o, &image.to_png()?)?;
         }
-        if let Some(path) = &args.svg {
-            outputs.push((Target::parse(path), render_svg(&fit.grid, &ropts)?.into_bytes()));
+        if let Some(o) = svg {
+            outs.put(o, render_svg(&fit.grid, &ropts)?.as_bytes())?;
         }
     }
     if args.cad.wanted() {
         let shape = bezchain::export::CadShape::from_surface_report(&rep)?;
-        outputs.extend(args.cad.files(&[shape], &name)?);
+        args.cad.put(&mut outs, &cad, &[shape], &name)?;
     }
-    for (target, bytes) in &outputs {
-        target.write(bytes)?;
-    }
-    say(
-        json_target.as_ref(),
-        &summary(&args, &fit, n, clock.elapsed().as_secs_f64()),
-    );
+    outs.commit()?;
+    outs.say(&summary(&args, &fit, n, clock.elapsed().as_secs_f64()));
     Ok(())
+}
+
+/// The design net of `layout` on a unit span (its shape does not depend on the span).
+fn design_net(layout: &SurfaceLayout) -> Option<(usize, usize)> {
+    let unit = bezchain::fit::SpanAxis {
+        dir: DVec3::Z,
+        lo: 0.0,
+        hi: 1.0,
+    };
+    layout.grid_layout(&unit).ok().map(|g| g.design_shape())
+}
+
+/// Refuse, before the fit, a grid with more design points than the cloud's `n` points can
+/// determine; the message suggests the patch counts that fit.
+fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
+    let [pu, pv] = args.patches;
+    let Some((nu, nv)) = design_net(layout) else {
+        return Ok(()); // span breaks: checked by the fit, which knows the span
+    };
+    if nu * nv <= n {
+        return Ok(());
+    }
+    Err(usage(format!(
+        "--patches {pu}x{pv}: a {nu} x {nv} design net is more than the {n} points of {} can \
+         determine (at least {} are needed); ask for fewer patches",
+        args.cloud.display(),
+        nu * nv
+    )))
 }
 
 /// Clouds up to this size get the projection check after the fit (and the break search).
@@ -493,6 +532,7 @@ fn fit_with_progress(
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
     resume: Option<Checkpoint>,
+    (monitor, outs): (&mut Monitor, &mut Outputs),
 ) -> Result<SurfaceFit> {
     let evolutionary = args.method.evolutionary().is_some();
     // The spinner for least squares; an evolutionary run has the monitor's bar instead.
@@ -508,15 +548,16 @@ fn fit_with_progress(
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let mut monitor = Monitor::new(&args.evo);
     let quiet = args.evo.quiet;
     let mut started = false;
+    let monitor_in_run = &mut *monitor;
+    let outs_in_run = &mut *outs;
     let mut on_generation = |run: &Evolution<'_>| {
         if !started {
-            monitor.start_bar(run, quiet);
+            monitor_in_run.start_bar(run, quiet);
             started = true;
         }
-        monitor.generation(run)
+        monitor_in_run.generation(run, outs_in_run)
     };
     let mut hooks = EvoHooks {
         on_generation: if evolutionary {
@@ -558,10 +599,12 @@ fn fit_with_progress(
     drop(hooks);
     monitor.finish();
     bar.finish_and_clear();
-    fit.with_context(|| match &args.evo.resume {
+    let fit = fit.with_context(|| match &args.evo.resume {
         Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
         None => format!("{}: fitting {} points", args.cloud.display(), points.len()),
-    })
+    })?;
+    monitor.close(outs)?;
+    Ok(fit)
 }
 
 /// A few readable lines about the fit.

@@ -1,4 +1,5 @@
-//! Shared plumbing of the subcommands: error classification, output targets, warnings.
+//! Shared plumbing of the subcommands: error classification, argument bounds, warnings (the
+//! outputs of a run are in [`output`]).
 
 pub mod adapt;
 pub mod adapt_surface;
@@ -10,11 +11,11 @@ pub mod export;
 pub mod fit;
 pub mod fit_surface;
 pub mod naca;
+pub mod output;
 pub mod sample;
 
 use anyhow::Result;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// An error in the user's arguments that clap cannot see (exit status 2).
 #[derive(Debug)]
@@ -85,54 +86,13 @@ pub fn warn_all(path: &Path, warnings: &[String]) {
     }
 }
 
-/// Where an output goes: a file (written atomically) or standard output (`-`).
-#[derive(Clone, Debug)]
-pub enum Target {
-    /// Standard output.
-    Stdout,
-    /// A file, replaced atomically.
-    File(PathBuf),
-}
-
-impl Target {
-    /// `-` is standard output, anything else a file.
-    pub fn parse(s: &Path) -> Target {
-        if s.as_os_str() == "-" {
-            Target::Stdout
-        } else {
-            Target::File(s.to_path_buf())
-        }
+/// Refuse a size-like argument above `max` before anything is allocated for it: the message
+/// names the flag, its value, the limit and what to do instead.
+pub fn bounded(flag: &str, value: u64, max: u64, suggestion: &str) -> Result<()> {
+    if value > max {
+        return Err(usage(format!(
+            "{flag} {value} is more than the largest allowed, {max}; {suggestion}"
+        )));
     }
-
-    /// Write `bytes` to the target.
-    pub fn write(&self, bytes: &[u8]) -> Result<()> {
-        match self {
-            Target::Stdout => {
-                let mut out = std::io::stdout().lock();
-                out.write_all(bytes)?;
-                out.flush()?;
-            }
-            Target::File(path) => bezchain::geometry::write_atomic(path, |w| w.write_all(bytes))?,
-        }
-        Ok(())
-    }
-}
-
-/// Print a command's readable text on standard output, or on standard error when its JSON
-/// report goes to standard output (so that the JSON stays parseable). Flushed at once, so long
-/// runs show each piece as it is made.
-pub fn say(json: Option<&Target>, text: &str) {
-    if matches!(json, Some(Target::Stdout)) {
-        eprint!("{text}");
-    } else {
-        print!("{text}");
-        let _ = std::io::stdout().flush();
-    }
-}
-
-/// Serialise `value` as pretty JSON (with a final newline) to `target`.
-pub fn write_json<T: serde::Serialize>(target: &Target, value: &T) -> Result<()> {
-    let mut text = serde_json::to_string_pretty(value)?;
-    text.push('\n');
-    target.write(text.as_bytes())
+    Ok(())
 }

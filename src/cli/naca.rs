@@ -1,8 +1,8 @@
 //! `bezchain naca`: generate a NACA aerofoil in Selig format.
 
-use super::Target;
+use super::output::Outputs;
 use anyhow::Result;
-use bezchain::geometry::{write_selig_to, Naca, NacaOptions, Spacing};
+use bezchain::geometry::{write_selig_to, Naca, NacaOptions, Spacing, MAX_NACA_POINTS};
 use clap::ValueEnum;
 use std::path::PathBuf;
 
@@ -36,7 +36,15 @@ pub struct Args {
 
 /// Generate the contour and write it.
 pub fn run(args: Args) -> Result<()> {
+    super::bounded(
+        "--points",
+        args.points as u64,
+        MAX_NACA_POINTS as u64,
+        "a few hundred points resolve any section",
+    )?;
     let naca = Naca::parse(&args.code)?;
+    let mut outs = Outputs::new();
+    let out = outs.add("--output", &args.output)?;
     let spacing = match args.spacing {
         SpacingArg::Cosine => Spacing::Cosine,
         SpacingArg::Uniform => Spacing::Uniform,
@@ -48,5 +56,6 @@ pub fn run(args: Args) -> Result<()> {
     })?;
     let mut text = Vec::new();
     write_selig_to(&mut text, &naca.name(), &points)?;
-    Target::parse(&args.output).write(&text)
+    outs.put(out, &text)?;
+    outs.commit()
 }

@@ -1,12 +1,13 @@
 //! `bezchain sample`: a fitted patch grid evaluated densely (the dense evaluator, GPU when
 //! present) and written as a point cloud.
 
-use super::{parse_backend, usage, Target};
+use super::output::Outputs;
+use super::{parse_backend, usage};
 use anyhow::Result;
 use bezchain::eval::dense::{dense_grid, uniform};
 use bezchain::eval::Backend;
 use bezchain::export::Report;
-use bezchain::geometry::{write_cloud_csv, write_csv_to, Cloud, Grid};
+use bezchain::geometry::{write_csv_to, Grid};
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -44,6 +45,8 @@ pub fn run(args: Args) -> Result<()> {
             args.u, args.v
         )));
     }
+    let mut outs = Outputs::new();
+    let out = outs.add("--output", &args.output)?;
     let grid = match Report::read(&args.report)? {
         Report::Surface(rep) => rep.grid()?,
         Report::Curve(_) => {
@@ -61,21 +64,14 @@ pub fn run(args: Args) -> Result<()> {
         .flat_map(|iv| (0..args.u).map(move |iu| iu * args.v + iv))
         .map(|k| points[k].position)
         .collect();
-    let cloud = Cloud {
-        points: ordered,
-        grid: Some(Grid {
-            sections: args.v,
-            per_section: args.u,
-        }),
+    let sections = Grid {
+        sections: args.v,
+        per_section: args.u,
     };
-    match Target::parse(&args.output) {
-        Target::File(path) => write_cloud_csv(&path, &cloud)?,
-        Target::Stdout => {
-            let mut text = Vec::new();
-            write_csv_to(&mut text, &cloud.points, cloud.grid)?;
-            Target::Stdout.write(&text)?;
-        }
-    }
+    let mut text = Vec::new();
+    write_csv_to(&mut text, &ordered, Some(sections))?;
+    outs.put(out, &text)?;
+    outs.commit()?;
     eprintln!(
         "{}: {} x {} points ({} sections) evaluated in {seconds:.3} s on {info} → {}",
         args.report.display(),

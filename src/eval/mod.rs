@@ -114,6 +114,7 @@ pub struct Fitness {
 /// The shape being evaluated: a curve chain (2D, design rows `x0,y0,x1,y1,…`) or a patch grid
 /// (3D, design rows `x,y,z` per design point of the row-major design net).
 #[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)] // one per evaluator, never in bulk
 pub enum EvalLayout {
     /// A chain of Bezier curves in the plane.
     Curve(ChainLayout),

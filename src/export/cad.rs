@@ -13,6 +13,7 @@ use crate::adaptive::{AdaptReport, Encoding, SurfaceAdaptReport, SurfaceEncoding
 use crate::chain::{CurveChain, PatchGrid};
 use crate::error::{Error, Result};
 use crate::export::{CurveReport, SurfaceReport};
+use crate::geometry::from_json_value;
 use glam::{DVec2, DVec3};
 use std::path::Path;
 
@@ -307,15 +308,8 @@ impl CadShape {
     /// Every shape of a report file (`fit`, `adapt`, `fit-surface`, `adapt-surface`; one report
     /// or an array of them).
     pub fn read_reports(path: &Path) -> Result<Vec<CadShape>> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.into(),
-            source,
-        })?;
-        let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
-            path: path.into(),
-            line: e.line().max(1),
-            message: format!("not valid JSON: {e}"),
-        })?;
+        let text = crate::geometry::read_text(path)?;
+        let value: serde_json::Value = crate::geometry::parse_json(&text, path, "not JSON")?;
         let items = match value {
             serde_json::Value::Array(items) => items,
             one => vec![one],
@@ -352,23 +346,23 @@ impl CadShape {
             let encoding = item.get("adapt").and_then(|a| a.get("encoding")).cloned();
             let shape = match (kind.as_str(), adapted) {
                 ("curve", false) => {
-                    let r: CurveReport = serde_json::from_value(item).map_err(|e| bad(e.to_string()))?;
+                    let r: CurveReport = from_json_value(item, "").map_err(bad)?;
                     CadShape::from_curve_report(&r).map_err(invalid)?
                 }
                 ("curve", true) => {
-                    let enc: Encoding = serde_json::from_value(encoding.unwrap_or_default())
-                        .map_err(|e| bad(format!("adapt.encoding: {e}")))?;
-                    let r: CurveReport = serde_json::from_value(item).map_err(|e| bad(e.to_string()))?;
+                    let enc: Encoding =
+                        from_json_value(encoding.unwrap_or_default(), "adapt.encoding.").map_err(bad)?;
+                    let r: CurveReport = from_json_value(item, "").map_err(bad)?;
                     CadShape::from_encoded_curve(&r, &enc).map_err(invalid)?
                 }
                 ("surface", false) => {
-                    let r: SurfaceReport = serde_json::from_value(item).map_err(|e| bad(e.to_string()))?;
+                    let r: SurfaceReport = from_json_value(item, "").map_err(bad)?;
                     CadShape::from_surface_report(&r).map_err(invalid)?
                 }
                 ("surface", true) => {
-                    let enc: SurfaceEncoding = serde_json::from_value(encoding.unwrap_or_default())
-                        .map_err(|e| bad(format!("adapt.encoding: {e}")))?;
-                    let r: SurfaceReport = serde_json::from_value(item).map_err(|e| bad(e.to_string()))?;
+                    let enc: SurfaceEncoding =
+                        from_json_value(encoding.unwrap_or_default(), "adapt.encoding.").map_err(bad)?;
+                    let r: SurfaceReport = from_json_value(item, "").map_err(bad)?;
                     CadShape::from_encoded_surface(&r, &enc).map_err(invalid)?
                 }
                 _ => {

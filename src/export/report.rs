@@ -43,6 +43,10 @@ pub struct FitInfo {
     /// Population evaluations per second (individual × point), for population methods.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evals_per_second: Option<f64>,
+    /// The cap that cut the method short (`"evaluation cap"`, `"iteration cap"`); absent when
+    /// it stopped on its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<String>,
 }
 
 /// Where the data came from.
@@ -259,27 +263,17 @@ fn check_expanded(
 impl Report {
     /// Read a report (either kind) from a JSON file.
     pub fn read(path: &Path) -> Result<Report> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.into(),
-            source,
-        })?;
-        let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::Parse {
-            path: path.into(),
-            line: e.line(),
-            message: format!("not valid JSON: {e}"),
-        })?;
+        let text = crate::geometry::read_text(path)?;
+        let value: serde_json::Value = crate::geometry::parse_json(&text, path, "not JSON")?;
         let kind = value
             .get("kind")
             .and_then(|k| k.as_str())
             .unwrap_or_default()
             .to_string();
-        let bad = |e: serde_json::Error| Error::Input {
-            path: path.into(),
-            message: format!("not a bezchain {kind} report: {e}"),
-        };
+        let what = format!("not a bezchain {kind} report");
         match kind.as_str() {
-            "curve" => Ok(Report::Curve(serde_json::from_value(value).map_err(bad)?)),
-            "surface" => Ok(Report::Surface(serde_json::from_value(value).map_err(bad)?)),
+            "curve" => Ok(Report::Curve(crate::geometry::parse_json(&text, path, &what)?)),
+            "surface" => Ok(Report::Surface(crate::geometry::parse_json(&text, path, &what)?)),
             _ => Err(Error::Input {
                 path: path.into(),
                 message: "not a bezchain report (\"kind\" must be \"curve\" or \"surface\")".into(),
@@ -312,6 +306,7 @@ mod tests {
             backend: "cpu".into(),
             stages: vec![],
             evals_per_second: None,
+            stopped: None,
         }
     }
 
@@ -414,7 +409,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bad.json");
         std::fs::write(&path, "{\"kind\": \"curve\", \"degree\": 3}").unwrap();
-        assert!(matches!(Report::read(&path), Err(Error::Input { .. })));
+        let e = Report::read(&path).unwrap_err();
+        assert!(
+            matches!(e, Error::Parse { line: 1, .. }) && e.to_string().contains("missing field"),
+            "{e}"
+        );
+        // A value of the wrong type names its field.
+        std::fs::write(&path, "{\"kind\": \"curve\",\n \"degree\": [3]}").unwrap();
+        let e = Report::read(&path).unwrap_err().to_string();
+        assert!(e.contains("bad.json:2") && e.contains("field 'degree'"), "{e}");
         std::fs::write(&path, "{ not json").unwrap();
         assert!(matches!(Report::read(&path), Err(Error::Parse { line: 1, .. })));
         std::fs::write(&path, "[1, 2]").unwrap();

@@ -67,4 +67,15 @@ impl SolveReport {
     pub fn converged(&self) -> bool {
         !matches!(self.stop, StopReason::MaxIterations | StopReason::MaxEvaluations)
     }
+
+    /// The cap that cut the solver short, as reports name it (`"evaluation cap"`,
+    /// `"iteration cap"`); `None` when it stopped on its own.
+    #[must_use]
+    pub fn cap(&self) -> Option<&'static str> {
+        match self.stop {
+            StopReason::MaxEvaluations => Some("evaluation cap"),
+            StopReason::MaxIterations => Some("iteration cap"),
+            _ => None,
+        }
+    }
 }

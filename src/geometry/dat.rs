@@ -100,7 +100,7 @@ pub fn write_selig(path: &Path, name: &str, points: &[DVec2]) -> Result<()> {
 
 /// Write Selig text to any writer (see [`write_selig`]). A name that a reader would take for
 /// data, a header or a comment is prefixed with `aerofoil: ` so the file reads back the same.
-pub fn write_selig_to<W: Write>(w: &mut W, name: &str, points: &[DVec2]) -> std::io::Result<()> {
+pub fn write_selig_to<W: Write + ?Sized>(w: &mut W, name: &str, points: &[DVec2]) -> std::io::Result<()> {
     writeln!(w, "{}", selig_name(name))?;
     let d = SELIG_DECIMALS;
     // Values that round to zero are written as 0, never as -0.

@@ -265,8 +265,8 @@ impl Blade {
             )));
         }
         self.check()?;
-        let radii = self.section_radii(opts);
-        let m = radii.len();
+        // Bounded before the radii are made.
+        let m = opts.sections.unwrap_or(self.stations.len());
         let total = m
             .checked_mul(n)
             .filter(|&t| t <= MAX_CLOUD_POINTS)
@@ -275,6 +275,7 @@ impl Blade {
                     "{m} sections x {n} points is more than the {MAX_CLOUD_POINTS} points a cloud may have"
                 ))
             })?;
+        let radii = self.section_radii(opts);
 
         let alike = self.aerofoils.len() > 1;
         let sampled = self

@@ -74,6 +74,9 @@ const FIVE_REFLEX: [(f64, f64, f64); 4] = [
     (0.4410, 3.191, 0.1355),
 ];
 
+/// The most points a generated contour may have (16 MB of points in memory).
+pub const MAX_NACA_POINTS: usize = 1_000_000;
+
 impl Naca {
     /// Parse a designation such as `4413`, `0012`, `23012` or `NACA 23112`.
     pub fn parse(code: &str) -> Result<Naca> {
@@ -217,6 +220,12 @@ impl Naca {
         if opts.points < 5 {
             return Err(Error::invalid(format!(
                 "a NACA contour needs at least 5 points (got {})",
+                opts.points
+            )));
+        }
+        if opts.points > MAX_NACA_POINTS {
+            return Err(Error::invalid(format!(
+                "a NACA contour may have at most {MAX_NACA_POINTS} points (got {})",
                 opts.points
             )));
         }

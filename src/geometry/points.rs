@@ -3,6 +3,7 @@
 
 use super::dat;
 use super::io::{self, BadNumber};
+use super::scale::{check_scale, Precision};
 use crate::bezier::Vector;
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
@@ -144,7 +145,11 @@ pub fn write_cloud_csv(path: &Path, cloud: &Cloud) -> Result<()> {
 
 /// Write points as CSV to any writer: a header naming the columns, then one row per point
 /// (`section,index` appended when `grid` is given; the caller checks it fits the points).
-pub fn write_csv_to<W: Write, P: Vector>(w: &mut W, points: &[P], grid: Option<Grid>) -> std::io::Result<()> {
+pub fn write_csv_to<W: Write + ?Sized, P: Vector>(
+    w: &mut W,
+    points: &[P],
+    grid: Option<Grid>,
+) -> std::io::Result<()> {
     const NAMES: [&str; 3] = ["x", "y", "z"];
     let header = NAMES[..P::DIM].join(",");
     match grid {
@@ -773,11 +778,26 @@ impl Table {
         grid
     }
 
-    /// Build points, the grid and the duplicate warnings.
+    /// Build points, the grid and the duplicate warnings: consecutive duplicates are dropped,
+    /// and so are the copies of a contour listed again (see [`repeated_block`]); coordinates
+    /// whose squared distances f64 cannot hold are refused at their line.
     fn finish<P: Vector>(mut self, path: &Path, make: impl Fn(&[f64]) -> P) -> Result<Loaded<P>> {
         let grid = self.arrange();
         let dims = self.dims;
         let mut points: Vec<P> = self.values.chunks_exact(dims).map(make).collect();
+        if let Err((at, message)) = check_scale(&points, Precision::F64) {
+            return Err(match at {
+                Some(k) => Error::Parse {
+                    path: path.to_path_buf(),
+                    line: self.lines[k],
+                    message,
+                },
+                None => Error::Input {
+                    path: path.to_path_buf(),
+                    message,
+                },
+            });
+        }
         let mut dropped = Vec::new();
         if grid.is_none() {
             let mut keep = 0;
@@ -786,10 +806,12 @@ impl Table {
                     dropped.push(self.lines[k]);
                 } else {
                     points[keep] = points[k];
+                    self.lines[keep] = self.lines[k];
                     keep += 1;
                 }
             }
             points.truncate(keep);
+            self.lines.truncate(keep);
             if !dropped.is_empty() {
                 let listed: Vec<String> = dropped.iter().take(LISTED_LINES).map(|l| l.to_string()).collect();
                 let more = if dropped.len() > LISTED_LINES {
@@ -802,6 +824,27 @@ impl Table {
                     dropped.len(),
                     listed.join(", ")
                 ));
+            }
+            if let Some(block) = repeated_block(&points) {
+                let n = points.len();
+                let l = &self.lines;
+                self.warnings.push(format!(
+                    "lines {}-{} list the points of lines {}-{} again ({:.1} times in all): \
+                     only the first copy is kept",
+                    l[block],
+                    l[n - 1],
+                    l[0],
+                    l[block - 1],
+                    n as f64 / block as f64
+                ));
+                // A closed contour keeps its closing point (the first point again).
+                let keep = if (n - 1).is_multiple_of(block) {
+                    block + 1
+                } else {
+                    block
+                };
+                points.truncate(keep);
+                self.lines.truncate(keep);
             }
         }
         if points.len() < 2 {
@@ -828,6 +871,16 @@ impl Table {
             grid,
         })
     }
+}
+
+/// The length `p` of a block of points that the whole list repeats (`points[i] ==
+/// points[i - p]` for every `i ≥ p`, with at least one whole copy after the first): a contour
+/// listed again, which would only cost time. The smallest such `p ≥ 2`, or `None`.
+fn repeated_block<P: PartialEq>(points: &[P]) -> Option<usize> {
+    let n = points.len();
+    (2..=n / 2)
+        .filter(|&p| points[p] == points[0])
+        .find(|&p| (p..n).all(|i| points[i] == points[i - p]))
 }
 
 #[cfg(test)]
@@ -869,6 +922,39 @@ mod tests {
         assert_eq!(l.format, Format::Selig);
         assert_eq!(l.warnings.len(), 1);
         assert!(l.warnings[0].contains("line 3, 7"), "{}", l.warnings[0]);
+    }
+
+    #[test]
+    fn a_contour_listed_again_is_kept_once_with_a_warning() {
+        let open: Vec<String> = (0..10).map(|i| format!("{} {}", i, (i * i) % 7)).collect();
+        // Open: 20 copies; closed (last point = first): 3 copies, the joins merged.
+        let text = format!("name\n{}\n", vec![open.join("\n"); 20].join("\n"));
+        let l = parse_curve(&text, p()).unwrap();
+        assert_eq!(l.points.len(), 10);
+        let w = l.warnings.join("; ");
+        assert!(
+            w.contains("lines 12-201 list the points of lines 2-11 again (20.0 times"),
+            "{w}"
+        );
+        let mut closed = open.clone();
+        closed.push(open[0].clone());
+        let text = format!("name\n{}\n", vec![closed.join("\n"); 3].join("\n"));
+        let l = parse_curve(&text, p()).unwrap();
+        assert_eq!(l.points.len(), 11);
+        assert_eq!(l.points[0], l.points[10]);
+        // One closed contour alone is left as it is.
+        let l = parse_curve(&format!("name\n{}\n", closed.join("\n")), p()).unwrap();
+        assert_eq!(l.points.len(), 11);
+        assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    }
+
+    #[test]
+    fn coordinates_whose_squares_overflow_are_refused_at_their_line() {
+        let e = parse_curve("a\n1 0\n0.5 1e200\n0 0\n", p()).unwrap_err();
+        assert!(matches!(e, Error::Parse { line: 3, .. }), "{e}");
+        assert!(e.to_string().contains("overflow f64"), "{e}");
+        let e = parse_curve("1e-300 0\n0 1e-301\n0 0\n", p()).unwrap_err();
+        assert!(e.to_string().contains("underflow"), "{e}");
     }
 
     #[test]

@@ -309,6 +309,7 @@ impl Checkpoint {
             scores,
             cmaes,
         };
+        ck.check_values()?;
         ck.check_shapes()?;
         Ok(ck)
     }
@@ -336,6 +337,132 @@ impl Checkpoint {
         Ok(())
     }
 
+    /// Every value is one a run can hold: design variables, parameters and the strategy's
+    /// numbers finite, parameters in `[0, 1]`, the step size positive, scores and sums not NaN
+    /// and not negative (`+∞` is an unevaluated or penalised individual), times finite. A
+    /// checksum only proves the file is the one written; this proves the state is usable, so a
+    /// damaged or hand-edited checkpoint is refused before a run resumes from it.
+    pub fn check_values(&self) -> std::result::Result<(), String> {
+        fn finite<T: Into<f64> + Copy>(what: &str, xs: &[T]) -> std::result::Result<(), String> {
+            match xs.iter().position(|&x| !x.into().is_finite()) {
+                Some(i) => Err(format!("{what}[{i}] is {} (not finite)", xs[i].into())),
+                None => Ok(()),
+            }
+        }
+        fn score(what: &str, x: f64) -> std::result::Result<(), String> {
+            if x.is_nan() || x < 0.0 {
+                Err(format!("{what} is {x} (a sum of squares is ≥ 0 or +inf)"))
+            } else {
+                Ok(())
+            }
+        }
+        if self.dim == 0 || self.size == 0 {
+            return Err(format!(
+                "{} design variables and {} individuals per generation (both must be ≥ 1)",
+                self.dim, self.size
+            ));
+        }
+        for (what, t) in [("seconds", self.seconds), ("eval_seconds", self.eval_seconds)] {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(format!("{what} is {t} (a time is finite and ≥ 0)"));
+            }
+        }
+        finite("best", &self.best)?;
+        score("best_score.sum_sq", self.best_score.sum_sq)?;
+        score("best_score.max", self.best_score.max)?;
+        score("stall_reference", self.stall_reference)?;
+        if self.stall_since > self.generation {
+            return Err(format!(
+                "stall_since {} is after generation {}",
+                self.stall_since, self.generation
+            ));
+        }
+        if let Some(i) = self
+            .params
+            .iter()
+            .flatten()
+            .position(|t| !(0.0..=1.0).contains(t))
+        {
+            return Err(format!(
+                "params[{}][{}] is {} (a parameter lies in [0, 1])",
+                i / 2,
+                i % 2,
+                self.params[i / 2][i % 2]
+            ));
+        }
+        for (i, h) in self.history.iter().enumerate() {
+            score(&format!("history[{i}].best"), h.best)?;
+            score(&format!("history[{i}].mean"), h.mean)?;
+            if !(h.seconds.is_finite() && h.seconds >= 0.0) {
+                return Err(format!("history[{i}].seconds is {} (not a time)", h.seconds));
+            }
+        }
+        finite("population", &self.population)?;
+        for (i, s) in self.scores.iter().enumerate() {
+            score(&format!("scores[{i}].sum_sq"), s.sum_sq)?;
+            score(&format!("scores[{i}].max"), s.max)?;
+        }
+        if let Some(c) = &self.cmaes {
+            finite("cmaes.mean", &c.mean)?;
+            finite("cmaes.cov", &c.cov)?;
+            finite("cmaes.basis", &c.basis)?;
+            finite("cmaes.scales", &c.scales)?;
+            finite("cmaes.path_c", &c.path_c)?;
+            finite("cmaes.path_sigma", &c.path_sigma)?;
+            if !(c.sigma.is_finite() && c.sigma > 0.0) {
+                return Err(format!(
+                    "cmaes.sigma is {} (a step size is finite and > 0)",
+                    c.sigma
+                ));
+            }
+            if let Some(i) = c.scales.iter().position(|&d| d < 0.0) {
+                return Err(format!(
+                    "cmaes.scales[{i}] is {} (a square root is ≥ 0)",
+                    c.scales[i]
+                ));
+            }
+            for (i, &r) in c.recent.iter().enumerate() {
+                score(&format!("cmaes.recent[{i}]"), r)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Every individual the checkpoint holds (the best, and the GA's population) lies inside
+    /// the run's box `bounds` (one `[lo, hi]` per design variable): a checkpoint whose
+    /// fingerprint matches but whose values were edited is refused.
+    pub fn check_bounds(&self, bounds: &[[f64; 2]]) -> std::result::Result<(), String> {
+        if bounds.len() != self.dim {
+            return Err(format!(
+                "{} design variables, the problem has {}",
+                self.dim,
+                bounds.len()
+            ));
+        }
+        let rows = std::iter::once(("best", 0, self.best.as_slice())).chain(
+            self.population
+                .chunks_exact(self.dim)
+                .enumerate()
+                .map(|(k, r)| ("population row", k, r)),
+        );
+        for (what, k, row) in rows {
+            for (j, (&x, &[lo, hi])) in row.iter().zip(bounds).enumerate() {
+                let x = f64::from(x);
+                if !(lo..=hi).contains(&x) {
+                    let which = if what == "best" {
+                        "the best individual".to_string()
+                    } else {
+                        format!("{what} {k}")
+                    };
+                    return Err(format!(
+                        "variable {j} of {which} is {x}, outside the run's bounds [{lo}, {hi}]"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Write the checkpoint to `path` atomically: a temporary file beside it, then a rename,
     /// so an interrupted write leaves the previous checkpoint whole.
     pub fn write(&self, path: &Path) -> Result<()> {
@@ -346,9 +473,12 @@ impl Checkpoint {
     /// Read a checkpoint file; a missing, unreadable or damaged file is an [`Error::Input`]
     /// naming it.
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| Error::Input {
-            path: path.to_path_buf(),
-            message: format!("cannot read the checkpoint: {e}"),
+        let bytes = crate::geometry::read_bytes(path).map_err(|e| match e {
+            Error::Io { path, source } => Error::Input {
+                path,
+                message: format!("cannot read the checkpoint: {source}"),
+            },
+            e => e,
         })?;
         Self::from_bytes(&bytes).map_err(|message| Error::Input {
             path: path.to_path_buf(),
@@ -445,6 +575,48 @@ mod tests {
         v2[8] = 2;
         assert!(Checkpoint::from_bytes(&v2).unwrap_err().contains("version 2"));
         assert!(Checkpoint::from_bytes(&[]).is_err());
+    }
+
+    #[test]
+    fn values_a_run_cannot_hold_are_refused_despite_a_valid_checksum() {
+        type Damage = Box<dyn Fn(&mut Checkpoint)>;
+        let cases: Vec<(Damage, &str)> = vec![
+            (Box::new(|c| c.best[0] = f32::INFINITY), "best[0] is inf"),
+            (Box::new(|c| c.best[1] = f32::NAN), "best[1] is NaN"),
+            (Box::new(|c| c.population[4] = f32::NEG_INFINITY), "population[4]"),
+            (Box::new(|c| c.scores[1].sum_sq = f64::NAN), "scores[1].sum_sq"),
+            (Box::new(|c| c.best_score.sum_sq = -1.0), "best_score.sum_sq"),
+            (Box::new(|c| c.params[1][0] = 1.5), "params[1][0]"),
+            (Box::new(|c| c.seconds = f64::INFINITY), "seconds"),
+            (Box::new(|c| c.stall_since = 51), "stall_since"),
+            (Box::new(|c| c.history[0].best = f64::NAN), "history[0].best"),
+        ];
+        for (edit, want) in cases {
+            let mut c = sample(Algorithm::Ga);
+            edit(&mut c);
+            let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
+            assert!(e.contains(want), "{want}: {e}");
+        }
+        let mut c = sample(Algorithm::Cmaes);
+        c.cmaes.as_mut().unwrap().sigma = 0.0;
+        let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
+        assert!(e.contains("cmaes.sigma"), "{e}");
+        let mut c = sample(Algorithm::Cmaes);
+        c.cmaes.as_mut().unwrap().cov[3] = f64::INFINITY;
+        let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
+        assert!(e.contains("cmaes.cov[3]"), "{e}");
+    }
+
+    #[test]
+    fn individuals_outside_the_bounds_are_refused() {
+        let c = sample(Algorithm::Ga);
+        // best = [0.25, -0.125]; population rows [1, 2], [-0, tiny], [3.5, 1e-30].
+        assert!(c.check_bounds(&[[-1.0, 4.0], [-1.0, 2.0]]).is_ok());
+        let e = c.check_bounds(&[[-1.0, 3.0], [-1.0, 2.0]]).unwrap_err();
+        assert!(e.contains("population row 2"), "{e}");
+        let e = c.check_bounds(&[[0.5, 4.0], [-1.0, 2.0]]).unwrap_err();
+        assert!(e.contains("the best individual"), "{e}");
+        assert!(c.check_bounds(&[[0.0, 1.0]]).is_err());
     }
 
     #[test]

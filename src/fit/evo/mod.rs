@@ -155,6 +155,14 @@ impl Default for EvoOptions {
 pub const GA_POPULATION: usize = 1024;
 /// Default GA generation limit.
 pub const GA_GENERATIONS: usize = 500;
+/// The largest population (individuals per generation) a run may ask for.
+pub const MAX_POPULATION: usize = 1 << 20;
+/// The largest generation limit a run may ask for (its history keeps 40 bytes a generation:
+/// 40 MB at the limit).
+pub const MAX_GENERATIONS: usize = 1_000_000;
+/// The most design variables one generation may hold, population × variables: 256 MiB of f32
+/// a copy (a run keeps a few: parents, children, the evaluator's buffers).
+pub const MAX_POPULATION_VALUES: usize = 1 << 26;
 
 impl EvoOptions {
     /// Check every field; the message names the option and its allowed range.
@@ -165,9 +173,19 @@ impl EvoOptions {
                     "the population must be at least 4, not {p}"
                 )));
             }
+            if p > MAX_POPULATION {
+                return Err(Error::invalid(format!(
+                    "the population may be at most {MAX_POPULATION}, not {p}"
+                )));
+            }
         }
         if self.generations == Some(0) {
             return Err(Error::invalid("at least one generation is needed"));
+        }
+        if let Some(g) = self.generations.filter(|&g| g > MAX_GENERATIONS) {
+            return Err(Error::invalid(format!(
+                "the generation limit may be at most {MAX_GENERATIONS}, not {g}"
+            )));
         }
         if self.reproject_every == 0 {
             return Err(Error::invalid(
@@ -205,6 +223,20 @@ impl EvoOptions {
         }
         self.ga.check()?;
         self.cmaes.check()
+    }
+
+    /// Check that a generation of `algorithm` on `n` design variables fits in memory
+    /// ([`MAX_POPULATION_VALUES`]), before anything is allocated for it.
+    pub fn check_size(&self, algorithm: Algorithm, n: usize) -> Result<()> {
+        let size = self.size(algorithm, n);
+        if size.checked_mul(n).is_none_or(|v| v > MAX_POPULATION_VALUES) {
+            return Err(Error::invalid(format!(
+                "a population of {size} individuals of {n} design variables is more than the \
+                 {MAX_POPULATION_VALUES} values a generation may hold: at most {} individuals",
+                MAX_POPULATION_VALUES / n.max(1)
+            )));
+        }
+        Ok(())
     }
 
     /// Individuals per generation of `algorithm` on `n` design variables.
@@ -380,6 +412,7 @@ impl<'p> Evolution<'p> {
     ) -> Result<Self> {
         options.check()?;
         let n = problem.dim();
+        options.check_size(algorithm, n)?;
         let size = options.size(algorithm, n);
         let streams = Streams::new(options.seed);
         let mut scorer = problem.scorer(None, options)?;
@@ -456,6 +489,7 @@ impl<'p> Evolution<'p> {
     ) -> Result<Self> {
         options.check()?;
         let n = problem.dim();
+        options.check_size(algorithm, n)?;
         let size = options.size(algorithm, n);
         let fingerprint = run_fingerprint(problem, algorithm, options, size);
         if checkpoint.algorithm != algorithm {
@@ -472,6 +506,10 @@ impl<'p> Evolution<'p> {
                 checkpoint.fingerprint
             )));
         }
+        checkpoint
+            .check_values()
+            .and_then(|()| checkpoint.check_bounds(problem.bounds()))
+            .map_err(|e| Error::invalid(format!("the checkpoint cannot be resumed: {e}")))?;
         let scorer = problem.scorer(Some(checkpoint.params.clone()), options)?;
         let engine = match (&checkpoint.cmaes, algorithm) {
             (None, Algorithm::Ga) => {
