@@ -2,10 +2,19 @@
 //!
 //! Mirrored by src/eval/cpu/eval_patch.rs (same bindings, same f32 arithmetic in the same order).
 //!
+//! Mixed precision. Each individual arrives as its difference from a reference design (the
+//! `net` binding is the expanded difference, written by expand.wgsl), and each target carries
+//! the reference's offset at the target's start parameters, computed on the host in f64:
+//! r0 = S_ref(u0, v0) - q. An offset is then r0 plus the difference net's point, a sum of
+//! small terms, so its f32 error is relative to the offset and the difference, not to where
+//! the data sit. Newton steps move the parameters by Δ (in the start patch's local units);
+//! the reference then enters through its second-order Taylor polynomial about the start
+//! parameters, whose partials (`jets`) are also computed in f64.
+//!
 //! One invocation owns one individual; the invocations of a workgroup walk the same group of
-//! target points in the same order, so every per-point load (target, breaks) has the same
-//! address in every lane. Targets are sorted by patch: the control points of a patch are
-//! loaded into registers once per run of points on it and reused for all of them.
+//! target points in the same order, so every per-point load (target, jets, breaks) has the
+//! same address in every lane. Targets are sorted by patch: the control points of a
+//! patch are loaded into registers once per run of points on it and reused for all of them.
 //! A curve is the one-dimensional case: DV = 0, one patch along v, DIM = 2.
 //!
 //! Written for a SIMD-on-CPU driver (Mesa lavapipe) as much as for GPUs: the body of an `if`
@@ -26,46 +35,41 @@ const CROSS: u32 = 0u;
 const NU: u32 = DU + 1u;
 const NV: u32 = DV + 1u;
 const NMAX: u32 = max(NU, NV);
+// Control points of a patch.
+const NCP: u32 = NU * NV;
 // A 2x2 Newton system whose determinant is below this fraction of its diagonal product is
 // treated as singular.
 const SINGULAR: f32 = 1e-6;
 
-// Must be kept in sync with `Config` in src/eval/kernel.rs and the other shaders.
-struct Config {
-    population: u32,
-    net_stride: u32,
-    n_vars: u32,
-    n_ctrl: u32,
-    n_points: u32,
-    group_points: u32,
-    n_groups: u32,
-    newton: u32,
-    patches_u: u32,
-    patches_v: u32,
-    net_cols: u32,
-    grid_u: u32,
-    grid_v: u32,
-    degree_u: u32,
-    degree_v: u32,
-    dim: u32,
-    cross: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// @include config.wgsl
+// @include basis.wgsl
 
 // Must be kept in sync with `Target` in src/eval/kernel.rs.
 struct Target {
-    x: f32,
-    y: f32,
-    z: f32,
+    // The reference's offset S_ref(u0, v0) - q at the start parameters (z = 0 for a curve).
+    rx: f32,
+    ry: f32,
+    rz: f32,
     // Patch index i * patches_v + j.
     patch_id: u32,
-    // Local parameters in that patch, in [0, 1].
+    // Start parameters, local to that patch, in [0, 1].
     u: f32,
     v: f32,
-    _pad0: u32,
-    _pad1: u32,
+    // How far Newton steps may move from them (local units) for the reference's Taylor
+    // polynomial to stay within its tolerance.
+    reach_u: f32,
+    reach_v: f32,
+}
+
+// Must be kept in sync with `RefJet` in src/eval/kernel.rs: the reference's partials at a
+// target's start parameters, in the start patch's local units.
+struct RefJet {
+    su: array<f32, 3>,
+    sv: array<f32, 3>,
+    suu: array<f32, 3>,
+    suv: array<f32, 3>,
+    svv: array<f32, 3>,
+    _pad: f32,
 }
 
 // Must be kept in sync with `Partial` in src/eval/kernel.rs and reduce.wgsl.
@@ -78,14 +82,16 @@ struct Partial {
 @group(0) @binding(1) var<storage, read> targets: array<Target>;
 // breaks_u (patches_u + 1 values) followed by breaks_v (patches_v + 1 values).
 @group(0) @binding(2) var<storage, read> breaks: array<f32>;
-// Control nets as structure of arrays: coordinate c of control point r of individual i is
+// Difference nets as structure of arrays: coordinate c of control point r of individual i is
 // net[(r * DIM + c) * net_stride + i], with r = row * net_cols + column.
 @group(0) @binding(3) var<storage, read> net: array<f32>;
 // partials[group * population + individual].
 @group(0) @binding(4) var<storage, read_write> partials: array<Partial>;
+// jets[p]: the reference's partials at target p's start parameters.
+@group(0) @binding(5) var<storage, read> jets: array<RefJet>;
 
 // The control points of the patch this invocation holds, (a * NV + b) * DIM + c, and its index.
-var<private> cp: array<f32, NU * NV * DIM>;
+var<private> cp: array<f32, NCP * DIM>;
 var<private> held: u32;
 
 // Load the control points of patch `patch_id` of individual `ind` into `cp`.
@@ -103,31 +109,17 @@ fn load_patch(ind: u32, patch_id: u32) {
     }
 }
 
-// The degree-n Bernstein polynomials at t, n <= NMAX - 1 (the triangular recurrence of
-// bezier::bernstein).
-fn bernstein(n: u32, t: f32) -> array<f32, NMAX> {
-    var out: array<f32, NMAX>;
-    out[0] = 1.0;
-    let s = 1.0 - t;
-    for (var j = 1u; j < NMAX; j++) { // @unroll
-        if (j <= n) {
-            var saved = 0.0;
-            for (var k = 0u; k < j; k++) { // @unroll
-                let tmp = out[k];
-                out[k] = fma(s, tmp, saved);
-                saved = t * tmp;
-            }
-            out[j] = saved;
-        }
-    }
-    return out;
-}
-
-// Squared distance from q to the held patch at local (u, v): the GA fitness kernel proper.
-fn offset_sq(u: f32, v: f32, q: array<f32, 3>) -> f32 {
-    let bu = bernstein(DU, u);
-    let bv = bernstein(DV, v);
+// Squared offset of target t at its start parameters: |r0 + Σ B_a(u) B_b(v) cp_ab|², the GA
+// fitness kernel proper. (The CPU kernels read the same weights, computed once per point by
+// this recurrence on the host, from the `weights` binding.)
+fn offset_sq_fixed(t: Target) -> f32 {
+    let r0 = array<f32, 3>(t.rx, t.ry, t.rz);
     var s: array<f32, DIM>;
+    for (var c = 0u; c < DIM; c++) { // @unroll
+        s[c] = r0[c];
+    }
+    let bu = bernstein(DU, t.u);
+    let bv = bernstein(DV, t.v);
     for (var a = 0u; a < NU; a++) { // @unroll
         for (var b = 0u; b < NV; b++) { // @unroll
             let w = bu[a] * bv[b];
@@ -138,62 +130,29 @@ fn offset_sq(u: f32, v: f32, q: array<f32, 3>) -> f32 {
     }
     var e2 = 0.0;
     for (var c = 0u; c < DIM; c++) { // @unroll
-        let d = s[c] - q[c];
-        e2 = fma(d, d, e2);
+        e2 = fma(s[c], s[c], e2);
     }
     return e2;
 }
 
-// Bernstein values with first and second derivatives.
-struct Basis {
-    b: array<f32, NMAX>,
-    d1: array<f32, NMAX>,
-    d2: array<f32, NMAX>,
-}
-
-// The degree-n basis at t with its derivatives (paper eq. 2 applied once and twice), taken
-// from levels n - 1 and n - 2 of the same recurrence.
-fn basis(n: u32, t: f32) -> Basis {
-    var lvl: array<f32, NMAX>;
-    var low1: array<f32, NMAX>;
-    var low2: array<f32, NMAX>;
-    lvl[0] = 1.0;
-    let s = 1.0 - t;
-    for (var j = 1u; j < NMAX; j++) { // @unroll
-        if (j <= n) {
-            if (j + 1u == n) {
-                low2 = lvl;
+// Squared length of `base` plus the held patch at local (u, v).
+fn offset_sq(u: f32, v: f32, base: array<f32, DIM>) -> f32 {
+    let bu = bernstein(DU, u);
+    let bv = bernstein(DV, v);
+    var s = base;
+    for (var a = 0u; a < NU; a++) { // @unroll
+        for (var b = 0u; b < NV; b++) { // @unroll
+            let w = bu[a] * bv[b];
+            for (var c = 0u; c < DIM; c++) { // @unroll
+                s[c] = fma(w, cp[(a * NV + b) * DIM + c], s[c]);
             }
-            if (j == n) {
-                low1 = lvl;
-            }
-            var saved = 0.0;
-            for (var k = 0u; k < j; k++) { // @unroll
-                let tmp = lvl[k];
-                lvl[k] = fma(s, tmp, saved);
-                saved = t * tmp;
-            }
-            lvl[j] = saved;
         }
     }
-    var out: Basis;
-    out.b = lvl;
-    let nf = f32(n);
-    let nn = nf * (nf - 1.0);
-    // low1[i - 1], low2[i - 2] and low2[i - 1], zero before the start.
-    var l1 = 0.0;
-    var l2a = 0.0;
-    var l2b = 0.0;
-    for (var i = 0u; i < NMAX; i++) { // @unroll
-        if (i <= n) {
-            out.d1[i] = nf * (l1 - low1[i]);
-            out.d2[i] = nn * ((l2a - 2.0 * l2b) + low2[i]);
-            l1 = low1[i];
-            l2a = l2b;
-            l2b = low2[i];
-        }
+    var e2 = 0.0;
+    for (var c = 0u; c < DIM; c++) { // @unroll
+        e2 = fma(s[c], s[c], e2);
     }
-    return out;
+    return e2;
 }
 
 // A point of the held patch with its first and second partial derivatives.
@@ -235,17 +194,37 @@ fn jet(u: f32, v: f32) -> Jet {
     return out;
 }
 
+// The reference's second-order Taylor polynomial about target t's start parameters at
+// displacement (du, dv): the reference offset there and its first partials.
+struct Taylor {
+    val: array<f32, DIM>,
+    du: array<f32, DIM>,
+    dv: array<f32, DIM>,
+}
+
+fn taylor(rj: RefJet, t: Target, du: f32, dv: f32) -> Taylor {
+    let r0 = array<f32, 3>(t.rx, t.ry, t.rz);
+    var out: Taylor;
+    for (var c = 0u; c < DIM; c++) { // @unroll
+        let tu = fma(rj.suu[c], du, fma(rj.suv[c], dv, rj.su[c]));
+        let tv = fma(rj.suv[c], du, fma(rj.svv[c], dv, rj.sv[c]));
+        // r0 + su du + sv dv + suu du²/2 + suv du dv + svv dv²/2.
+        out.val[c] = fma(0.5 * du, tu + rj.su[c], fma(0.5 * dv, tv + rj.sv[c], r0[c]));
+        out.du[c] = tu;
+        out.dv[c] = tv;
+    }
+    return out;
+}
+
 // A segment of a chain and the local parameter in it.
 struct Located {
     index: u32,
     t: f32,
 }
 
-// Move local parameter t of segment k (of a chain whose breaks start at breaks[first], with
-// `count` segments) to the segment holding it, clamped to the chain's domain [0, 1].
-fn relocate(first: u32, count: u32, k: u32, t: f32) -> Located {
-    let t0 = breaks[first + k];
-    let g = clamp(fma(t, breaks[first + k + 1u] - t0, t0), 0.0, 1.0);
+// The segment of a chain (breaks from breaks[first], `count` segments) holding global g in
+// [0, 1], and the local parameter in it (as ChainLayout::locate).
+fn locate(first: u32, count: u32, g: f32) -> Located {
     var m = 0u;
     for (var i = 1u; i < count; i++) {
         if (g >= breaks[first + i]) {
@@ -265,33 +244,72 @@ fn dot_n(x: array<f32, DIM>, y: array<f32, DIM>) -> f32 {
     return acc;
 }
 
-// Squared closest-point offset of q, from config.newton (>= 1) Newton steps on
-// |S(u, v) - q|^2 started at the target's local (u, v) on the held patch. Steps are clamped
-// to that patch, or with CROSS move across borders (clamped to the domain); the result is the
-// least squared distance met on the way, so it never exceeds the start's.
-fn foot_point_sq(ind: u32, t: Target, q: array<f32, 3>) -> f32 {
-    var i = t.patch_id / config.patches_v;
-    var j = t.patch_id - i * config.patches_v;
+// Squared closest-point offset of target p, from config.newton (>= 1) Newton steps on
+// |r(Δ)|², r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held difference
+// patch at the local parameters Δ reaches. Δ is clamped to the start patch, or with CROSS to
+// the domain (the steps then cross borders), and to the target's reach; the result is the
+// least squared offset met on the way, so it never exceeds the start's.
+fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
+    let rj = jets[p];
+    let i0 = t.patch_id / config.patches_v;
+    let j0 = t.patch_id - i0 * config.patches_v;
+    // First v break; the start patch's lengths and the domain of Δ: the start patch (or with
+    // CROSS the whole domain), within the target's reach.
+    let fv = config.patches_u + 1u;
+    var h0u = 1.0;
+    var h0v = 1.0;
+    var lo_u = -t.u;
+    var hi_u = 1.0 - t.u;
+    var lo_v = -t.v;
+    var hi_v = 1.0 - t.v;
+    if (CROSS != 0u) {
+        h0u = breaks[i0 + 1u] - breaks[i0];
+        h0v = breaks[fv + j0 + 1u] - breaks[fv + j0];
+        lo_u = -(t.u + breaks[i0] / h0u);
+        hi_u = (1.0 - breaks[i0]) / h0u - t.u;
+        lo_v = -(t.v + breaks[fv + j0] / h0v);
+        hi_v = (1.0 - breaks[fv + j0]) / h0v - t.v;
+    }
+    lo_u = max(lo_u, -t.reach_u);
+    hi_u = min(hi_u, t.reach_u);
+    lo_v = max(lo_v, -t.reach_v);
+    hi_v = min(hi_v, t.reach_v);
+    // Δ; the local parameters in the held patch; d(local) / dΔ there.
+    var du = 0.0;
+    var dv = 0.0;
     var u = t.u;
     var v = t.v;
+    var ku = 1.0;
+    var kv = 1.0;
     var best = 3.0e38;
     var it = 0u;
     loop {
         let e = jet(u, v);
+        let f = taylor(rj, t, du, dv);
         var r: array<f32, DIM>;
+        var su: array<f32, DIM>;
+        var sv: array<f32, DIM>;
+        var suu: array<f32, DIM>;
+        var suv: array<f32, DIM>;
+        var svv: array<f32, DIM>;
         for (var c = 0u; c < DIM; c++) { // @unroll
-            r[c] = e.s[c] - q[c];
+            r[c] = f.val[c] + e.s[c];
+            su[c] = fma(ku, e.su[c], f.du[c]);
+            sv[c] = fma(kv, e.sv[c], f.dv[c]);
+            suu[c] = fma(ku * ku, e.suu[c], rj.suu[c]);
+            suv[c] = fma(ku * kv, e.suv[c], rj.suv[c]);
+            svv[c] = fma(kv * kv, e.svv[c], rj.svv[c]);
         }
         best = min(best, dot_n(r, r));
-        let gu = dot_n(r, e.su);
-        let gv = dot_n(r, e.sv);
+        let gu = dot_n(r, su);
+        let gv = dot_n(r, sv);
         // Gauss-Newton part (semi-definite) and the full Hessian.
-        let guu = dot_n(e.su, e.su);
-        let guv = dot_n(e.su, e.sv);
-        let gvv = dot_n(e.sv, e.sv);
-        let huu = guu + dot_n(r, e.suu);
-        let huv = guv + dot_n(r, e.suv);
-        let hvv = gvv + dot_n(r, e.svv);
+        let guu = dot_n(su, su);
+        let guv = dot_n(su, sv);
+        let gvv = dot_n(sv, sv);
+        let huu = guu + dot_n(r, suu);
+        let huv = guv + dot_n(r, suv);
+        let hvv = gvv + dot_n(r, svv);
         var step_u = 0.0;
         var step_v = 0.0;
         let det = huu * hvv - huv * huv;
@@ -314,21 +332,32 @@ fn foot_point_sq(ind: u32, t: Target, q: array<f32, 3>) -> f32 {
                 step_v = -gv / cv;
             }
         }
-        u = u + step_u;
-        v = v + step_v;
+        du = clamp(du + step_u, lo_u, hi_u);
+        dv = clamp(dv + step_v, lo_v, hi_v);
+        // The local parameters of Δ: in the start patch, or (CROSS) in the patch holding it.
+        let wu = t.u + du;
+        let wv = t.v + dv;
         if (CROSS == 0u) {
-            u = clamp(u, 0.0, 1.0);
-            v = clamp(v, 0.0, 1.0);
+            u = clamp(wu, 0.0, 1.0);
+            v = clamp(wv, 0.0, 1.0);
         } else {
-            if (u < 0.0 || u > 1.0) {
-                let l = relocate(0u, config.patches_u, i, u);
+            var i = i0;
+            var j = j0;
+            u = wu;
+            v = wv;
+            ku = 1.0;
+            kv = 1.0;
+            if (wu < 0.0 || wu > 1.0) {
+                let l = locate(0u, config.patches_u, clamp(fma(wu, h0u, breaks[i0]), 0.0, 1.0));
                 i = l.index;
                 u = l.t;
+                ku = h0u / (breaks[i + 1u] - breaks[i]);
             }
-            if (v < 0.0 || v > 1.0) {
-                let l = relocate(config.patches_u + 1u, config.patches_v, j, v);
+            if (wv < 0.0 || wv > 1.0) {
+                let l = locate(fv, config.patches_v, clamp(fma(wv, h0v, breaks[fv + j0]), 0.0, 1.0));
                 j = l.index;
                 v = l.t;
+                kv = h0v / (breaks[fv + j + 1u] - breaks[fv + j]);
             }
             let moved = i * config.patches_v + j;
             if (moved != held) {
@@ -340,7 +369,7 @@ fn foot_point_sq(ind: u32, t: Target, q: array<f32, 3>) -> f32 {
             break if it >= config.newton;
         }
     }
-    let e2 = min(best, offset_sq(u, v, q));
+    let e2 = min(best, offset_sq(u, v, taylor(rj, t, du, dv).val));
     if (CROSS != 0u && held != t.patch_id) {
         load_patch(ind, t.patch_id);
     }
@@ -370,7 +399,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (t.patch_id != run) {
                     break;
                 }
-                let e2 = offset_sq(t.u, t.v, array<f32, 3>(t.x, t.y, t.z));
+                let e2 = offset_sq_fixed(t);
                 sum += e2;
                 worst = max(worst, e2);
                 p++;
@@ -385,7 +414,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (t.patch_id != run) {
                     break;
                 }
-                let e2 = foot_point_sq(ind, t, array<f32, 3>(t.x, t.y, t.z));
+                let e2 = foot_point_sq(ind, p, t);
                 sum += e2;
                 worst = max(worst, e2);
                 p++;

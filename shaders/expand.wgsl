@@ -2,34 +2,14 @@
 //!
 //! Mirrored by src/eval/cpu/expand.rs. The map (`net = E_u · D · E_vᵀ` for grids, `E · D`
 //! for curves) is uploaded once in compressed-row form; each invocation expands one
-//! individual, applying the same row to every coordinate.
+//! individual, applying the same row to every coordinate. The map is linear, so it serves the
+//! differences from the reference design that the host uploads (`x - x_ref`, taken in f64 and
+//! then rounded to f32) as well as designs.
 
 // Specialised at pipeline creation, and `// @unroll` loops unrolled, as in eval_patch.wgsl.
 const DIM: u32 = 3u;
 
-// Must be kept in sync with `Config` in src/eval/kernel.rs and the other shaders.
-struct Config {
-    population: u32,
-    net_stride: u32,
-    n_vars: u32,
-    n_ctrl: u32,
-    n_points: u32,
-    group_points: u32,
-    n_groups: u32,
-    newton: u32,
-    patches_u: u32,
-    patches_v: u32,
-    net_cols: u32,
-    grid_u: u32,
-    grid_v: u32,
-    degree_u: u32,
-    degree_v: u32,
-    dim: u32,
-    cross: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// @include config.wgsl
 
 // Must be kept in sync with `MapEntry` in src/eval/kernel.rs.
 struct MapEntry {
@@ -42,7 +22,8 @@ struct MapEntry {
 // Row r of the map holds entries map_start[r] .. map_start[r + 1].
 @group(0) @binding(1) var<storage, read> map_start: array<u32>;
 @group(0) @binding(2) var<storage, read> map_entries: array<MapEntry>;
-// One individual per row of n_vars values: design point k, coordinate c at k * DIM + c.
+// One individual per row of n_vars values (its difference from the reference design): design
+// point k, coordinate c at k * DIM + c.
 @group(0) @binding(3) var<storage, read> population: array<f32>;
 // Output, structure of arrays as read by eval_patch.wgsl: net[(r * DIM + c) * net_stride + i].
 @group(0) @binding(4) var<storage, read_write> net: array<f32>;

@@ -3,29 +3,7 @@
 //! Mirrored by src/eval/cpu/reduce.rs. The groups are added in order, so the sum is the same
 //! on both paths.
 
-// Must be kept in sync with `Config` in src/eval/kernel.rs and the other shaders.
-struct Config {
-    population: u32,
-    net_stride: u32,
-    n_vars: u32,
-    n_ctrl: u32,
-    n_points: u32,
-    group_points: u32,
-    n_groups: u32,
-    newton: u32,
-    patches_u: u32,
-    patches_v: u32,
-    net_cols: u32,
-    grid_u: u32,
-    grid_v: u32,
-    degree_u: u32,
-    degree_v: u32,
-    dim: u32,
-    cross: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// @include config.wgsl
 
 // Must be kept in sync with `Partial` in src/eval/kernel.rs and eval_patch.wgsl.
 struct Partial {

@@ -43,6 +43,8 @@ enum Command {
     /// Optimise an aerofoil's adapted encoding for an aerodynamic objective (max-cl or
     /// inverse:TARGET) with the GA or CMA-ES on the panel-method evaluator.
     Optimise(Box<cli::optimise::Args>),
+    /// Sample a fitted patch grid densely (GPU when present) into a point cloud.
+    Sample(cli::sample::Args),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +63,7 @@ fn main() -> ExitCode {
         Command::Export(args) => cli::export::run(args),
         Command::Aero(args) => cli::aero::run(args),
         Command::Optimise(args) => cli::optimise::run(*args),
+        Command::Sample(args) => cli::sample::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

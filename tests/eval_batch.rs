@@ -93,3 +93,67 @@ fn bad_population_files_are_input_errors() {
     nan[1] = f32::NAN;
     bad(&nan);
 }
+
+#[test]
+fn case_1_far_from_the_origin_gives_the_sums_it_gives_at_the_origin() {
+    // Issue 11: case 1's data, design and population moved by +1000 in x and y. With absolute
+    // f32 coordinates `bezchain eval` gave 1.15e-7 instead of 1.468e-8 on both backends; the
+    // door now reads rows in f64 and measures every individual against the first in f64.
+    use bezchain::chain::ChainLayout;
+    use bezchain::fit::{fit_curve, FitOptions};
+    let pts = bezchain::geometry::read_curve(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/naca4413.dat"
+    )))
+    .unwrap()
+    .points;
+    let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
+    let fit = fit_curve(&pts, layout.clone(), &FitOptions::default()).unwrap();
+    let design: Vec<f64> = fit.chain.design().iter().flat_map(|p| [p.x, p.y]).collect();
+    // The fit, then individuals around it at the spreads of a converging population.
+    let mut population = design.clone();
+    for (k, spread) in [1e-6, 1e-5, 1e-4, 1e-3].iter().enumerate() {
+        for j in 0..5 {
+            population.extend(
+                design
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| x + spread * ((i * 7 + j * 13 + k) as f64 * 0.7).sin()),
+            );
+        }
+    }
+    let shift = DVec2::new(1000.0, 1000.0);
+    let far_pts: Vec<DVec2> = pts.iter().map(|p| *p + shift).collect();
+    let far_pop: Vec<f64> = population.iter().map(|x| x + 1000.0).collect();
+    let mut backends = vec![Backend::Cpu];
+    if gpu().is_some() {
+        backends.push(Backend::Gpu);
+    }
+    for backend in backends {
+        let o = BatchOptions {
+            backend,
+            ..BatchOptions::default()
+        };
+        let here = eval_curve_population(&layout, &pts, &population, &o).unwrap();
+        let there = eval_curve_population(&layout, &far_pts, &far_pop, &o).unwrap();
+        let d = here
+            .fitness
+            .iter()
+            .zip(&there.fitness)
+            .map(|(a, b)| rel(a.sum_sq.into(), b.sum_sq.into()))
+            .fold(0.0, f64::max);
+        eprintln!(
+            "case 1 on {backend}: sum_sq {:e} at the origin, {:e} at +1000 (individuals within {d:.1e})",
+            here.fitness[0].sum_sq, there.fitness[0].sum_sq
+        );
+        assert!(d <= 1e-4, "{backend}: shifted sums differ by {d:e}");
+        // The first individual is the lsq fit: its f32 sum is the f64 report's to the door's
+        // accuracy (offsets to 2⁻²⁴ of the extent: here residuals of 1.3e-5 to 3e-8).
+        let s = f64::from(there.fitness[0].sum_sq);
+        assert!(
+            rel(s, fit.closest.sum_sq) < 1e-2,
+            "{s:e} vs {:e}",
+            fit.closest.sum_sq
+        );
+    }
+}

@@ -2,7 +2,7 @@
 //! `BEZCHAIN_NO_GPU=1`, which this file (its own test binary, one test) sets for itself.
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
-use bezchain::eval::dense::{dense_grid, DenseEvaluator};
+use bezchain::eval::dense::{dense_grid, uniform, DenseEvaluator};
 use bezchain::eval::{build_evaluator, Backend, EvalLayout, EvalOptions, Fitness, GpuContext, Targets};
 use bezchain::Error;
 use glam::{DVec2, DVec3};
@@ -12,7 +12,7 @@ fn auto_falls_back_to_the_cpu_and_says_why() {
     // Edition 2021: setting the variable is safe; this binary runs this one test only.
     std::env::set_var("BEZCHAIN_NO_GPU", "1");
 
-    let ctx = GpuContext::new();
+    let ctx = GpuContext::shared();
     assert!(
         matches!(ctx, Err(Error::Gpu(ref m)) if m.contains("BEZCHAIN_NO_GPU")),
         "{ctx:?}"
@@ -72,8 +72,14 @@ fn auto_falls_back_to_the_cpu_and_says_why() {
     let net: Vec<DVec3> = (0..9)
         .map(|k| DVec3::new((k / 3) as f64, (k % 3) as f64, 0.0))
         .collect();
-    let (_, dense_info) = dense_grid(&PatchGrid::new(g.clone(), net).unwrap(), 3, 3, Backend::Auto).unwrap();
+    let (_, dense_info) = dense_grid(
+        &PatchGrid::new(g.clone(), net).unwrap(),
+        &uniform(3),
+        &uniform(3),
+        Backend::Auto,
+    )
+    .unwrap();
     assert_eq!(dense_info.backend, Backend::Cpu);
     assert!(dense_info.fallback.is_some());
-    assert!(DenseEvaluator::new(&g, 3, 3, Backend::Gpu).is_err());
+    assert!(DenseEvaluator::new(&g, &uniform(3), &uniform(3), Backend::Gpu).is_err());
 }

@@ -1,10 +1,10 @@
-//! Every `shaders/*.wgsl` parsed and validated by naga with no device, as written and
-//! specialised for a range of layouts, and every Rust mirror struct checked against naga's
-//! layout of its WGSL twin.
+//! Every `shaders/*.wgsl` parsed and validated by naga with no device, as written (with its
+//! includes spliced in) and specialised for a range of layouts, and every Rust mirror struct
+//! checked against naga's layout of its WGSL twin.
 
 use bezchain::aero::batch::{AeroConfig, AeroResult, AeroStep};
 use bezchain::eval::gpu::{prepare, source};
-use bezchain::eval::{Config, Fitness, MapEntry, Partial, Target, Vertex};
+use bezchain::eval::{Config, Fitness, MapEntry, Partial, RefJet, Sample, Target, Vertex};
 use std::mem::{offset_of, size_of};
 
 fn validate(name: &str, src: &str) -> naga::Module {
@@ -19,8 +19,24 @@ fn validate(name: &str, src: &str) -> naga::Module {
     module
 }
 
-/// `(name, contents)` of every file in `shaders/`.
+/// `(name, contents)` of every file in `shaders/`, includes spliced in; an include file alone
+/// gets the constant it expects from its includer.
 fn shader_files() -> Vec<(String, String)> {
+    raw_files()
+        .into_iter()
+        .map(|(name, src)| {
+            let src = if name == "basis.wgsl" {
+                format!("const NMAX: u32 = 4u;\n{src}")
+            } else {
+                source::expand(&src).unwrap()
+            };
+            (name, src)
+        })
+        .collect()
+}
+
+/// `(name, contents)` of every file in `shaders/`, as written.
+fn raw_files() -> Vec<(String, String)> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let mut files: Vec<(String, String)> = std::fs::read_dir(&dir)
         .expect("shaders/ is readable")
@@ -43,6 +59,8 @@ fn every_wgsl_file_validates_as_written() {
         names,
         [
             "aero.wgsl",
+            "basis.wgsl",
+            "config.wgsl",
             "dense_grid.wgsl",
             "eval_patch.wgsl",
             "expand.wgsl",
@@ -52,22 +70,50 @@ fn every_wgsl_file_validates_as_written() {
     for (name, src) in &files {
         let module = validate(name, src);
         let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
-        assert_eq!(entries, ["main"], "{name}: one entry point, `main`");
+        let expect: &[&str] = if ["basis.wgsl", "config.wgsl"].contains(&name.as_str()) {
+            &[]
+        } else {
+            &["main"]
+        };
+        assert_eq!(entries, expect, "{name}: entry points");
     }
 }
 
 #[test]
 fn the_embedded_sources_are_the_files() {
-    let files = shader_files();
     let embedded = [
         bezchain::eval::gpu::AERO,
+        source::BASIS,
+        source::CONFIG,
         source::DENSE_GRID,
         source::EVAL_PATCH,
         source::EXPAND,
         source::REDUCE,
     ];
-    for ((name, src), e) in files.iter().zip(embedded) {
+    for ((name, src), e) in raw_files().iter().zip(embedded) {
         assert_eq!(src, e, "{name}");
+    }
+}
+
+#[test]
+fn shared_definitions_are_written_once() {
+    // `struct Config` and the basis live in their include files only.
+    for (name, src) in raw_files() {
+        let configs = src.matches("struct Config {").count();
+        let bases = src.matches("fn basis(").count() + src.matches("fn bernstein(").count();
+        match name.as_str() {
+            "config.wgsl" => assert_eq!(configs, 1),
+            "basis.wgsl" => assert_eq!(bases, 2),
+            // The panel kernel has its own `AeroConfig` and no Bernstein basis.
+            "aero.wgsl" => assert_eq!(configs + bases, 0, "{name} defines a shared item itself"),
+            _ => {
+                assert_eq!(configs + bases, 0, "{name} defines a shared item itself");
+                assert!(
+                    src.contains("// @include config.wgsl"),
+                    "{name} includes the config"
+                );
+            }
+        }
     }
 }
 
@@ -124,6 +170,9 @@ fn wgsl_layout(src: &str, name: &str) -> Option<(u32, Vec<(String, u32)>)> {
 fn check(name: &str, size: usize, offsets: &[(&str, usize)], expect_in: &[&str]) {
     let mut seen = Vec::new();
     for (file, src) in shader_files() {
+        if file == "basis.wgsl" || (file == "config.wgsl" && name != "Config") {
+            continue;
+        }
         if let Some((wsize, members)) = wgsl_layout(&src, name) {
             seen.push(file.clone());
             assert_eq!(wsize as usize, size, "{name} in {file}: size");
@@ -140,7 +189,13 @@ macro_rules! offsets {
 
 #[test]
 fn rust_structs_match_their_wgsl_twins() {
-    let all = ["dense_grid.wgsl", "eval_patch.wgsl", "expand.wgsl", "reduce.wgsl"];
+    let all = [
+        "config.wgsl",
+        "dense_grid.wgsl",
+        "eval_patch.wgsl",
+        "expand.wgsl",
+        "reduce.wgsl",
+    ];
     check(
         "Config",
         size_of::<Config>(),
@@ -152,8 +207,20 @@ fn rust_structs_match_their_wgsl_twins() {
     check(
         "Target",
         size_of::<Target>(),
-        &offsets!(Target; x, y, z, patch_id, u, v, _pad0, _pad1),
+        &offsets!(Target; rx, ry, rz, patch_id, u, v, reach_u, reach_v),
         &["eval_patch.wgsl"],
+    );
+    check(
+        "RefJet",
+        size_of::<RefJet>(),
+        &offsets!(RefJet; su, sv, suu, suv, svv, _pad),
+        &["eval_patch.wgsl"],
+    );
+    check(
+        "Sample",
+        size_of::<Sample>(),
+        &offsets!(Sample; index, t),
+        &["dense_grid.wgsl"],
     );
     check(
         "Partial",
@@ -195,7 +262,7 @@ fn rust_structs_match_their_wgsl_twins() {
     check(
         "Vertex",
         size_of::<Vertex>(),
-        &offsets!(Vertex; px, py, pz, nx, ny, nz),
+        &offsets!(Vertex; px, py, pz, nx, ny, nz, tangent_sq, _pad),
         &["dense_grid.wgsl"],
     );
 }

@@ -634,8 +634,12 @@ pub fn build_aero_evaluator(
     use crate::eval::GpuContext;
     match backend {
         Backend::Cpu => Ok(Box::new(CpuAero::new(kernel.clone()))),
-        Backend::Gpu => Ok(Box::new(GpuAero::new(&GpuContext::new()?, kernel.clone(), gpu)?)),
-        Backend::Auto => match GpuContext::new().and_then(|ctx| GpuAero::new(&ctx, kernel.clone(), gpu)) {
+        Backend::Gpu => Ok(Box::new(GpuAero::new(
+            &GpuContext::shared()?,
+            kernel.clone(),
+            gpu,
+        )?)),
+        Backend::Auto => match GpuContext::shared().and_then(|ctx| GpuAero::new(&ctx, kernel.clone(), gpu)) {
             Ok(g) => Ok(Box::new(g)),
             Err(e) => Ok(Box::new(
                 CpuAero::new(kernel.clone()).with_fallback(e.to_string()),

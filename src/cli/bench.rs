@@ -1,11 +1,12 @@
-//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, or (`--kernel
-//! aero`) the panel method on populations of aerofoils.
+//! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, with its real
+//! FLOPs against the machine's FP32 FMA peak, or (`--kernel aero`) the panel method on
+//! populations of aerofoils.
 
 use super::output::Outputs;
 use super::{bounded, parse_backend};
 use anyhow::Result;
 use bezchain::eval::bench::{run as run_bench, BenchOptions};
-use bezchain::eval::Backend;
+use bezchain::eval::{Backend, Simd};
 use bezchain::fit::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
 use std::path::PathBuf;
 
@@ -39,15 +40,36 @@ pub struct Args {
     /// Where to run: auto, gpu or cpu.
     #[arg(long, default_value = "auto", value_parser = parse_backend)]
     pub backend: Backend,
+    /// CPU kernels: avx512, avx2 or portable [default: the best this CPU runs].
+    #[arg(long, value_parser = parse_simd)]
+    pub kernels: Option<Simd>,
     /// Bicubic patches along u and v, `PUxPV`.
     #[arg(long, default_value = "2x2", value_parser = super::parse_pair)]
     pub patches: [usize; 2],
     /// Timed runs (the median is reported; at least 5).
     #[arg(long, default_value_t = 7)]
     pub runs: usize,
+    /// The FP32 peak to compare with, GFLOP/s [default: detected from the CPU].
+    #[arg(long)]
+    pub peak: Option<f64>,
+    /// Skip the FMA microbenchmark (about a second) that measures the peak in the same run.
+    #[arg(long)]
+    pub no_peak_measure: bool,
     /// Write the JSON here instead of standard output.
     #[arg(long, default_value = "-")]
     pub json: PathBuf,
+}
+
+/// clap parser for `avx512|avx2|portable`.
+fn parse_simd(s: &str) -> std::result::Result<Simd, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "avx512" | "avx-512" => Ok(Simd::Avx512),
+        "avx2" => Ok(Simd::Avx2),
+        "portable" => Ok(Simd::Portable),
+        _ => Err(format!(
+            "unknown kernels '{s}' (expected avx512, avx2 or portable)"
+        )),
+    }
 }
 
 /// Run the benchmark and print its JSON.
@@ -77,6 +99,13 @@ pub fn run(args: Args) -> Result<()> {
         })?;
         outs.put_json(out, &report)?;
         return outs.commit();
+    }
+    if let Some(p) = args.peak {
+        if !(p > 0.0 && p.is_finite()) {
+            return Err(super::usage(format!(
+                "--peak must be a positive GFLOP/s figure, not {p}"
+            )));
+        }
     }
     bounded(
         "--population",
@@ -115,8 +144,11 @@ pub fn run(args: Args) -> Result<()> {
         points: args.points,
         newton: args.newton,
         backend: args.backend,
+        simd: args.kernels,
         patches: args.patches,
         runs: args.runs,
+        peak: args.peak,
+        measure_peak: !args.no_peak_measure,
         ..BenchOptions::default()
     };
     let report = run_bench(&opts)?;

@@ -21,7 +21,8 @@ pub struct Args {
     /// population uses.
     pub report: PathBuf,
     /// The population: one individual per line, its design points flattened `x0,y0,x1,y1,…`
-    /// (`x,y,z` per point for surfaces, design net row-major).
+    /// (`x,y,z` per point for surfaces, design net row-major), read in f64; the first
+    /// individual is the reference the others are measured against.
     #[arg(long)]
     pub population: PathBuf,
     /// The data points (a curve file for curve reports, a cloud for surface reports).
@@ -30,6 +31,14 @@ pub struct Args {
     /// Where to evaluate: auto, gpu or cpu.
     #[arg(long, default_value = "auto", value_parser = parse_backend)]
     pub backend: Backend,
+    /// Newton steps per point and individual from the first individual's foot points (0:
+    /// offsets at those parameters).
+    #[arg(long, default_value_t = 8)]
+    pub newton: u32,
+    /// Evaluate the population this many more times and print the median seconds of one
+    /// evaluation (for timing against other tools on the same population).
+    #[arg(long, default_value_t = 0)]
+    pub repeat: usize,
     /// Output: one line `sum_sq,max` per individual, in input order (`-` for standard output).
     #[arg(short, long, default_value = "-")]
     pub output: PathBuf,
@@ -37,16 +46,13 @@ pub struct Args {
 
 /// Refuse data or individuals whose squared distances overflow the evaluator's f32, naming the
 /// file and the point or individual (`dim` coordinates a design point).
-fn check_f32<P: Vector>(args: &Args, points: &[P], population: &[f32], n_vars: usize) -> Result<()> {
+fn check_f32<P: Vector>(args: &Args, points: &[P], population: &[f64], n_vars: usize) -> Result<()> {
     if let Err((at, message)) = check_scale(points, Precision::F32) {
         let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
         return Err(usage(format!("{}{at}: {message}", args.points.display())));
     }
-    let mut row = Vec::with_capacity(n_vars);
     for (k, individual) in population.chunks_exact(n_vars).enumerate() {
-        row.clear();
-        row.extend(individual.iter().map(|&v| f64::from(v)));
-        if let Err((i, message)) = check_design_scale(&row, points) {
+        if let Err((i, message)) = check_design_scale(individual, points) {
             return Err(usage(format!(
                 "{}: individual {} (its row {} of values), variable {}: {message}",
                 args.population.display(),
@@ -65,6 +71,8 @@ pub fn run(args: Args) -> Result<()> {
     let out = outs.add("--output", &args.output)?;
     let opts = BatchOptions {
         backend: args.backend,
+        newton: args.newton,
+        repeat: args.repeat,
         ..BatchOptions::default()
     };
     let in_report = |e: bezchain::Error| anyhow::Error::from(e).context(args.report.display().to_string());
@@ -115,5 +123,8 @@ pub fn run(args: Args) -> Result<()> {
         result.fitness.len(),
         result.info
     );
+    if let Some(t) = result.seconds_median {
+        eprintln!("median of {} evaluations: {t:.6} s", args.repeat);
+    }
     Ok(())
 }

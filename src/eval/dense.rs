@@ -1,20 +1,52 @@
-//! Dense evaluation of patch grids on a regular `grid_u × grid_v` grid of global parameters,
-//! with unit normals, for meshes and renders: `shaders/expand.wgsl` then
-//! `shaders/dense_grid.wgsl`, or their CPU mirrors.
+//! Dense evaluation of patch grids on a tensor grid of parameters, with normals, for meshes,
+//! renders and `bezchain sample`: `shaders/expand.wgsl` then `shaders/dense_grid.wgsl`, or
+//! their CPU mirrors.
+//!
+//! **Accuracy.** The designs arrive in f64; the evaluator subtracts the centre of their
+//! bounding box (in f64) before rounding to f32 and adds it back to every position (in f64),
+//! so positions are within about `4 · 2⁻²⁴ × extent` of the f64 surface wherever the grid sits
+//! (`tests/eval_dense.rs` holds them to 2e-6 of a unit-sized grid; the paper's blade far from
+//! the origin agrees as well). A normal is given where the tangents' cross product exceeds
+//! [`NORMAL_FLOOR`] of their squared length: below that its f32 rounding noise could turn it.
 
-use super::cpu::{self, Lanes, Scratch, Simd, LANES};
+use super::cpu::{dense_grid as mirror, expand, Lanes, Scratch, Unfused, LANES};
 use super::gpu::{prepare, source, GpuContext};
-use super::kernel::{Config, Problem, Vertex};
+use super::kernel::{Config, Problem, Sample, Vertex};
 use super::{Backend, BackendInfo, EvalLayout, Targets};
-use crate::chain::{GridLayout, PatchGrid};
+use crate::chain::{ChainLayout, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
+/// Below this sine of the angle between the tangents (times their lengths) a point has no
+/// normal of its own (a collapsed edge, a tip): `|∂S/∂u × ∂S/∂v| < NORMAL_FLOOR ·
+/// max(|∂S/∂u|², |∂S/∂v|²)`.
+pub const NORMAL_FLOOR: f64 = 1e-4;
+
+/// A point of a dense grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DensePoint {
+    /// The surface point.
+    pub position: DVec3,
+    /// The unit normal, `∂S/∂u × ∂S/∂v` normalised; `None` where the tangents are (nearly)
+    /// parallel or vanish (see [`NORMAL_FLOOR`]).
+    pub normal: Option<DVec3>,
+}
+
+/// `n` parameters evenly spaced over `[0, 1]` (both ends included; `[0]` for one).
+#[must_use]
+pub fn uniform(n: usize) -> Vec<f64> {
+    match n {
+        0 => Vec::new(),
+        1 => vec![0.0],
+        _ => (0..n).map(|k| k as f64 / (n - 1) as f64).collect(),
+    }
+}
+
 /// Where a [`DenseEvaluator`] runs.
 #[derive(Debug)]
 enum Engine {
-    Cpu(Simd),
+    Cpu,
     Gpu(Box<DenseGpu>),
 }
 
@@ -25,67 +57,71 @@ struct DenseGpu {
     expand: wgpu::ComputePipeline,
     dense: wgpu::ComputePipeline,
     config: wgpu::Buffer,
-    breaks: wgpu::Buffer,
+    samples: wgpu::Buffer,
     map_start: wgpu::Buffer,
     map_entries: wgpu::Buffer,
 }
 
-/// Samples patch grids of one layout on a fixed grid, design after design.
+/// Samples patch grids of one layout at fixed parameters, design after design.
 #[derive(Debug)]
 pub struct DenseEvaluator {
     problem: Problem,
+    samples: Vec<Sample>,
     grid_u: usize,
     grid_v: usize,
     engine: Engine,
     info: BackendInfo,
 }
 
+/// The samples of one direction: each global parameter located in f64.
+fn locate_all(chain: &ChainLayout, ts: &[f64], what: &str) -> Result<Vec<Sample>> {
+    if ts.is_empty() {
+        return Err(Error::invalid(format!(
+            "a dense grid needs at least one {what} sample"
+        )));
+    }
+    if let Some(t) = ts.iter().find(|t| !(0.0..=1.0).contains(*t)) {
+        return Err(Error::invalid(format!(
+            "dense-grid {what} parameter {t} lies outside [0, 1]"
+        )));
+    }
+    Ok(ts
+        .iter()
+        .map(|&t| {
+            let (index, local) = chain.locate(t);
+            Sample {
+                index: index as u32,
+                t: local as f32,
+            }
+        })
+        .collect())
+}
+
 impl DenseEvaluator {
-    /// An evaluator of `layout` on `grid_u × grid_v` samples (each at least 2) on `backend`;
-    /// Auto falls back to the CPU as [`build_evaluator`](super::build_evaluator) does.
-    pub fn new(layout: &GridLayout, grid_u: usize, grid_v: usize, backend: Backend) -> Result<Self> {
-        Self::build(layout, grid_u, grid_v, backend, None)
-    }
-
-    /// The same on the GPU of an existing context (shared with population evaluators).
-    pub fn on_gpu(ctx: &GpuContext, layout: &GridLayout, grid_u: usize, grid_v: usize) -> Result<Self> {
-        Self::build(layout, grid_u, grid_v, Backend::Gpu, Some(ctx))
-    }
-
-    fn build(
-        layout: &GridLayout,
-        grid_u: usize,
-        grid_v: usize,
-        backend: Backend,
-        shared: Option<&GpuContext>,
-    ) -> Result<Self> {
-        if grid_u < 2 || grid_v < 2 {
-            return Err(Error::invalid("a dense grid needs at least 2 samples each way"));
-        }
+    /// An evaluator of `layout` at every `(u, v)` of `us × vs` (global parameters in
+    /// `[0, 1]`) on `backend`; Auto falls back to the CPU as
+    /// [`build_evaluator`](super::build_evaluator) does.
+    pub fn new(layout: &GridLayout, us: &[f64], vs: &[f64], backend: Backend) -> Result<Self> {
+        let (grid_u, grid_v) = (us.len(), vs.len());
         if grid_u
             .checked_mul(grid_v)
             .is_none_or(|n| n > u32::MAX as usize / 2)
         {
             return Err(Error::invalid("dense grid too large"));
         }
-        // The problem carries the layout; its single target is unused here.
+        let mut samples = locate_all(&layout.u, us, "u")?;
+        samples.extend(locate_all(&layout.v, vs, "v")?);
+        // The problem carries the layout and its map; its single target is unused here.
         let targets = Targets::grid(&[DVec3::ZERO], &[DVec2::ZERO])?;
         let problem = Problem::new(&EvalLayout::Grid(layout.clone()), &targets, 0)?;
-        let cpu = || {
-            let simd = Simd::detect();
-            let info = BackendInfo {
-                backend: Backend::Cpu,
-                adapter: format!("CPU: {} rayon threads", rayon::current_num_threads()),
-                fallback: None,
-            };
-            (Engine::Cpu(simd), info)
+        let cpu = || BackendInfo {
+            backend: Backend::Cpu,
+            adapter: format!("CPU: {} rayon threads", rayon::current_num_threads()),
+            fallback: None,
         };
         let gpu = || -> Result<(Engine, BackendInfo)> {
-            let ctx = match shared {
-                Some(ctx) => ctx.clone(),
-                None => GpuContext::new()?,
-            };
-            let gpu = DenseGpu::new(&ctx, &problem)?;
+            let ctx = GpuContext::shared()?;
+            let gpu = DenseGpu::new(&ctx, &problem, &samples)?;
             let info = BackendInfo {
                 backend: Backend::Gpu,
                 adapter: ctx.adapter().to_owned(),
@@ -94,16 +130,17 @@ impl DenseEvaluator {
             Ok((Engine::Gpu(Box::new(gpu)), info))
         };
         let (engine, info) = match backend {
-            Backend::Cpu => cpu(),
+            Backend::Cpu => (Engine::Cpu, cpu()),
             Backend::Gpu => gpu()?,
             Backend::Auto => gpu().unwrap_or_else(|e| {
-                let (engine, mut info) = cpu();
+                let mut info = cpu();
                 info.fallback = Some(e.to_string());
-                (engine, info)
+                (Engine::Cpu, info)
             }),
         };
         Ok(DenseEvaluator {
             problem,
+            samples,
             grid_u,
             grid_v,
             engine,
@@ -124,9 +161,9 @@ impl DenseEvaluator {
     }
 
     /// Sample every design of `designs` (rows of [`design_variables`](Self::design_variables)
-    /// values): vertex `(d * grid_u + iu) * grid_v + iv` is design `d` at global
-    /// `(iu / (grid_u - 1), iv / (grid_v - 1))`.
-    pub fn eval(&mut self, designs: &[f32]) -> Result<Vec<Vertex>> {
+    /// finite values): point `(d * grid_u + iu) * grid_v + iv` is design `d` at `(us[iu],
+    /// vs[iv])`.
+    pub fn eval(&mut self, designs: &[f64]) -> Result<Vec<DensePoint>> {
         let n_vars = self.problem.n_vars;
         if designs.is_empty() || !designs.len().is_multiple_of(n_vars) {
             return Err(Error::invalid(format!(
@@ -134,98 +171,100 @@ impl DenseEvaluator {
                 designs.len()
             )));
         }
+        if designs.iter().any(|x| !x.is_finite()) {
+            return Err(Error::invalid("designs to sample must be finite"));
+        }
+        // The reference point: the centre of the designs' box. The extraction map's rows are
+        // affine (their weights sum to 1), so nets of `x - centre` are the nets less `centre`.
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in designs.chunks_exact(3) {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let centre = [0, 1, 2].map(|c| 0.5 * (lo[c] + hi[c]));
+        let shifted: Vec<f32> = designs
+            .chunks_exact(3)
+            .flat_map(|p| [0, 1, 2].map(|c| (p[c] - centre[c]) as f32))
+            .collect();
         let count = designs.len() / n_vars;
         let mut config = self.problem.config(count, LANES, (1, 1));
         config.grid_u = self.grid_u as u32;
         config.grid_v = self.grid_v as u32;
-        match &self.engine {
-            Engine::Cpu(simd) => Ok(dense_cpu(*simd, &config, &self.problem, designs)),
+        let vertices = match &self.engine {
+            Engine::Cpu => dense_cpu(&config, &self.problem, &self.samples, &shifted),
             Engine::Gpu(gpu) => {
                 config.net_stride = count as u32;
-                gpu.eval(&config, &self.problem, designs)
+                gpu.eval(&config, &self.problem, &shifted)?
             }
-        }
+        };
+        let c = DVec3::from(centre);
+        Ok(vertices
+            .iter()
+            .map(|v| {
+                let n = DVec3::new(v.nx.into(), v.ny.into(), v.nz.into());
+                let floor = NORMAL_FLOOR * f64::from(v.tangent_sq);
+                DensePoint {
+                    position: c + DVec3::new(v.px.into(), v.py.into(), v.pz.into()),
+                    normal: (n.length() > floor).then(|| n.try_normalize()).flatten(),
+                }
+            })
+            .collect())
     }
 }
 
-/// Sample one patch grid: its vertices, row-major `grid_u × grid_v`, and where they were
-/// computed.
+/// Sample one patch grid at every `(u, v)` of `us × vs` (row-major, `us` along rows), and say
+/// where it was computed.
 pub fn dense_grid(
     grid: &PatchGrid<DVec3>,
-    grid_u: usize,
-    grid_v: usize,
+    us: &[f64],
+    vs: &[f64],
     backend: Backend,
-) -> Result<(Vec<Vertex>, BackendInfo)> {
-    let mut evaluator = DenseEvaluator::new(grid.layout(), grid_u, grid_v, backend)?;
-    let design: Vec<f32> = grid
-        .design()
-        .iter()
-        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-        .collect();
-    let vertices = evaluator.eval(&design)?;
-    Ok((vertices, evaluator.info().clone()))
+) -> Result<(Vec<DensePoint>, BackendInfo)> {
+    let mut evaluator = DenseEvaluator::new(grid.layout(), us, vs, backend)?;
+    let design: Vec<f64> = grid.design().iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    let points = evaluator.eval(&design)?;
+    Ok((points, evaluator.info().clone()))
 }
 
-/// The CPU path: expand each block of designs, then every vertex of every design in it.
-fn dense_cpu(simd: Simd, config: &Config, problem: &Problem, designs: &[f32]) -> Vec<Vertex> {
+/// The CPU path: expand each block of designs, then every row of samples of every design in
+/// parallel.
+fn dense_cpu(config: &Config, problem: &Problem, samples: &[Sample], designs: &[f32]) -> Vec<Vertex> {
     let (gu, gv) = (config.grid_u as usize, config.grid_v as usize);
-    let per = gu * gv;
     let count = config.population as usize;
-    let mut out = vec![Vertex::default(); count * per];
-    out.par_chunks_mut(LANES * per).enumerate().for_each_init(
-        || Scratch::new(problem),
-        |scratch, (block, chunk)| match simd {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::Avx2` comes from `Simd::detect`, which saw AVX2.
-            Simd::Avx2 => unsafe { dense_block_avx2(config, problem, designs, block, scratch, chunk) },
-            _ => dense_block(config, problem, designs, block, scratch, chunk),
-        },
-    );
+    let zero = vec![0.0; problem.n_vars];
+    let nets: Vec<Vec<Lanes>> = (0..count.div_ceil(LANES))
+        .into_par_iter()
+        .map(|block| {
+            let mut s = Scratch::new(problem);
+            expand::expand::<Unfused, f32>(
+                config,
+                &problem.map_start,
+                &problem.map_entries,
+                &zero,
+                designs,
+                block,
+                &mut s.design,
+                &mut s.net,
+            );
+            s.net
+        })
+        .collect();
+    let mut out = vec![Vertex::default(); count * gu * gv];
+    out.par_chunks_mut(gv).enumerate().for_each(|(row, vertices)| {
+        let (d, iu) = (row / gu, row % gu);
+        let net = &nets[d / LANES];
+        for (iv, v) in vertices.iter_mut().enumerate() {
+            *v = mirror::dense_grid::<Unfused>(config, samples, net, d % LANES, iu, iv);
+        }
+    });
     out
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn dense_block_avx2(
-    config: &Config,
-    problem: &Problem,
-    designs: &[f32],
-    block: usize,
-    scratch: &mut Scratch,
-    out: &mut [Vertex],
-) {
-    dense_block(config, problem, designs, block, scratch, out);
-}
-
-#[inline(always)]
-fn dense_block(
-    config: &Config,
-    problem: &Problem,
-    designs: &[f32],
-    block: usize,
-    scratch: &mut Scratch,
-    out: &mut [Vertex],
-) {
-    cpu::expand::expand(
-        config,
-        &problem.map_start,
-        &problem.map_entries,
-        designs,
-        block,
-        &mut scratch.design,
-        &mut scratch.net,
-    );
-    let (gu, gv) = (config.grid_u as usize, config.grid_v as usize);
-    let net: &[Lanes] = &scratch.net;
-    for (lane, vertices) in out.chunks_exact_mut(gu * gv).enumerate() {
-        for (k, v) in vertices.iter_mut().enumerate() {
-            *v = cpu::dense_grid::dense_grid(config, &problem.breaks, net, lane, k / gv, k % gv);
-        }
-    }
-}
-
 impl DenseGpu {
-    fn new(ctx: &GpuContext, problem: &Problem) -> Result<Self> {
+    fn new(ctx: &GpuContext, problem: &Problem, samples: &[Sample]) -> Result<Self> {
         let consts = [
             ("DIM", problem.dim as u32),
             ("DU", problem.du as u32),
@@ -241,7 +280,7 @@ impl DenseGpu {
                 std::mem::size_of::<Config>() as u64,
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            breaks: ctx.buffer_init("breaks", bytemuck::cast_slice(&problem.breaks), storage),
+            samples: ctx.buffer_init("samples", bytemuck::cast_slice(samples), storage),
             map_start: ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), storage),
             map_entries: ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), storage),
         })
@@ -255,9 +294,12 @@ impl DenseGpu {
         let bytes = (vertices * std::mem::size_of::<Vertex>()) as u64;
         let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         let net_bytes = (count * problem.n_ctrl * problem.dim * 4) as u64;
+        let dispatch = limits.max_compute_workgroups_per_dimension;
         if bytes > binding
             || net_bytes > binding
-            || count > limits.max_compute_workgroups_per_dimension as usize
+            || count > dispatch as usize
+            || config.grid_u.div_ceil(8) > dispatch
+            || config.grid_v.div_ceil(8) > dispatch
         {
             return Err(Error::invalid(format!(
                 "{count} designs of {vertices} vertices exceed the device limits; sample fewer at once"
@@ -286,7 +328,7 @@ impl DenseGpu {
                 &net,
             ],
         );
-        let bind_dense = ctx.bind(&self.dense, &[&self.config, &self.breaks, &net, &out]);
+        let bind_dense = ctx.bind(&self.dense, &[&self.config, &self.samples, &net, &out]);
         ctx.queue
             .write_buffer(&self.config, 0, bytemuck::bytes_of(config));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -310,10 +352,9 @@ impl DenseGpu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{ChainLayout, Continuity};
+    use crate::chain::Continuity;
 
-    #[test]
-    fn cpu_vertices_match_the_f64_grid() {
+    fn wavy(offset: DVec3) -> PatchGrid<DVec3> {
         let g = GridLayout::new(
             ChainLayout::with_breaks(3, vec![0.0, 0.3, 1.0], Continuity::C1).unwrap(),
             ChainLayout::uniform(2, 3, Continuity::C1).unwrap(),
@@ -325,20 +366,55 @@ mod tests {
                     (k / nv) as f64 / (nu - 1) as f64,
                     (k % nv) as f64 / (nv - 1) as f64,
                 );
-                DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y)
+                offset + DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y)
             })
             .collect();
-        let grid = PatchGrid::new(g, design).unwrap();
-        let (vertices, info) = dense_grid(&grid, 9, 7, Backend::Cpu).unwrap();
-        assert_eq!(info.backend, Backend::Cpu);
-        for (k, v) in vertices.iter().enumerate() {
-            let (u, w) = ((k / 7) as f64 / 8.0, (k % 7) as f64 / 6.0);
-            let (p, pu, pv) = grid.partials(u, w);
-            let n = pu.cross(pv).normalize();
-            let got = DVec3::new(v.px.into(), v.py.into(), v.pz.into());
-            let gn = DVec3::new(v.nx.into(), v.ny.into(), v.nz.into());
-            assert!((got - p).length() < 1e-6, "vertex {k}: {got} vs {p}");
-            assert!((gn - n).length() < 1e-5, "normal {k}: {gn} vs {n}");
+        PatchGrid::new(g, design).unwrap()
+    }
+
+    #[test]
+    fn cpu_points_match_the_f64_grid_wherever_it_sits() {
+        for offset in [DVec3::ZERO, DVec3::new(1000.0, 1000.0, 0.0)] {
+            let grid = wavy(offset);
+            let (us, vs) = (uniform(9), uniform(7));
+            let (points, info) = dense_grid(&grid, &us, &vs, Backend::Cpu).unwrap();
+            assert_eq!(info.backend, Backend::Cpu);
+            for (k, p) in points.iter().enumerate() {
+                let (u, w) = (us[k / 7], vs[k % 7]);
+                let (s, su, sv) = grid.partials(u, w);
+                let n = su.cross(sv).normalize();
+                assert!(
+                    (p.position - s).length() < 2e-6,
+                    "{offset}: point {k}: {} vs {s}",
+                    p.position
+                );
+                let got = p.normal.expect("a smooth sheet has normals");
+                assert!((got - n).length() < 1e-5, "normal {k}: {got} vs {n}");
+            }
         }
+    }
+
+    #[test]
+    fn the_extraction_maps_are_affine() {
+        // The dense evaluator moves designs by a point and relies on it moving nets alike.
+        let grid = wavy(DVec3::ZERO);
+        let l = grid.layout();
+        for chain in [&l.u, &l.v] {
+            for r in 0..chain.map().rows() {
+                let sum: f64 = chain.map().row(r).1.iter().sum();
+                assert!((sum - 1.0).abs() < 1e-12, "row {r} sums to {sum}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_samples_are_errors() {
+        let grid = wavy(DVec3::ZERO);
+        assert!(dense_grid(&grid, &[], &[0.5], Backend::Cpu).is_err());
+        assert!(dense_grid(&grid, &[1.5], &[0.5], Backend::Cpu).is_err());
+        assert!(dense_grid(&grid, &[f64::NAN], &[0.5], Backend::Cpu).is_err());
+        let mut ev = DenseEvaluator::new(grid.layout(), &[0.5], &[0.5], Backend::Cpu).unwrap();
+        assert!(ev.eval(&[1.0]).is_err());
+        assert!(ev.eval(&vec![f64::NAN; ev.design_variables()]).is_err());
     }
 }

@@ -1,14 +1,46 @@
 //! The data both evaluation paths share: the `#[repr(C)]` structs mirrored in the shaders, and
-//! `Problem`, a layout and its targets flattened into the arrays the kernels read.
+//! `Problem`, a layout, its targets and a reference design flattened into the arrays the
+//! kernels read.
+//!
+//! **Mixed precision.** The kernels never see absolute coordinates. A reference design
+//! `x_ref` (f64) is evaluated here in f64 at every target's start parameters: its offset
+//! `r0 = S_ref(u0, v0) - q` and its first and second partials there. The kernels receive
+//! those, rounded once to f32, and each individual as its difference `x - x_ref` (taken in f64,
+//! then rounded); they compute in f32 only the difference's contribution. Every f32 quantity is
+//! then an offset or a difference, so rounding errors are relative to those, not to where the
+//! data sit:
+//!
+//! - at fixed parameters (`newton` 0) an offset is `r0 + Σ w_k Δ_k` exactly as written; its
+//!   error is about `2⁻²⁴ (|r0| + (n + 1) max |w_k Δ_k|)` with n + 1 terms per coordinate
+//!   (the weights `w_k`, basis products in f32, err by a few units in their last place, which
+//!   only the small differences `Δ_k` see);
+//! - a Newton step's displacement `δ` (local patch units) from the start parameters uses the
+//!   reference's second-order Taylor polynomial, which errs by about `|∂³S_ref| |δ|³ / 6`
+//!   (a third partial of the reference in local units) and, past a patch border, by `J δ² / 2`
+//!   more (`J` the jump of the second derivative there). Each target carries how far its
+//!   steps may go (`reach_u`, `reach_v`) for that error to stay below `2⁻¹³ ×` the targets'
+//!   extent: a guard against extrapolating the polynomial where it could invent foot points
+//!   (a foot point beyond reach is not followed, the offset is then an upper bound). Near the
+//!   reference, where a population method converges, steps are short and the error `|∂³S|
+//!   |δ|³ / 6` far below rounding (1e-15 for a step of 1e-5).
+//!
+//! Without a reference the evaluator takes every design point at the centre of the targets'
+//! bounding box: the offsets are then exactly the old absolute ones, but measured from the
+//! centre, so accuracy is about `2⁻²⁴ × extent` wherever the data sit. Population methods
+//! re-anchor the reference at their best design (see [`PopulationEvaluator::set_reference`]).
+//!
+//! [`PopulationEvaluator::set_reference`]: super::PopulationEvaluator::set_reference
 
-use super::{EvalLayout, Targets};
+use super::cpu::basis::bernstein;
+use super::cpu::Unfused;
+use super::{EvalLayout, Fitness, PopulationEvaluator, Targets};
+use crate::bezier::bernstein as bernstein_f64;
 use crate::chain::ChainLayout;
 use crate::error::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Uniform block of every shader. Must be kept in sync with `struct Config` in
-/// `shaders/expand.wgsl`, `shaders/eval_patch.wgsl`, `shaders/reduce.wgsl` and
-/// `shaders/dense_grid.wgsl`.
+/// `shaders/config.wgsl` (spliced into every shader).
 ///
 /// The shaders take the degrees and the dimension as specialised constants; they are also
 /// here for the CPU mirrors, which read them at run time.
@@ -58,27 +90,48 @@ pub struct Config {
     pub _pad2: u32,
 }
 
-/// One target point with its start parameters. Must be kept in sync with `struct Target` in
-/// `shaders/eval_patch.wgsl`.
+/// One target point: the reference design's offset at the point's start parameters, and
+/// those parameters. Must be kept in sync with `struct Target` in `shaders/eval_patch.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Target {
-    /// x coordinate.
-    pub x: f32,
-    /// y coordinate.
-    pub y: f32,
-    /// z coordinate (0 for a curve).
-    pub z: f32,
+    /// x of `S_ref(u0, v0) - q`, model units (computed in f64, rounded once).
+    pub rx: f32,
+    /// y of that offset.
+    pub ry: f32,
+    /// z of that offset (0 for a curve).
+    pub rz: f32,
     /// Patch `i * patches_v + j` holding the start parameters.
     pub patch_id: u32,
     /// Local parameter along u in that patch, in `[0, 1]`.
     pub u: f32,
     /// Local parameter along v in that patch, in `[0, 1]` (0 for a curve).
     pub v: f32,
-    /// Padding to 32 bytes.
-    pub _pad0: u32,
-    /// Padding to 32 bytes.
-    pub _pad1: u32,
+    /// Largest displacement along u from `u` (local units of this patch) over which the
+    /// reference's Taylor polynomial stays within its tolerance: Newton steps go no further.
+    pub reach_u: f32,
+    /// The same along v.
+    pub reach_v: f32,
+}
+
+/// The reference design's first and second partials at a target's start parameters, per
+/// coordinate, in the start patch's local parameters (f64, rounded once). Must be kept in sync
+/// with `struct RefJet` in `shaders/eval_patch.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RefJet {
+    /// `∂S/∂u`.
+    pub su: [f32; 3],
+    /// `∂S/∂v` (0 for a curve).
+    pub sv: [f32; 3],
+    /// `∂²S/∂u²`.
+    pub suu: [f32; 3],
+    /// `∂²S/∂u∂v`.
+    pub suv: [f32; 3],
+    /// `∂²S/∂v²`.
+    pub svv: [f32; 3],
+    /// Padding to 64 bytes.
+    pub _pad: f32,
 }
 
 /// Sum and maximum of squared offsets over one group of points. Must be kept in sync with
@@ -103,29 +156,51 @@ pub struct MapEntry {
     pub weight: f32,
 }
 
-/// A point of a dense grid with its unit normal. Must be kept in sync with `struct Vertex`
-/// in `shaders/dense_grid.wgsl`.
+/// One sample of a dense grid along one direction: a patch and the local parameter in it.
+/// Must be kept in sync with `struct Sample` in `shaders/dense_grid.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Sample {
+    /// Patch index along this direction.
+    pub index: u32,
+    /// Local parameter in that patch, in `[0, 1]`.
+    pub t: f32,
+}
+
+/// A point of a dense grid with its tangent cross product. Must be kept in sync with `struct
+/// Vertex` in `shaders/dense_grid.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
-    /// Position x.
+    /// Position x, relative to the evaluator's reference point.
     pub px: f32,
     /// Position y.
     pub py: f32,
     /// Position z.
     pub pz: f32,
-    /// Unit normal x (0 where the surface is degenerate).
+    /// x of `∂S/∂u × ∂S/∂v` in the patch's local parameters (not normalised).
     pub nx: f32,
-    /// Unit normal y.
+    /// y of that product.
     pub ny: f32,
-    /// Unit normal z.
+    /// z of that product.
     pub nz: f32,
+    /// `max(|∂S/∂u|², |∂S/∂v|²)`, the scale of that product.
+    pub tangent_sq: f32,
+    /// Padding to 32 bytes.
+    pub _pad: f32,
 }
 
 /// Sentinel for "no patch held".
 pub(crate) const NONE: u32 = u32::MAX;
 
 pub use crate::chain::MAX_DEGREE;
+
+/// Basis arrays hold up to this many values (degree [`MAX_DEGREE`]).
+pub(crate) const NB: usize = MAX_DEGREE + 1;
+
+/// The largest error Newton steps may let the reference's Taylor polynomial make, as a
+/// fraction of the targets' extent (see [`Problem::refresh`]).
+const REACH_TOLERANCE: f64 = 1.0 / 8192.0;
 
 /// Below this many target points per group, splitting the points no longer pays.
 const MIN_GROUP_POINTS: usize = 256;
@@ -146,8 +221,65 @@ pub(crate) fn point_groups(population: usize, points: usize) -> (usize, usize) {
     (group_points, points.div_ceil(group_points).max(1))
 }
 
-/// A layout and its targets flattened for the kernels: degrees, breaks, the extraction map in
-/// f32 compressed rows, and the targets sorted by patch.
+/// The degree-`n` Bernstein values with their first, second and third derivatives at `t`, in
+/// f64.
+fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 4] {
+    let mut out = [[0.0; NB]; 4];
+    bernstein_f64(n, t, &mut out[0]);
+    let nf = n as f64;
+    if n >= 1 {
+        let mut low = [0.0; NB];
+        bernstein_f64(n - 1, t, &mut low);
+        for i in 0..=n {
+            let a = if i > 0 { low[i - 1] } else { 0.0 };
+            out[1][i] = nf * (a - low[i]);
+        }
+    }
+    if n >= 2 {
+        let mut low = [0.0; NB];
+        bernstein_f64(n - 2, t, &mut low);
+        for i in 0..=n {
+            let a = if i > 1 { low[i - 2] } else { 0.0 };
+            let b = if i > 0 { low[i - 1] } else { 0.0 };
+            out[2][i] = nf * (nf - 1.0) * (a - 2.0 * b + low[i]);
+        }
+    }
+    if n >= 3 {
+        let mut low = [0.0; NB];
+        bernstein_f64(n - 3, t, &mut low);
+        let at = |k: usize, back: usize| if k >= back { low[k - back] } else { 0.0 };
+        for (i, d3) in out[3].iter_mut().enumerate().take(n + 1) {
+            *d3 = nf * (nf - 1.0) * (nf - 2.0) * (at(i, 3) - 3.0 * at(i, 2) + 3.0 * at(i, 1) - at(i, 0));
+        }
+    }
+    out
+}
+
+/// The end of `[0, 1]` nearer `t`.
+fn near_end(t: f64) -> f64 {
+    if t < 0.5 {
+        0.0
+    } else {
+        1.0
+    }
+}
+
+/// A target's start parameters, located in f64.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Located {
+    /// Patch `i * pv + j`.
+    patch: u32,
+    /// Local u in it.
+    u: f64,
+    /// Local v in it.
+    v: f64,
+    /// Index of the point in input order.
+    point: u32,
+}
+
+/// A layout, its targets and the reference design flattened for the kernels: degrees, breaks,
+/// the extraction map in f32 compressed rows, and the targets sorted by patch with the
+/// reference's offsets, partials and basis weights at their start parameters.
 #[derive(Clone, Debug)]
 pub(crate) struct Problem {
     /// 2 for a curve, 3 for a grid.
@@ -174,6 +306,11 @@ pub(crate) struct Problem {
     pub map_entries: Vec<MapEntry>,
     /// Targets sorted by patch.
     pub targets: Vec<Target>,
+    /// `weights[k * ncp + a * (dv + 1) + b]`: `B_a(u0) B_b(v0)` of target `k`, in f32 by the
+    /// shader's recurrence (the values `eval_patch.wgsl` computes for itself).
+    pub weights: Vec<f32>,
+    /// The reference's partials at each target's start parameters.
+    pub jets: Vec<RefJet>,
     /// `targets[k]` is input point `order[k]`.
     pub order: Vec<u32>,
     /// Foot-point Newton steps.
@@ -182,11 +319,21 @@ pub(crate) struct Problem {
     pub cross: bool,
     u: ChainLayout,
     v: Option<ChainLayout>,
+    /// The map's weights in f64, parallel to `map_entries`.
+    map_f64: Vec<f64>,
+    /// Target points in input order.
     points: Vec<[f64; 3]>,
+    /// Start parameters of the sorted targets.
+    located: Vec<Located>,
+    /// The reference design.
+    reference: Vec<f64>,
+    /// Its expanded net.
+    ref_net: Vec<[f64; 3]>,
 }
 
 impl Problem {
-    /// Flatten `layout` and `targets`, checking their sizes.
+    /// Flatten `layout` and `targets`, checking their sizes; the reference is the centre of
+    /// the targets' bounding box.
     pub fn new(layout: &EvalLayout, targets: &Targets, newton: u32) -> Result<Self> {
         let (u, v, dim) = match layout {
             EvalLayout::Curve(c) => (c.clone(), None, 2),
@@ -221,6 +368,7 @@ impl Problem {
         let design_cols = v.as_ref().map_or(1, ChainLayout::design_count);
         let mut map_start = vec![0u32];
         let mut map_entries = Vec::new();
+        let mut map_f64 = Vec::new();
         for r in 0..u.expanded_count() {
             let (iu, wu) = u.map().row(r);
             for c in 0..net_cols {
@@ -233,19 +381,36 @@ impl Problem {
                                     index: a * design_cols as u32 + b,
                                     weight: (wa * wb) as f32,
                                 });
+                                map_f64.push(wa * wb);
                             }
                         }
                     }
-                    None => map_entries.extend(iu.iter().zip(wu).map(|(&a, &wa)| MapEntry {
-                        index: a,
-                        weight: wa as f32,
-                    })),
+                    None => {
+                        for (&a, &wa) in iu.iter().zip(wu) {
+                            map_entries.push(MapEntry {
+                                index: a,
+                                weight: wa as f32,
+                            });
+                            map_f64.push(wa);
+                        }
+                    }
                 }
                 map_start.push(map_entries.len() as u32);
             }
         }
         let n_vars = u.design_count() * design_cols * dim;
-        let points = targets.points().iter().map(|p| [p.x, p.y, p.z]).collect();
+        let points: Vec<[f64; 3]> = targets.points().iter().map(|p| [p.x, p.y, p.z]).collect();
+        // The default reference: every design point at the centre of the targets' box.
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &points {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let centre: Vec<f64> = (0..dim).map(|c| 0.5 * (lo[c] + hi[c])).collect();
+        let reference: Vec<f64> = (0..n_vars).map(|k| centre[k % dim]).collect();
         let mut problem = Problem {
             dim,
             du,
@@ -259,20 +424,27 @@ impl Problem {
             map_start,
             map_entries,
             targets: Vec::new(),
+            weights: Vec::new(),
+            jets: Vec::new(),
             order: Vec::new(),
             newton,
             cross: false,
             u,
             v,
+            map_f64,
             points,
+            located: Vec::new(),
+            reference: Vec::new(),
+            ref_net: Vec::new(),
         };
+        problem.expand_reference(reference);
         let params: Vec<[f64; 2]> = targets.params().iter().map(|p| [p.x, p.y]).collect();
         problem.set_params(&params)?;
         Ok(problem)
     }
 
     /// Replace the start parameters: global `(u, v)` per input point (`v` ignored for a curve),
-    /// clamped to `[0, 1]`. Re-sorts the targets by patch.
+    /// clamped to `[0, 1]`. Re-sorts the targets by patch and re-evaluates the reference there.
     pub fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
         if params.len() != self.points.len() {
             return Err(Error::invalid(format!(
@@ -284,32 +456,218 @@ impl Problem {
         if params.iter().flatten().any(|t| !t.is_finite()) {
             return Err(Error::invalid("target parameters must be finite"));
         }
-        let mut tagged: Vec<(Target, u32)> = self
-            .points
+        let mut located: Vec<Located> = params
             .iter()
-            .zip(params)
             .enumerate()
-            .map(|(k, (p, t))| {
+            .map(|(k, t)| {
                 let (i, a) = self.u.locate(t[0]);
                 let (j, b) = self.v.as_ref().map_or((0, 0.0), |v| v.locate(t[1]));
-                let target = Target {
-                    x: p[0] as f32,
-                    y: p[1] as f32,
-                    z: p[2] as f32,
-                    patch_id: (i * self.pv + j) as u32,
-                    u: a as f32,
-                    v: b as f32,
-                    _pad0: 0,
-                    _pad1: 0,
-                };
-                (target, k as u32)
+                Located {
+                    patch: (i * self.pv + j) as u32,
+                    u: a,
+                    v: b,
+                    point: k as u32,
+                }
             })
             .collect();
         // Stable: points of one patch keep their input order.
-        tagged.sort_by_key(|(t, _)| t.patch_id);
-        self.targets = tagged.iter().map(|(t, _)| *t).collect();
-        self.order = tagged.iter().map(|(_, k)| *k).collect();
+        located.sort_by_key(|l| l.patch);
+        self.order = located.iter().map(|l| l.point).collect();
+        self.located = located;
+        self.refresh();
         Ok(())
+    }
+
+    /// Replace the reference design (`n_vars` finite values) and re-evaluate it at the start
+    /// parameters.
+    pub fn set_reference(&mut self, design: &[f64]) -> Result<()> {
+        if design.len() != self.n_vars {
+            return Err(Error::invalid(format!(
+                "a reference design of {} values for {} design variables",
+                design.len(),
+                self.n_vars
+            )));
+        }
+        if design.iter().any(|x| !x.is_finite()) {
+            return Err(Error::invalid("the reference design must be finite"));
+        }
+        self.expand_reference(design.to_vec());
+        self.refresh();
+        Ok(())
+    }
+
+    /// The reference design.
+    #[must_use]
+    pub fn reference(&self) -> &[f64] {
+        &self.reference
+    }
+
+    /// Store `design` as the reference and expand it through the f64 map.
+    fn expand_reference(&mut self, design: Vec<f64>) {
+        let dim = self.dim;
+        self.ref_net = (0..self.n_ctrl)
+            .map(|r| {
+                let mut p = [0.0; 3];
+                let (s, e) = (self.map_start[r] as usize, self.map_start[r + 1] as usize);
+                for (m, &w) in self.map_entries[s..e].iter().zip(&self.map_f64[s..e]) {
+                    for (c, pc) in p.iter_mut().enumerate().take(dim) {
+                        *pc += w * design[m.index as usize * dim + c];
+                    }
+                }
+                p
+            })
+            .collect();
+        self.reference = design;
+    }
+
+    /// The reference's partials at local `(u, v)` of patch `(i, j)`: `jet[ou][ov][c]`, orders
+    /// up to 3 together, in the patch's local units.
+    fn reference_jet(&self, i: usize, j: usize, u: f64, v: f64) -> [[[f64; 3]; 4]; 4] {
+        let (du, dv, dim) = (self.du, self.dv, self.dim);
+        let bu = basis_f64(du, u);
+        let bv = basis_f64(dv, v);
+        let mut jet = [[[0.0f64; 3]; 4]; 4];
+        for a in 0..=du {
+            for b in 0..=dv {
+                let p = &self.ref_net[(i * du + a) * self.net_cols + j * dv + b];
+                for (ou, bu) in bu.iter().enumerate() {
+                    for (ov, bv) in bv.iter().enumerate().take(4 - ou) {
+                        let w = bu[a] * bv[b];
+                        for c in 0..dim {
+                            jet[ou][ov][c] += w * p[c];
+                        }
+                    }
+                }
+            }
+        }
+        jet
+    }
+
+    /// How far Newton steps may move from local `(u, v)` of patch `(i, j)` before the
+    /// reference's second-order Taylor polynomial errs by more than `tol` (see the module notes):
+    /// the cubic remainder within the patch, and the jump of the second derivative at a
+    /// border within reach (where the polynomial runs on past the patch).
+    fn reach(&self, i: usize, j: usize, u: f64, v: f64, jet: &[[[f64; 3]; 4]; 4], tol: f64) -> [f64; 2] {
+        let norm = |x: &[f64; 3]| x.iter().map(|c| c * c).sum::<f64>().sqrt();
+        // Third partials bound the remainder by m3 (|δu| + |δv|)³ / 6 ≤ (4/3) m3 δ³.
+        let m3 = [jet[3][0], jet[2][1], jet[1][2], jet[0][3]]
+            .iter()
+            .map(norm)
+            .fold(0.0, f64::max);
+        let inner = if m3 > 0.0 {
+            (0.75 * tol / m3).cbrt()
+        } else {
+            f64::INFINITY
+        };
+        let mut reach = [inner; 2];
+        // A border nearer than that: past it the neighbour's second derivative differs by the
+        // jump J, and the polynomial errs by up to J δ² / 2.
+        let jump = |dir: usize, near: f64, neighbour: Option<(usize, usize, f64, f64)>| -> f64 {
+            match neighbour {
+                Some((ni, nj, nu, nv)) if near < inner => {
+                    let here = self.reference_jet(
+                        i,
+                        j,
+                        if dir == 0 { near_end(u) } else { u },
+                        if dir == 1 { near_end(v) } else { v },
+                    );
+                    let there = self.reference_jet(ni, nj, nu, nv);
+                    // Second derivative along dir, in this patch's local units.
+                    let (h0, h1) = if dir == 0 {
+                        (self.u.segment_length(i), self.u.segment_length(ni))
+                    } else {
+                        let lv = self.v.as_ref().map_or(1.0, |l| l.segment_length(j));
+                        (lv, self.v.as_ref().map_or(1.0, |l| l.segment_length(nj)))
+                    };
+                    let k = (h0 / h1).powi(2);
+                    let (a, b) = if dir == 0 {
+                        (here[2][0], there[2][0])
+                    } else {
+                        (here[0][2], there[0][2])
+                    };
+                    let d = [a[0] - k * b[0], a[1] - k * b[1], a[2] - k * b[2]];
+                    let j2 = norm(&d);
+                    if j2 > 0.0 {
+                        (2.0 * tol / j2).sqrt()
+                    } else {
+                        f64::INFINITY
+                    }
+                }
+                _ => f64::INFINITY,
+            }
+        };
+        let pv = self.pv;
+        let below_u = (i > 0).then(|| (i - 1, j, 1.0, v));
+        let above_u = (i + 1 < self.pu).then(|| (i + 1, j, 0.0, v));
+        let below_v = (j > 0).then(|| (i, j - 1, u, 1.0));
+        let above_v = (j + 1 < pv).then(|| (i, j + 1, u, 0.0));
+        let near_u = if u < 0.5 { (u, below_u) } else { (1.0 - u, above_u) };
+        let near_v = if v < 0.5 { (v, below_v) } else { (1.0 - v, above_v) };
+        reach[0] = reach[0].min(jump(0, near_u.0, near_u.1));
+        reach[1] = reach[1].min(jump(1, near_v.0, near_v.1));
+        reach
+    }
+
+    /// Rebuild the kernels' per-target arrays from the located targets and the reference.
+    fn refresh(&mut self) {
+        let (du, dv) = (self.du, self.dv);
+        let ncp = (du + 1) * (dv + 1);
+        // A guard against extrapolating the Taylor polynomial far, where it can invent closest
+        // points that are not there: steps stop where it could err by 2⁻¹³ of the extent. (Near
+        // the reference, where population methods converge, steps are far shorter and the
+        // polynomial exact to rounding; tighter guards bias the offsets of individuals whose
+        // foot points move further, and cost the GA and CMA-ES their minima on case 1.)
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.points {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        let extent = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+        let tol = REACH_TOLERANCE * extent.max(f64::MIN_POSITIVE);
+        let mut targets = Vec::with_capacity(self.located.len());
+        let mut jets = Vec::with_capacity(self.located.len());
+        let mut weights = Vec::with_capacity(self.located.len() * ncp);
+        for l in &self.located {
+            let i = l.patch as usize / self.pv;
+            let j = l.patch as usize - i * self.pv;
+            let jet = self.reference_jet(i, j, l.u, l.v);
+            let reach = self.reach(i, j, l.u, l.v, &jet, tol);
+            // The shader's weights: its f32 recurrence at the f32 parameters, multiply then add.
+            let fu = bernstein::<Unfused>(du, l.u as f32);
+            let fv = bernstein::<Unfused>(dv, l.v as f32);
+            for wu in &fu[..=du] {
+                for wv in &fv[..=dv] {
+                    weights.push(wu * wv);
+                }
+            }
+            let q = &self.points[l.point as usize];
+            let r = [0, 1, 2].map(|c| (jet[0][0][c] - q[c]) as f32);
+            let f = |x: [f64; 3]| x.map(|v| v as f32);
+            targets.push(Target {
+                rx: r[0],
+                ry: r[1],
+                rz: r[2],
+                patch_id: l.patch,
+                u: l.u as f32,
+                v: l.v as f32,
+                reach_u: reach[0].min(f64::from(f32::MAX)) as f32,
+                reach_v: reach[1].min(f64::from(f32::MAX)) as f32,
+            });
+            jets.push(RefJet {
+                su: f(jet[1][0]),
+                sv: f(jet[0][1]),
+                suu: f(jet[2][0]),
+                suv: f(jet[1][1]),
+                svv: f(jet[0][2]),
+                _pad: 0.0,
+            });
+        }
+        self.targets = targets;
+        self.jets = jets;
+        self.weights = weights;
     }
 
     /// Number of target points.
@@ -318,16 +676,32 @@ impl Problem {
         self.targets.len()
     }
 
+    /// The rounding error an f32 sum of squares near `sum_sq` may carry, to first order, for
+    /// an individual near the reference: `2⁻²⁴ (N + 2 (n + D + 1)) sum_sq` for N points, n
+    /// control points a patch and D coordinates (the sum over the points, then each offset's
+    /// chain of n + 1 multiply-adds and its square doubled).
+    #[must_use]
+    pub fn resolution(&self, sum_sq: f64) -> f64 {
+        let terms = self.n_points() + 2 * (self.ncp() + self.dim + 1);
+        terms as f64 * f64::from(f32::EPSILON) / 2.0 * sum_sq.abs()
+    }
+
+    /// Control points of one patch.
+    #[must_use]
+    pub fn ncp(&self) -> usize {
+        (self.du + 1) * (self.dv + 1)
+    }
+
     /// Individuals in `population` (a whole number of rows of `n_vars`), checked against `out`.
-    pub fn rows(&self, population: &[f32], out_len: usize) -> Result<usize> {
-        if !population.len().is_multiple_of(self.n_vars) {
+    pub fn rows(&self, population_len: usize, out_len: usize) -> Result<usize> {
+        if !population_len.is_multiple_of(self.n_vars) {
             return Err(Error::invalid(format!(
-                "population of {} values is not a whole number of rows of {} design variables",
-                population.len(),
+                "population of {population_len} values is not a whole number of rows of {} \
+                 design variables",
                 self.n_vars
             )));
         }
-        let rows = population.len() / self.n_vars;
+        let rows = population_len / self.n_vars;
         if rows != out_len {
             return Err(Error::invalid(format!(
                 "{rows} individuals but room for {out_len} results"
@@ -337,6 +711,17 @@ impl Problem {
             return Err(Error::invalid("population too large"));
         }
         Ok(rows)
+    }
+
+    /// `rows` (f32 or f64 design variables) as f32 differences from the reference, the form
+    /// the kernels take.
+    pub fn differences<T: Gene>(&self, rows: &[T], out: &mut Vec<f32>) {
+        out.clear();
+        out.extend(
+            rows.iter()
+                .zip(self.reference.iter().cycle())
+                .map(|(&x, &r)| (x.to_f64() - r) as f32),
+        );
     }
 
     /// The uniform block for `population` individuals with net stride `net_stride`.
@@ -367,10 +752,55 @@ impl Problem {
     }
 }
 
+/// A design variable as populations hold it: f32 (as the population methods breed them) or
+/// f64 (as read from a file, or for designs far from the origin).
+pub trait Gene: Copy + Send + Sync + 'static {
+    /// The value in f64 (exact).
+    fn to_f64(self) -> f64;
+
+    /// Evaluate rows of this type on `evaluator` ([`PopulationEvaluator::evaluate`] or
+    /// [`PopulationEvaluator::evaluate_f64`]).
+    fn evaluate_on(
+        evaluator: &mut dyn PopulationEvaluator,
+        population: &[Self],
+        out: &mut [Fitness],
+    ) -> Result<()>;
+}
+
+impl Gene for f32 {
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+
+    fn evaluate_on(
+        evaluator: &mut dyn PopulationEvaluator,
+        population: &[Self],
+        out: &mut [Fitness],
+    ) -> Result<()> {
+        evaluator.evaluate(population, out)
+    }
+}
+
+impl Gene for f64 {
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self
+    }
+
+    fn evaluate_on(
+        evaluator: &mut dyn PopulationEvaluator,
+        population: &[Self],
+        out: &mut [Fitness],
+    ) -> Result<()> {
+        evaluator.evaluate_f64(population, out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{Continuity, GridLayout};
+    use crate::chain::{Continuity, GridLayout, PatchGrid};
     use glam::{DVec2, DVec3};
 
     #[test]
@@ -386,8 +816,7 @@ mod tests {
         assert!(point_groups(16, 4096).1 > 1);
     }
 
-    #[test]
-    fn the_grid_map_is_the_tensor_product() {
+    fn wavy() -> (GridLayout, Vec<DVec3>) {
         let u = ChainLayout::with_breaks(3, vec![0.0, 0.4, 1.0], Continuity::C1).unwrap();
         let v = ChainLayout::uniform(2, 3, Continuity::C1).unwrap();
         let g = GridLayout::new(u, v);
@@ -395,6 +824,13 @@ mod tests {
         let design: Vec<DVec3> = (0..nu * nv)
             .map(|k| DVec3::new(k as f64 * 0.1, (k as f64).sin(), (k * k) as f64 * 0.01))
             .collect();
+        (g, design)
+    }
+
+    #[test]
+    fn the_grid_map_is_the_tensor_product() {
+        let (g, design) = wavy();
+        let (nu, nv) = g.design_shape();
         let net = g.expand(&design);
         let targets = Targets::grid(&[DVec3::ZERO], &[DVec2::new(0.5, 0.5)]).unwrap();
         let p = Problem::new(&EvalLayout::Grid(g), &targets, 0).unwrap();
@@ -411,23 +847,66 @@ mod tests {
     }
 
     #[test]
-    fn targets_are_sorted_by_patch_with_local_parameters() {
-        let u = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
-        let v = ChainLayout::uniform(3, 2, Continuity::C1).unwrap();
-        let pts = [DVec3::X, DVec3::Y, DVec3::Z];
-        let uv = [
-            DVec2::new(0.75, 0.75),
-            DVec2::new(0.25, 0.25),
-            DVec2::new(0.75, 0.1),
-        ];
-        let targets = Targets::grid(&pts, &uv).unwrap();
-        let p = Problem::new(&EvalLayout::Grid(GridLayout::new(u, v)), &targets, 0).unwrap();
-        assert_eq!(p.order, vec![1, 2, 0]);
+    fn the_reference_jet_is_the_f64_grids() {
+        let (g, design) = wavy();
+        let grid = PatchGrid::new(g.clone(), design.clone()).unwrap();
+        let uv = [DVec2::new(0.3, 0.55), DVec2::new(0.9, 0.1)];
+        let q = [DVec3::new(0.1, 0.2, 0.3), DVec3::new(-1.0, 2.0, 0.5)];
+        let targets = Targets::grid(&q, &uv).unwrap();
+        let mut p = Problem::new(&EvalLayout::Grid(g.clone()), &targets, 0).unwrap();
+        let flat: Vec<f64> = design.iter().flat_map(|d| [d.x, d.y, d.z]).collect();
+        p.set_reference(&flat).unwrap();
+        for (k, t) in p.targets.iter().enumerate() {
+            let i = p.order[k] as usize;
+            let (s, su, sv) = grid.partials(uv[i].x, uv[i].y);
+            let r = s - q[i];
+            let got = DVec3::new(t.rx.into(), t.ry.into(), t.rz.into());
+            assert!((got - r).length() < 1e-6 * r.length().max(1.0), "offset {k}");
+            // Local partials: the global ones times the patch lengths.
+            let (iu, _) = g.u.locate(uv[i].x);
+            let (iv, _) = g.v.locate(uv[i].y);
+            let (hu, hv) = (g.u.segment_length(iu), g.v.segment_length(iv));
+            let j = &p.jets[k];
+            let gsu = DVec3::new(j.su[0].into(), j.su[1].into(), j.su[2].into());
+            let gsv = DVec3::new(j.sv[0].into(), j.sv[1].into(), j.sv[2].into());
+            assert!((gsu - su * hu).length() < 1e-5 * su.length() * hu, "su {k}");
+            assert!((gsv - sv * hv).length() < 1e-5 * sv.length() * hv, "sv {k}");
+            // Second partials by central differences of the f64 first partials.
+            let h = 1e-5;
+            let (_, su1, sv1) = grid.partials(uv[i].x + h, uv[i].y);
+            let (_, su0, sv0) = grid.partials(uv[i].x - h, uv[i].y);
+            let suu = (su1 - su0) / (2.0 * h) * hu * hu;
+            let suv = (sv1 - sv0) / (2.0 * h) * hu * hv;
+            let got_uu = DVec3::new(j.suu[0].into(), j.suu[1].into(), j.suu[2].into());
+            let got_uv = DVec3::new(j.suv[0].into(), j.suv[1].into(), j.suv[2].into());
+            assert!((got_uu - suu).length() < 1e-4 * suu.length().max(1.0), "suu {k}");
+            assert!((got_uv - suv).length() < 1e-4 * suv.length().max(1.0), "suv {k}");
+        }
+        let w: f32 = p.weights[..p.ncp()].iter().sum();
+        assert!((w - 1.0).abs() < 1e-6, "the weights of a point sum to 1");
+    }
+
+    #[test]
+    fn the_default_reference_is_the_centre_and_differences_are_taken_in_f64() {
+        let (g, _) = wavy();
+        let q = [DVec3::new(1000.0, 2000.0, 3.0), DVec3::new(1001.0, 2002.0, 5.0)];
+        let targets = Targets::grid(&q, &[DVec2::new(0.1, 0.2), DVec2::new(0.7, 0.8)]).unwrap();
+        let p = Problem::new(&EvalLayout::Grid(g), &targets, 0).unwrap();
+        assert_eq!(&p.reference()[..3], &[1000.5, 2001.0, 4.0]);
+        // The map's rows are affine, so the reference is the centre everywhere.
+        let t = &p.targets[0];
+        let k = p.order[0] as usize;
         assert_eq!(
-            p.targets.iter().map(|t| t.patch_id).collect::<Vec<_>>(),
-            vec![0, 2, 3]
+            [t.rx, t.ry, t.rz],
+            [
+                (1000.5 - q[k].x) as f32,
+                (2001.0 - q[k].y) as f32,
+                (4.0 - q[k].z) as f32
+            ]
         );
-        assert_eq!((p.targets[1].u, p.targets[1].v), (0.5, 0.2));
-        assert_eq!(p.targets[0].y, 1.0);
+        let mut out = Vec::new();
+        p.differences(&vec![1000.5 + 1e-9; p.n_vars], &mut out);
+        // 1000.5 + 1e-9 is itself rounded in f64 (ulp 1.1e-13); the difference keeps that.
+        assert!((f64::from(out[0]) - 1e-9).abs() < 2e-13);
     }
 }

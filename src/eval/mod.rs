@@ -3,14 +3,22 @@
 //!
 //! An evaluator is built once from a layout (curve chain or patch grid), the target points
 //! with per-point start parameters, a Newton step count and a backend; it then evaluates
-//! population after population (P individuals × design variables, f32, one row each) into one
-//! [`Fitness`] per individual: the sum of squared closest-point offsets and the largest offset.
+//! population after population (P individuals × design variables, f32 or f64, one row each)
+//! into one [`Fitness`] per individual: the sum of squared closest-point offsets and the
+//! largest offset.
+//!
+//! The kernels compute in f32 against a reference design evaluated in f64 (see [`kernel`] for
+//! the scheme and its accuracy): population methods re-anchor it at their best design with
+//! [`PopulationEvaluator::set_reference`]; without one it is the centre of the targets, so
+//! results never depend on where the data sit.
 //!
 //! The work is four kernels, each a WGSL shader in `shaders/` with a CPU mirror of the same
-//! name in [`cpu`]: `expand` (design variables to control nets through the sparse extraction
-//! map), `eval_patch` (offsets at each point's parameters, optionally refined by clamped
-//! Newton steps), `reduce` (per-individual sum and maximum) and `dense_grid` (a patch grid
-//! sampled on a regular grid, for meshes and renders).
+//! name in [`cpu`]: `expand` (design differences to control nets through the sparse
+//! extraction map), `eval_patch` (offsets at each point's parameters, optionally refined by
+//! clamped Newton steps), `reduce` (per-individual sum and maximum) and `dense_grid` (a patch
+//! grid sampled on a tensor grid of parameters, for meshes, renders and `bezchain sample`).
+//! `shaders/config.wgsl` and `shaders/basis.wgsl` are written once and spliced into the
+//! shaders that use them. The GPU is one context per process ([`GpuContext::shared`]).
 //!
 //! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
 //! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
@@ -19,11 +27,12 @@ pub mod bench;
 pub mod cpu;
 pub mod dense;
 pub mod gpu;
-mod kernel;
+pub mod kernel;
+pub mod peak;
 
-pub use cpu::CpuEvaluator;
+pub use cpu::{CpuEvaluator, Simd};
 pub use gpu::{GpuContext, GpuEvaluator, GpuOptions};
-pub use kernel::{Config, MapEntry, Partial, Target, Vertex, MAX_DEGREE};
+pub use kernel::{Config, Gene, MapEntry, Partial, RefJet, Sample, Target, Vertex, MAX_DEGREE};
 
 use crate::chain::{ChainLayout, GridLayout};
 use crate::error::{Error, Result};
@@ -219,12 +228,28 @@ pub trait PopulationEvaluator: Send {
     /// into `out`, one [`Fitness`] per row, in row order.
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()>;
 
+    /// The same for rows in f64 (designs whose coordinates f32 cannot hold finely enough, such
+    /// as data far from the origin): each row's difference from the reference is taken in f64.
+    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()>;
+
     /// Replace the start parameters: global `(u, v)` per target point in input order (`v` is
     /// ignored for a curve), clamped to `[0, 1]`.
     fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()>;
 
+    /// Re-anchor the reference design (`design_variables` finite values): the kernels then
+    /// compute only each individual's difference from it in f32. Results are accurate to f32
+    /// relative to the offsets when the population lies near the reference (see
+    /// [`kernel`](self::kernel)); population methods set it to their best design every
+    /// generation.
+    fn set_reference(&mut self, design: &[f64]) -> Result<()>;
+
     /// Set the number of foot-point Newton steps (0: parameters held fixed).
     fn set_newton(&mut self, newton: u32);
+
+    /// The rounding error a sum of squares near `sum_sq` from this evaluator may carry (model
+    /// units squared, first order, for individuals near the reference): differences below it
+    /// are not resolved.
+    fn resolution(&self, sum_sq: f64) -> f64;
 
     /// The backend and adapter that run the evaluations.
     fn info(&self) -> &BackendInfo;
@@ -249,7 +274,7 @@ pub fn build_evaluator(
             CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches),
         )),
         Backend::Gpu => {
-            let ctx = GpuContext::new()?;
+            let ctx = GpuContext::shared()?;
             Ok(Box::new(GpuEvaluator::new(
                 &ctx,
                 layout,
@@ -262,7 +287,7 @@ pub fn build_evaluator(
         Backend::Auto => {
             // Input errors are the caller's whichever path runs: check them before trying.
             let cpu = CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches);
-            let gpu = GpuContext::new().and_then(|ctx| {
+            let gpu = GpuContext::shared().and_then(|ctx| {
                 GpuEvaluator::new(
                     &ctx,
                     layout,

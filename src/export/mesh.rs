@@ -1,8 +1,10 @@
-//! Triangle meshes of patch grids, sampled in f64 patch by patch, written as OBJ text or
-//! binary STL.
+//! Triangle meshes of patch grids, sampled by the dense evaluator ([`crate::eval::dense`]),
+//! written as OBJ text or binary STL.
 
 use crate::chain::PatchGrid;
 use crate::error::{Error, Result};
+use crate::eval::dense::dense_grid;
+use crate::eval::Backend;
 use glam::DVec3;
 use std::fmt::Write as _;
 
@@ -16,13 +18,14 @@ pub struct SurfaceMesh {
     pub cols: usize,
     /// The global parameters `(u, v)` of every vertex.
     pub params: Vec<[f64; 2]>,
-    /// Vertex positions, exactly on the surface (f64).
+    /// Vertex positions, on the surface to the dense evaluator's accuracy (about
+    /// `4 · 2⁻²⁴ ×` the grid's extent, wherever it sits).
     pub positions: Vec<DVec3>,
     /// Unit vertex normals (`∂S/∂u × ∂S/∂v` direction; where that vanishes, e.g. at a tip
     /// collapsed to a point, the area-weighted mean of the faces around every vertex there).
     pub normals: Vec<DVec3>,
-    /// Triangles as vertex indices, counter-clockwise about their normal; triangles of zero
-    /// area (at collapsed edges) are left out.
+    /// Triangles as vertex indices, counter-clockwise about their normal; triangles with two
+    /// corners at one point (at collapsed edges) are left out.
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -38,10 +41,39 @@ fn samples(breaks: &[f64], per: usize) -> Vec<f64> {
     t
 }
 
+/// Vertices that are one point: the sets of a union-find over grid neighbours closer than a
+/// tolerance (collapsed edges and tips, where f32 evaluation leaves rounding-sized gaps).
+struct Merged(Vec<u32>);
+
+impl Merged {
+    fn root(&mut self, mut k: u32) -> u32 {
+        while self.0[k as usize] != k {
+            let up = self.0[self.0[k as usize] as usize];
+            self.0[k as usize] = up;
+            k = up;
+        }
+        k
+    }
+
+    fn join(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.root(a), self.root(b));
+        if ra != rb {
+            self.0[ra.max(rb) as usize] = ra.min(rb);
+        }
+    }
+}
+
 impl SurfaceMesh {
     /// Sample `grid` with `per_patch` steps across every patch in both directions (at least 1),
-    /// so patch borders and corners are vertices.
+    /// so patch borders and corners are vertices, on the CPU.
     pub fn from_grid(grid: &PatchGrid<DVec3>, per_patch: usize) -> Result<SurfaceMesh> {
+        Self::from_grid_on(grid, per_patch, Backend::Cpu)
+    }
+
+    /// The same on `backend`. (Meshes of a fit are a few thousand vertices: the CPU is
+    /// quicker than starting a GPU pipeline for them, so [`from_grid`](Self::from_grid) takes
+    /// it.)
+    pub fn from_grid_on(grid: &PatchGrid<DVec3>, per_patch: usize, backend: Backend) -> Result<SurfaceMesh> {
         if per_patch == 0 {
             return Err(Error::invalid("a mesh needs at least one step per patch"));
         }
@@ -51,56 +83,59 @@ impl SurfaceMesh {
         if rows.checked_mul(cols).is_none_or(|n| n > u32::MAX as usize / 2) {
             return Err(Error::invalid("mesh too large"));
         }
-        let mut params = Vec::with_capacity(rows * cols);
-        let mut positions = Vec::with_capacity(rows * cols);
-        let mut normals = Vec::with_capacity(rows * cols);
-        let mut tangent_scale = Vec::with_capacity(rows * cols);
-        for &u in &us {
-            for &v in &vs {
-                let (p, pu, pv) = grid.partials(u, v);
-                params.push([u, v]);
-                positions.push(p);
-                normals.push(pu.cross(pv));
-                tangent_scale.push(pu.length_squared().max(pv.length_squared()));
-            }
-        }
+        let (points, _) = dense_grid(grid, &us, &vs, backend)?;
+        let params: Vec<[f64; 2]> = us.iter().flat_map(|&u| vs.iter().map(move |&v| [u, v])).collect();
+        let positions: Vec<DVec3> = points.iter().map(|p| p.position).collect();
         let extent = positions
             .iter()
             .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
                 (lo.min(*p), hi.max(*p))
             });
         let size = (extent.1 - extent.0).max_element().max(f64::MIN_POSITIVE);
-        let tiny_area = (1e-12 * size).powi(2);
+        // Ten times the evaluator's rounding: neighbours this close are one point.
+        let same = 1e-6 * size;
+        let id = |i: usize, j: usize| (i * cols + j) as u32;
+        let mut merged = Merged((0..(rows * cols) as u32).collect());
+        for i in 0..rows {
+            for j in 0..cols {
+                let p = positions[id(i, j) as usize];
+                if i + 1 < rows && p.distance(positions[id(i + 1, j) as usize]) < same {
+                    merged.join(id(i, j), id(i + 1, j));
+                }
+                if j + 1 < cols && p.distance(positions[id(i, j + 1) as usize]) < same {
+                    merged.join(id(i, j), id(i, j + 1));
+                }
+            }
+        }
         let mut triangles = Vec::with_capacity(2 * (rows - 1) * (cols - 1));
         let mut face_sum = vec![DVec3::ZERO; rows * cols];
-        let id = |i: usize, j: usize| (i * cols + j) as u32;
         for i in 0..rows - 1 {
             for j in 0..cols - 1 {
                 let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
                 for t in [[a, b, c], [a, c, d]] {
+                    let [r0, r1, r2] = t.map(|k| merged.root(k));
+                    if r0 == r1 || r1 == r2 || r0 == r2 {
+                        continue;
+                    }
                     let [p0, p1, p2] = t.map(|k| positions[k as usize]);
                     let n = (p1 - p0).cross(p2 - p0);
-                    if n.length_squared() > tiny_area * tiny_area {
-                        triangles.push(t);
-                        for k in t {
-                            face_sum[k as usize] += n;
-                        }
+                    triangles.push(t);
+                    for r in [r0, r1, r2] {
+                        face_sum[r as usize] += n;
                     }
                 }
             }
         }
-        // Vertices of a collapsed edge share one position (to rounding): pool their faces.
-        let key = |p: &DVec3| p.to_array().map(|c| (c / (1e-10 * size)).round() as i64);
-        let mut pooled: std::collections::HashMap<[i64; 3], DVec3> = std::collections::HashMap::new();
-        for (p, f) in positions.iter().zip(&face_sum) {
-            *pooled.entry(key(p)).or_insert(DVec3::ZERO) += *f;
-        }
-        for ((n, p), scale) in normals.iter_mut().zip(&positions).zip(&tangent_scale) {
-            // ∂S/∂u × ∂S/∂v is rounding noise where a tangent vanishes.
-            let analytic = (n.length() > 1e-9 * scale).then(|| n.try_normalize()).flatten();
-            let pool = pooled.get(&key(p)).copied().unwrap_or(DVec3::ZERO);
-            *n = analytic.or_else(|| pool.try_normalize()).unwrap_or(DVec3::ZERO);
-        }
+        // Where the tangents give no direction, the faces around the merged point do.
+        let normals = (0..rows * cols)
+            .map(|k| {
+                let root = merged.root(k as u32) as usize;
+                points[k]
+                    .normal
+                    .or_else(|| face_sum[root].try_normalize())
+                    .unwrap_or(DVec3::ZERO)
+            })
+            .collect();
         Ok(SurfaceMesh {
             rows,
             cols,
@@ -111,7 +146,7 @@ impl SurfaceMesh {
         })
     }
 
-    /// The mesh as Wavefront OBJ text: positions and normals at full f64 precision, then the
+    /// The mesh as Wavefront OBJ text: positions and normals as f64 numbers, then the
     /// triangles (`f a//a b//b c//c`, 1-based).
     #[must_use]
     pub fn to_obj(&self, name: &str) -> String {
@@ -210,13 +245,15 @@ mod tests {
         assert_eq!((mesh.rows, mesh.cols), (2 * 5 + 1, 2 * 5 + 1));
         assert_eq!(mesh.triangles.len(), 2 * 10 * 10);
         for (p, t) in mesh.positions.iter().zip(&mesh.params) {
-            assert_eq!(*p, grid.eval(t[0], t[1]));
+            assert!(p.distance(grid.eval(t[0], t[1])) < 2e-6, "{p}");
         }
         // The u break 0.3 and the v break 0.5 are sample rows.
         assert!(mesh.params.iter().any(|t| t[0] == 0.3));
         assert!(mesh.params.iter().any(|t| t[1] == 0.5));
-        for n in &mesh.normals {
+        for (n, t) in mesh.normals.iter().zip(&mesh.params) {
             assert!((n.length() - 1.0).abs() < 1e-12);
+            let (_, pu, pv) = grid.partials(t[0], t[1]);
+            assert!((*n - pu.cross(pv).normalize()).length() < 1e-5);
         }
         // Triangles wind counter-clockwise about the vertex normals.
         for t in &mesh.triangles {
@@ -246,6 +283,20 @@ mod tests {
         let grid = PatchGrid::new(layout, design).unwrap();
         let mesh = SurfaceMesh::from_grid(&grid, 4).unwrap();
         assert_eq!(mesh.triangles.len(), 2 * 16 - 4);
+        // Far from the origin the same mesh comes out.
+        let far = PatchGrid::new(
+            grid.layout().clone(),
+            grid.design()
+                .iter()
+                .map(|p| *p + DVec3::new(1000.0, 1000.0, 0.0))
+                .collect(),
+        )
+        .unwrap();
+        let moved = SurfaceMesh::from_grid(&far, 4).unwrap();
+        assert_eq!(moved.triangles, mesh.triangles);
+        for (a, b) in moved.normals.iter().zip(&mesh.normals) {
+            assert!((*a - *b).length() < 1e-4, "{a} vs {b}");
+        }
         let apex = mesh.cols - 1;
         // Every apex vertex gets the same pooled normal.
         for i in 0..mesh.rows {

@@ -7,6 +7,8 @@
 use super::mesh::SurfaceMesh;
 use crate::chain::PatchGrid;
 use crate::error::{Error, Result};
+use crate::eval::dense::{dense_grid, uniform, DensePoint};
+use crate::eval::Backend;
 use glam::DVec3;
 
 /// An RGB colour.
@@ -222,6 +224,21 @@ impl Camera {
     }
 }
 
+/// The rows of a row-major dense grid of `cols` columns, as curves (each at one u).
+fn rows_of(points: &[DensePoint], cols: usize) -> Vec<Vec<DVec3>> {
+    points
+        .chunks_exact(cols)
+        .map(|row| row.iter().map(|p| p.position).collect())
+        .collect()
+}
+
+/// The columns of a row-major dense grid of `cols` columns, as curves (each at one v).
+fn columns_of(points: &[DensePoint], cols: usize) -> Vec<Vec<DVec3>> {
+    (0..cols)
+        .map(|j| points.iter().skip(j).step_by(cols).map(|p| p.position).collect())
+        .collect()
+}
+
 /// The colour of `t ∈ [0, 1]` on a sequential map that stays light where the offsets are
 /// small (so the shading reads) and turns dark red where they are largest (ColorBrewer's
 /// YlOrRd, by linear interpolation between its 9 classes): pale yellow for 0, dark red for 1.
@@ -392,6 +409,13 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     let (w, h) = (opts.width as usize * ss, opts.height as usize * ss);
     let mesh = SurfaceMesh::from_grid(grid, opts.per_patch.max(1))?;
     let l = grid.layout();
+    let (bu, bv) = (l.u.breaks(), l.v.breaks());
+    let along = uniform(401);
+    let borders: Vec<Vec<DVec3>> = [
+        rows_of(&dense_grid(grid, bu, &along, Backend::Cpu)?.0, along.len()),
+        columns_of(&dense_grid(grid, &along, bv, Backend::Cpu)?.0, bv.len()),
+    ]
+    .concat();
     let (mu, mv) = l.net_shape();
     let net = grid.net();
     let mut everything: Vec<DVec3> = mesh.positions.clone();
@@ -452,29 +476,8 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
         // Patch borders (and the surface's edges) as curves on the surface; fainter over a
         // surface coloured by offsets.
         let border_alpha = if local.is_some() { 0.35 } else { 0.85 };
-        let (bu, bv) = (l.u.breaks(), l.v.breaks());
-        let dense = 400;
-        for &u in bu {
-            let curve: Vec<_> = (0..=dense)
-                .map(|i| cam.project(grid.eval(u, i as f64 / dense as f64)))
-                .collect();
-            for w in curve.windows(2) {
-                draw_line(
-                    &mut canvas,
-                    w[0],
-                    w[1],
-                    ss as f64 * 0.7,
-                    tol,
-                    BORDER,
-                    border_alpha,
-                    0.0,
-                );
-            }
-        }
-        for &v in bv {
-            let curve: Vec<_> = (0..=dense)
-                .map(|i| cam.project(grid.eval(i as f64 / dense as f64, v)))
-                .collect();
+        for curve in &borders {
+            let curve: Vec<_> = curve.iter().map(|p| cam.project(*p)).collect();
             for w in curve.windows(2) {
                 draw_line(
                     &mut canvas,
@@ -634,13 +637,23 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
         out.push((1.0, true));
         out
     };
-    let samples = |count: usize| (0..=24 * count).map(move |i| i as f64 / (24 * count) as f64);
+    let (iso_u, iso_v) = (iso(bu), iso(bv));
+    let ts = |b: &[(f64, bool)]| b.iter().map(|&(t, _)| t).collect::<Vec<f64>>();
+    let (along_v, along_u) = (uniform(24 * l.v.segments() + 1), uniform(24 * l.u.segments() + 1));
+    let u_curves = rows_of(
+        &dense_grid(grid, &ts(&iso_u), &along_v, Backend::Cpu)?.0,
+        along_v.len(),
+    );
+    let v_curves = columns_of(
+        &dense_grid(grid, &along_u, &ts(&iso_v), Backend::Cpu)?.0,
+        iso_v.len(),
+    );
     let mut curves: Vec<(Vec<DVec3>, bool)> = Vec::new();
-    for (u, border) in iso(bu) {
-        curves.push((samples(l.v.segments()).map(|v| grid.eval(u, v)).collect(), border));
+    for (curve, &(_, border)) in u_curves.into_iter().zip(&iso_u) {
+        curves.push((curve, border));
     }
-    for (v, border) in iso(bv) {
-        curves.push((samples(l.u.segments()).map(|u| grid.eval(u, v)).collect(), border));
+    for (curve, &(_, border)) in v_curves.into_iter().zip(&iso_v) {
+        curves.push((curve, border));
     }
     let mut everything: Vec<DVec3> = curves.iter().flat_map(|c| c.0.iter().copied()).collect();
     everything.extend_from_slice(net);

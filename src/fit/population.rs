@@ -8,6 +8,14 @@
 //! [`EvoOptions::newton`] clamped Newton steps of its own, free to cross segment and patch
 //! borders. Anchored points (a chain's ends) add their squared distance to the shape point
 //! they are tied to, in f64. A run's result is re-measured in f64 with the global search.
+//!
+//! **Precision.** The evolutionary methods carry their populations in f32, so they see the
+//! problem in a [`Frame`] centred on its search box: their variables are the design
+//! coordinates less that centre, and the evaluator's targets are moved with them; a shape is
+//! then resolved as finely wherever its data sit. Every generation the evaluator's reference
+//! design is re-anchored at the best design so far: the kernels compute in f32 only each
+//! individual's small difference from it (see [`crate::eval::kernel`]), and
+//! [`Scorer::resolution`] reports the rounding that leaves, which CMA-ES's flatness stop uses.
 
 use super::evo::{EvoOptions, Fnv, PopulationObjective, Score, Scorer};
 use super::problem::FitProblem;
@@ -18,10 +26,63 @@ use crate::chain::{CurveChain, PatchGrid};
 use crate::closest::{chain_feet, feet, grid_feet, FootOptions};
 use crate::error::{Error, Result};
 use crate::eval::{
-    build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, PopulationEvaluator,
-    Targets,
+    build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, Gene, GpuOptions,
+    PopulationEvaluator, Targets,
 };
 use glam::{DVec2, DVec3};
+
+/// The frame the evolutionary methods see a fitting problem in: its variables are the flat
+/// design coordinates less [`origin`](Self::origin), the centre of the bounds' box. An f32
+/// coordinate 1000 chords from the origin is good to 6e-5 chords only; measured from the
+/// centre, to about 2⁻²⁴ of the box wherever the data sit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    origin: Vec<f64>,
+    start: Vec<f64>,
+    bounds: Vec<[f64; 2]>,
+}
+
+impl Frame {
+    /// The frame of a flat `start` inside the flat `bounds` (the same box repeated for every
+    /// design point) of points with `dim` coordinates; without bounds it is not moved.
+    pub(crate) fn new(start: &[f64], bounds: &[[f64; 2]], dim: usize) -> Self {
+        let origin: Vec<f64> = match bounds.get(..dim) {
+            Some(b) => b.iter().map(|[lo, hi]| 0.5 * (lo + hi)).collect(),
+            None => vec![0.0; dim],
+        };
+        let start = start
+            .iter()
+            .enumerate()
+            .map(|(k, x)| x - origin[k % dim])
+            .collect();
+        let bounds = bounds
+            .iter()
+            .enumerate()
+            .map(|(k, [lo, hi])| [lo - origin[k % dim], hi - origin[k % dim]])
+            .collect();
+        Frame {
+            origin,
+            start,
+            bounds,
+        }
+    }
+
+    /// The centre, one value per coordinate.
+    #[must_use]
+    pub fn origin(&self) -> &[f64] {
+        &self.origin
+    }
+
+    /// `x` (flat, in the frame) in model coordinates.
+    #[must_use]
+    pub fn absolute(&self, x: &[f64]) -> Vec<f64> {
+        let dim = self.origin.len();
+        x.iter()
+            .enumerate()
+            .map(|(k, v)| v + self.origin[k % dim])
+            .collect()
+    }
+}
 
 /// Shapes the population evaluator can score: plane chains and patch grids in space.
 pub trait EvalShape<const K: usize>: Shape<K> {
@@ -78,9 +139,15 @@ impl<S: EvalShape<K>, const K: usize> FitProblem<'_, S, K> {
     /// Global closest-point parameters of the free data points on the flat design `design`
     /// (f64, `n` samples per segment or patch side), with their squared distances.
     fn project_free(&self, design: &[f64], n: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
-        let design = Self::from_flat(design);
         let free: Vec<S::Point> = self.free_points().iter().map(|&j| self.points()[j]).collect();
-        feet(self.shape(), &design, &free, None, &samples(n))
+        self.project_points(design, &free, n)
+    }
+
+    /// Global closest-point parameters of `points` on the flat design `design`, with their
+    /// squared distances.
+    fn project_points(&self, design: &[f64], points: &[S::Point], n: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
+        let design = Self::from_flat(design);
+        feet(self.shape(), &design, points, None, &samples(n))
             .iter()
             .map(|f| (uv(f.t), f.dist_sq))
             .unzip()
@@ -140,21 +207,30 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
         FitProblem::dim(self)
     }
 
+    /// The start in the problem's [`Frame`].
     fn start(&self) -> &[f64] {
-        self.start_flat()
+        &self.frame().start
     }
 
+    /// The bounds in the problem's [`Frame`].
     fn bounds(&self) -> &[[f64; 2]] {
-        FitProblem::bounds(self)
+        &self.frame().bounds
+    }
+
+    fn absolute(&self, x: &[f64]) -> Vec<f64> {
+        self.frame().absolute(x)
     }
 
     fn extent(&self) -> f64 {
         self.box_extent()
     }
 
-    /// Kind, layout, data, anchors, bounds and start.
+    /// Kind, frame, layout, data, anchors, bounds and start.
     fn fingerprint(&self) -> u64 {
         let mut h = Fnv::new();
+        // Checkpoints hold designs in the frame (those of builds before it: absolute ones).
+        h.bytes(b"centred");
+        h.f64s(self.frame().origin());
         match self.shape().eval_layout() {
             EvalLayout::Curve(l) => {
                 h.bytes(b"curve");
@@ -195,6 +271,12 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
     ) -> Result<Box<dyn Scorer + 's>> {
         self.check_population()?;
         let free = self.free_points();
+        // The free points in the frame (subtracted in f64, before the evaluator rounds
+        // anything): the evaluator's targets, and projected onto designs in the frame, so that
+        // the foot parameters' rounding does not depend on where the data sit either.
+        let frame = self.frame();
+        let origin = S::Point::from_coords(frame.origin());
+        let pts: Vec<S::Point> = free.iter().map(|&j| self.points()[j] - origin).collect();
         let params = match state {
             Some(p) => {
                 if let Some(i) = p.iter().flatten().position(|t| !(0.0..=1.0).contains(t)) {
@@ -207,7 +289,7 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
                 }
                 p
             }
-            None => self.project_free(self.start_flat(), options.samples).0,
+            None => self.project_points(&frame.start, &pts, options.samples).0,
         };
         if params.len() != free.len() {
             return Err(Error::invalid(format!(
@@ -216,8 +298,7 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
                 free.len()
             )));
         }
-        let pts: Vec<S::Point> = free.iter().map(|&j| self.points()[j]).collect();
-        let evaluator = build_evaluator(
+        let mut evaluator = build_evaluator(
             &self.shape().eval_layout(),
             &S::targets(&pts, &params)?,
             &EvalOptions {
@@ -227,10 +308,19 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
                 gpu: options.gpu.clone(),
             },
         )?;
+        evaluator.set_reference(&frame.start)?;
+        // The anchored points in the frame too, indexed 0.. in `anchors`.
+        let anchors = self.anchors();
         Ok(Box::new(FitScorer {
             problem: self,
-            anchors: self.anchors(),
+            anchor_points: anchors.iter().map(|(j, _)| self.points()[*j] - origin).collect(),
+            anchors: anchors
+                .into_iter()
+                .enumerate()
+                .map(|(k, (_, w))| (k, w))
+                .collect(),
             free: free.len(),
+            points: pts,
             evaluator,
             params,
             fitness: Vec::new(),
@@ -254,7 +344,12 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
 /// holds.
 struct FitScorer<'s, 'a, S: Shape<K>, const K: usize> {
     problem: &'s FitProblem<'a, S, K>,
+    /// The anchors' weights, each on its point in `anchor_points`.
     anchors: Vec<(usize, Vec<(usize, f64)>)>,
+    /// The anchored data points in the frame.
+    anchor_points: Vec<S::Point>,
+    /// The free data points in the frame, in the evaluator's order.
+    points: Vec<S::Point>,
     free: usize,
     evaluator: Box<dyn PopulationEvaluator>,
     params: Vec<[f64; 2]>,
@@ -273,7 +368,7 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
         for (k, (s, f)) in scores.iter_mut().zip(&self.fitness).enumerate() {
             let row = &population[k * n..(k + 1) * n];
             let (a_sum, a_max) =
-                FitProblem::<S, K>::anchor_terms(&self.anchors, self.problem.points(), |i, c| {
+                FitProblem::<S, K>::anchor_terms(&self.anchors, &self.anchor_points, |i, c| {
                     f64::from(row[i * dim + c])
                 });
             let sum_sq = f64::from(f.sum_sq) + a_sum;
@@ -290,15 +385,21 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
     }
 
     /// Project the data onto the best design in f64 (every `reproject_every` generations)
-    /// and start every later evaluation there.
+    /// and start every later evaluation there; re-anchor the evaluator's reference design at
+    /// it every generation (so that a resumed run re-anchors exactly as an uninterrupted one).
     fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()> {
-        if !generation.is_multiple_of(self.reproject_every) {
-            return Ok(());
+        if generation.is_multiple_of(self.reproject_every) {
+            let (params, _) = self.problem.project_points(best, &self.points, self.samples);
+            self.evaluator.set_params(&params)?;
+            self.params = params;
         }
-        let (params, _) = self.problem.project_free(best, self.samples);
-        self.evaluator.set_params(&params)?;
-        self.params = params;
-        Ok(())
+        self.evaluator.set_reference(best)
+    }
+
+    /// The evaluator's f32 rounding of a sum of squares near `level` (see
+    /// [`PopulationEvaluator::resolution`]); the anchors' f64 terms add nothing to it.
+    fn resolution(&self, level: f64) -> f64 {
+        self.evaluator.resolution(level)
     }
 
     fn state(&self) -> Vec<[f64; 2]> {
@@ -325,6 +426,9 @@ pub struct BatchOptions {
     /// Samples per segment (curves) or per patch direction (grids) of the f64 projection onto
     /// the first individual. Default: 16.
     pub samples: usize,
+    /// Evaluate the population this many more times after the first, timing each (for
+    /// comparisons with other tools on the same population). Default: 0.
+    pub repeat: usize,
     /// GPU settings. Default: [`GpuOptions::default`].
     pub gpu: GpuOptions,
 }
@@ -335,6 +439,7 @@ impl Default for BatchOptions {
             backend: Backend::Auto,
             newton: 8,
             samples: 16,
+            repeat: 0,
             gpu: GpuOptions::default(),
         }
     }
@@ -347,11 +452,14 @@ pub struct BatchResult {
     pub fitness: Vec<Fitness>,
     /// The backend and adapter that ran.
     pub info: BackendInfo,
+    /// The median seconds of one evaluation of the whole population over the
+    /// [`BatchOptions::repeat`] timed ones (`None` without).
+    pub seconds_median: Option<f64>,
 }
 
 /// The first row of `population`, checked to be a whole number of rows of `n_vars` finite
 /// leading values, in f64.
-fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
+fn first_row<T: Gene>(population: &[T], n_vars: usize) -> Result<Vec<f64>> {
     if population.is_empty() {
         return Err(Error::invalid("the population has no individuals"));
     }
@@ -361,7 +469,7 @@ fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
             population.len()
         )));
     }
-    let row: Vec<f64> = population[..n_vars].iter().map(|&x| f64::from(x)).collect();
+    let row: Vec<f64> = population[..n_vars].iter().map(|&x| x.to_f64()).collect();
     if row.iter().any(|x| !x.is_finite()) {
         return Err(Error::invalid(
             "the first individual has non-finite design variables",
@@ -376,10 +484,18 @@ fn first_row(population: &[f32], n_vars: usize) -> Result<Vec<f64>> {
 /// (f32), free to cross segment borders. For individuals in the first one's basin (a GA or
 /// CMA-ES population around a design) that is the closest-point distance to f32 accuracy;
 /// for an unrelated shape an upper bound.
-pub fn eval_curve_population(
+///
+/// The rows may be f32 or f64 (designs far from the origin). The evaluator keeps its default
+/// reference, the centre of the data (see [`crate::eval::kernel`]): exact for any
+/// population, with offsets accurate to about `2⁻²⁴ ×` the data's extent wherever the data
+/// sit. (Anchoring at the first individual would sharpen individuals close to it, but its
+/// Taylor polynomial grows inexact for individuals whose foot points move far from the
+/// first's, across patch borders in particular, which an outside optimiser's population may
+/// well do.)
+pub fn eval_curve_population<T: Gene>(
     layout: &ChainLayout,
     points: &[DVec2],
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let row = first_row(population, layout.design_count() * 2)?;
@@ -394,10 +510,10 @@ pub fn eval_curve_population(
 
 /// [`eval_curve_population`] for patch grids of `layout` (rows of `x,y,z` per design point of
 /// the row-major design net).
-pub fn eval_grid_population(
+pub fn eval_grid_population<T: Gene>(
     layout: &GridLayout,
     points: &[DVec3],
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let (nu, nv) = layout.design_shape();
@@ -414,10 +530,10 @@ pub fn eval_grid_population(
 type CurveProblem2<'a> = FitProblem<'a, CurveShape<DVec2>, 1>;
 type GridProblem3<'a> = FitProblem<'a, GridShape<DVec3>, 2>;
 
-fn run(
+fn run<T: Gene>(
     layout: EvalLayout,
     targets: &Targets,
-    population: &[f32],
+    population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
     let mut evaluator = build_evaluator(
@@ -431,9 +547,75 @@ fn run(
         },
     )?;
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
-    evaluator.evaluate(population, &mut fitness)?;
+    T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
+    let mut times: Vec<f64> = (0..options.repeat)
+        .map(|_| {
+            let clock = std::time::Instant::now();
+            T::evaluate_on(evaluator.as_mut(), population, &mut fitness)
+                .map(|()| clock.elapsed().as_secs_f64())
+        })
+        .collect::<Result<_>>()?;
+    times.sort_by(f64::total_cmp);
     Ok(BatchResult {
         fitness,
         info: evaluator.info().clone(),
+        seconds_median: times.get(times.len() / 2).copied(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::Continuity;
+    use crate::fit::evo::PopulationObjective;
+    use crate::fit::{CurveProblem, Metric};
+
+    /// The frame centres start and bounds on the bounds' box, `absolute` moves designs back,
+    /// and the objective measured in model coordinates is the same wherever the data sit.
+    #[test]
+    fn the_frame_centres_the_problem_on_its_box() {
+        let near: Vec<DVec2> = (0..41)
+            .map(|i| {
+                let a = std::f64::consts::PI * f64::from(i) / 40.0;
+                DVec2::new(1.0 - a.cos(), 0.5 * a.sin())
+            })
+            .collect();
+        let shift = DVec2::new(1000.0, -250.0);
+        let far: Vec<DVec2> = near.iter().map(|&p| p + shift).collect();
+        let layout = ChainLayout::uniform(3, 4, Continuity::C1).unwrap();
+        let problem = |pts| {
+            CurveProblem::curve(layout.clone(), pts, Metric::Closest)
+                .and_then(|p| p.with_bounds(0.1))
+                .unwrap()
+        };
+        let (a, b) = (problem(&near), problem(&far));
+        let frame = a.frame();
+        // x spans [0, 2] and y [0, 0.5], grown by 0.2: the box centre is (1, 0.25).
+        assert!((frame.origin()[0] - 1.0).abs() < 1e-12);
+        assert!((frame.origin()[1] - 0.25).abs() < 1e-12);
+        let [lo, hi] = PopulationObjective::bounds(&a)[1];
+        assert!(
+            (lo + 0.45).abs() < 1e-12 && (hi - 0.45).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        let back = PopulationObjective::absolute(&a, PopulationObjective::start(&a));
+        for (x, y) in back.iter().zip(a.start_flat()) {
+            assert!((x - y).abs() < 1e-15);
+        }
+        // The far problem has the same variables (to the rounding of the move).
+        for (x, y) in PopulationObjective::start(&a)
+            .iter()
+            .zip(PopulationObjective::start(&b))
+        {
+            assert!((x - y).abs() < 1e-12, "{x} {y}");
+        }
+        let options = EvoOptions::default();
+        let m_near = a.measure(a.start_flat(), &options).unwrap();
+        let m_far = b.measure(b.start_flat(), &options).unwrap();
+        assert!(
+            m_near > 0.0 && (m_near - m_far).abs() < 1e-9 * m_near,
+            "{m_near} {m_far}"
+        );
+        assert_ne!(a.fingerprint(), b.fingerprint());
+    }
 }

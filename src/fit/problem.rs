@@ -11,6 +11,7 @@
 
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
+use super::population::Frame;
 use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
@@ -55,6 +56,8 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     foot: FootOptions,
     /// The foot-point search's samples, built at the first global search.
     grid: OnceLock<SampleGrid<K>>,
+    /// The evolutionary methods' centred frame, made at first use.
+    frame: OnceLock<Frame>,
     extent: f64,
 }
 
@@ -372,6 +375,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             box_extent: extent,
             foot,
             grid,
+            frame: OnceLock::new(),
             extent,
         })
     }
@@ -450,6 +454,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         }
         self.start_flat = Self::to_flat(&start);
         self.start = Some(start);
+        self.frame = OnceLock::new();
         Ok(self)
     }
 
@@ -492,7 +497,15 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             .flat_map(|_| sides.iter().copied())
             .collect();
         self.box_extent = extent;
+        self.frame = OnceLock::new();
         Ok(self)
+    }
+
+    /// The frame the evolutionary methods see the problem in: the start and bounds less the
+    /// centre of the bounds' box (see [`Frame`]).
+    pub(crate) fn frame(&self) -> &Frame {
+        self.frame
+            .get_or_init(|| Frame::new(&self.start_flat, &self.bounds, S::Point::DIM))
     }
 
     /// `[lower, upper]` of every flat design variable (empty until [`FitProblem::with_bounds`]).

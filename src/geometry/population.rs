@@ -8,13 +8,15 @@ use std::path::Path;
 /// Read a population file: one individual per line, `n_vars` numbers each (the design points
 /// flattened `x0,y0,x1,y1,…`), separated as in every reader (blanks, or one comma or semicolon).
 /// Blank lines and `#` comments are skipped, and so is a first line that is not numeric (a
-/// header). Every value must be finite and fit in an f32.
-pub fn read_population(path: &Path, n_vars: usize) -> Result<Vec<f32>> {
+/// header). Every value must be finite and fit in an f32. The rows are kept in f64: the
+/// population evaluator rounds only their differences from its f64 reference design, so
+/// designs far from the origin keep their resolution.
+pub fn read_population(path: &Path, n_vars: usize) -> Result<Vec<f64>> {
     parse_population(&io::read_text(path)?, path, n_vars)
 }
 
 /// [`read_population`] on text in memory; `path` names the source in errors.
-pub fn parse_population(text: &str, path: &Path, n_vars: usize) -> Result<Vec<f32>> {
+pub fn parse_population(text: &str, path: &Path, n_vars: usize) -> Result<Vec<f64>> {
     let parse_error = |line: usize, message: String| Error::Parse {
         path: path.to_path_buf(),
         line,
@@ -65,7 +67,7 @@ pub fn parse_population(text: &str, path: &Path, n_vars: usize) -> Result<Vec<f3
         if let Some(bad) = values.iter().find(|v| v.abs() > f64::from(f32::MAX)) {
             return Err(parse_error(number, format!("{bad} is not a finite f32 number")));
         }
-        out.extend(values.iter().map(|&v| v as f32));
+        out.extend_from_slice(&values);
     }
     if out.is_empty() {
         return Err(Error::Input {

@@ -6,7 +6,8 @@
 use bezchain::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use bezchain::closest::{chain_feet, grid_feet, FootOptions};
 use bezchain::eval::{
-    CpuEvaluator, EvalLayout, Fitness, GpuContext, GpuEvaluator, GpuOptions, PopulationEvaluator, Targets,
+    CpuEvaluator, EvalLayout, Fitness, GpuContext, GpuEvaluator, GpuOptions, PopulationEvaluator, Simd,
+    Targets,
 };
 use glam::{DVec2, DVec3};
 use rand::{Rng, SeedableRng};
@@ -15,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 /// The GPU context, or `None` (with a note) when there is no adapter. With
 /// `BEZCHAIN_REQUIRE_GPU=1` a missing adapter fails the test instead.
 pub fn gpu() -> Option<GpuContext> {
-    match GpuContext::new() {
+    match GpuContext::shared() {
         Ok(ctx) => {
             // Straight to the process's stderr, past the test harness's capture, once per test
             // binary: the CI log shows which adapter ran the shaders.
@@ -294,8 +295,8 @@ fn summarise(offsets_sq: &[f64]) -> (f64, f64) {
     )
 }
 
-/// Every backend on `case`: the CPU on its best kernels, the CPU on its portable kernels, and
-/// the GPU when `ctx` is given.
+/// Every backend on `case`: the CPU on its best kernels (`cpu`), on every other kernel set
+/// this CPU runs (`cpu-avx2`, `cpu-portable`), and the GPU when `ctx` is given (`gpu`).
 pub fn evaluators(
     case: &Case,
     newton: u32,
@@ -303,24 +304,19 @@ pub fn evaluators(
     ctx: Option<&GpuContext>,
     gpu: &GpuOptions,
 ) -> Vec<(String, Box<dyn PopulationEvaluator>)> {
-    let mut out: Vec<(String, Box<dyn PopulationEvaluator>)> = vec![
-        (
-            "cpu".into(),
-            Box::new(
-                CpuEvaluator::new(&case.layout, &case.targets, newton)
-                    .unwrap()
-                    .crossing(cross),
-            ),
-        ),
-        (
-            "cpu-portable".into(),
-            Box::new(
-                CpuEvaluator::new_portable(&case.layout, &case.targets, newton)
-                    .unwrap()
-                    .crossing(cross),
-            ),
-        ),
-    ];
+    let best = Simd::detect();
+    let mut out: Vec<(String, Box<dyn PopulationEvaluator>)> = Vec::new();
+    for simd in Simd::available() {
+        let name = if simd == best {
+            "cpu".to_string()
+        } else {
+            format!("cpu-{}", format!("{simd:?}").to_lowercase())
+        };
+        let ev = CpuEvaluator::with_simd(&case.layout, &case.targets, newton, simd)
+            .unwrap()
+            .crossing(cross);
+        out.push((name, Box::new(ev)));
+    }
     if let Some(ctx) = ctx {
         out.push((
             "gpu".into(),

@@ -886,9 +886,10 @@ fn run_block(
 ) {
     match simd {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Simd::Avx2` is only produced by `Simd::detect` after it has seen AVX2 on
-        // this CPU, which is all this function requires.
-        Simd::Avx2 => unsafe { aero_avx2(kernel, config, population, block, work, out) },
+        // SAFETY: `Simd::Avx2` and `Simd::Avx512` are only produced by `Simd::detect` after it
+        // has seen AVX2 and FMA on this CPU, which is all this function requires (the panel
+        // kernel has no AVX-512 form of its own; it runs its AVX2 form there).
+        Simd::Avx2 | Simd::Avx512 => unsafe { aero_avx2(kernel, config, population, block, work, out) },
         _ => aero_block(kernel, config, population, block, work, out),
     }
 }
@@ -921,7 +922,7 @@ impl CpuAero {
             adapter: format!(
                 "CPU: {} rayon threads, {} kernels, {LANES} individuals per block",
                 rayon::current_num_threads(),
-                simd.describe()
+                simd
             ),
             fallback: None,
         };

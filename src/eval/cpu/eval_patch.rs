@@ -2,73 +2,58 @@
 //! one block of `LANES` individuals.
 //!
 //! Each lane of a [`Lanes`] array is one shader invocation; every step below is the shader's,
-//! in the same order and with the same multiply-adds ([`fma`]), applied to all lanes at once.
-//! Where a loop order differs from the shader's (coordinates outermost), every sum still adds
-//! its terms in the shader's order, so each lane's result is the shader's to the bit. The shader's private `cp[(a * NV + b) * DIM + c]` (the held patch, per
-//! invocation) is `cp[a * NV + b][c][lane]` here: one [`Point`] per control point, so that
-//! every coordinate index is a constant below 3 and the hot loops carry no bounds checks.
+//! in the same order and with the same multiply-adds (`A::fma`, see [`Arith`]), applied to all
+//! lanes at once. Where a loop order differs from the shader's (coordinates outermost), every
+//! sum still adds its terms in the shader's order, so with [`Unfused`](super::Unfused)
+//! arithmetic each lane's result is the shader's on lavapipe to the bit. The shader's private
+//! `cp[(a * NV + b) * DIM + c]` (the held patch, per invocation) is `cp[a * NV + b][c][lane]`
+//! here: one [`Point`] per control point, so that every coordinate index is a constant below
+//! 3 and the hot loops carry no bounds checks.
+//!
+//! The SIMD paths run the fixed-parameter loop in [`super::fixed`] instead (the same sums,
+//! fused) and the Newton steps here, fused.
 
-use super::{fma, Lanes, Point, LANES};
-use crate::eval::kernel::{Config, Partial, Target, MAX_DEGREE, NONE};
+use super::basis::{basis_lanes, bernstein_lanes, BasisWork, LaneBasis};
+use super::{Arith, Lanes, Point, LANES};
+use crate::eval::kernel::{Config, Partial, RefJet, Target, NONE};
 
-/// Basis arrays hold up to this many values (degree `MAX_DEGREE`).
-pub(crate) const NB: usize = MAX_DEGREE + 1;
 /// The shader's `SINGULAR`.
 const SINGULAR: f32 = 1e-6;
 
-/// `eval_patch.wgsl` `main` for point group `group` and the block whose expanded nets are in
-/// `net` (`net[r * DIM + c][lane]`); writes the block's partials for that group.
+/// The points `first..last` of the group `group` of `config`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // the shader's bindings and private arrays
-pub(crate) fn eval_patch<const DIM: usize>(
-    config: &Config,
-    targets: &[Target],
-    breaks: &[f32],
-    net: &[Lanes],
-    group: usize,
-    cp: &mut [Point],
-    work: &mut NewtonWork,
-    partials: &mut [Partial; LANES],
-) {
+pub(crate) fn group_range(config: &Config, group: usize) -> (usize, usize) {
     let first = group * config.group_points as usize;
-    let last = (first + config.group_points as usize).min(config.n_points as usize);
-    let mut sum = [0.0f32; LANES];
-    let mut worst = [0.0f32; LANES];
-    // One outer iteration per run of points on one patch, as in the shader.
-    let mut held = [NONE; LANES];
-    let mut p = first;
-    if config.newton == 0 {
-        while p < last {
-            let run = targets[p].patch_id;
-            load_patch(config, net, run, cp, &mut held);
-            while p < last {
-                let t = &targets[p];
-                if t.patch_id != run {
-                    break;
-                }
-                offset_sq_fixed::<DIM>(config, t, cp, &mut sum, &mut worst);
-                p += 1;
-            }
-        }
-    } else {
-        while p < last {
-            let run = targets[p].patch_id;
-            load_patch(config, net, run, cp, &mut held);
-            while p < last {
-                let t = &targets[p];
-                if t.patch_id != run {
-                    break;
-                }
-                let e2 = foot_point_sq::<DIM>(config, breaks, net, t, cp, &mut held, work);
-                for l in 0..LANES {
-                    sum[l] += e2[l];
-                    worst[l] = worst[l].max(e2[l]);
-                }
-                p += 1;
-            }
-        }
+    (
+        first,
+        (first + config.group_points as usize).min(config.n_points as usize),
+    )
+}
+
+/// The end of the run of targets on `targets[p]`'s patch, before `last`.
+#[inline(always)]
+pub(crate) fn run_end(targets: &[Target], p: usize, last: usize) -> usize {
+    let run = targets[p].patch_id;
+    let mut end = p + 1;
+    while end < last && targets[end].patch_id == run {
+        end += 1;
     }
-    for (p, (s, w)) in partials.iter_mut().zip(sum.iter().zip(&worst)) {
+    end
+}
+
+/// Net row and column of control point `(a, b)` of patch `patch`: `r` in the shader.
+#[inline(always)]
+pub(crate) fn net_index(config: &Config, patch: u32, a: usize, b: usize) -> usize {
+    let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
+    let i = (patch / config.patches_v) as usize;
+    let j = patch as usize - i * config.patches_v as usize;
+    (i * du + a) * config.net_cols as usize + j * dv + b
+}
+
+/// Write the block's sums and maxima as its partials.
+#[inline(always)]
+pub(crate) fn store(sum: &Lanes, worst: &Lanes, partials: &mut [Partial; LANES]) {
+    for (p, (s, w)) in partials.iter_mut().zip(sum.iter().zip(worst)) {
         *p = Partial {
             sum_sq: *s,
             max_sq: *w,
@@ -76,13 +61,14 @@ pub(crate) fn eval_patch<const DIM: usize>(
     }
 }
 
-/// Net row and column of control point `(a, b)` of patch `patch`: `r` in the shader.
-#[inline(always)]
-fn net_index(config: &Config, patch: u32, a: usize, b: usize) -> usize {
-    let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let i = (patch / config.patches_v) as usize;
-    let j = patch as usize - i * config.patches_v as usize;
-    (i * du + a) * config.net_cols as usize + j * dv + b
+/// The block's inputs the kernels read: the shader's bindings (the net is the block's).
+pub(crate) struct Bindings<'a> {
+    pub config: &'a Config,
+    pub targets: &'a [Target],
+    pub breaks: &'a [f32],
+    pub net: &'a [Lanes],
+    pub weights: &'a [f32],
+    pub jets: &'a [RefJet],
 }
 
 /// `load_patch` for every lane at once (the start of a run, where all lanes agree).
@@ -120,221 +106,116 @@ fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: 
     }
 }
 
-/// `bernstein`: the degree-n Bernstein polynomials at t.
+/// `main` with `newton == 0` for point group `group`: `offset_sq_fixed` over every point,
+/// all lanes at once.
 #[inline(always)]
-pub(crate) fn bernstein(n: usize, t: f32) -> [f32; NB] {
-    let mut out = [0.0f32; NB];
-    out[0] = 1.0;
-    let s = 1.0 - t;
-    for j in 1..n + 1 {
-        let mut saved = 0.0f32;
-        for k in 0..j {
-            let tmp = out[k];
-            out[k] = fma(s, tmp, saved);
-            saved = t * tmp;
-        }
-        out[j] = saved;
-    }
-    out
-}
-
-/// `offset_sq` with uniform parameters, for every lane; adds into `sum` and `worst` as the
-/// shader's point loop does.
-#[inline(always)]
-fn offset_sq_fixed<const DIM: usize>(
-    config: &Config,
-    t: &Target,
-    cp: &[Point],
-    sum: &mut Lanes,
-    worst: &mut Lanes,
+pub(crate) fn fixed<A: Arith, const DIM: usize>(
+    b: &Bindings<'_>,
+    group: usize,
+    cp: &mut [Point],
+    partials: &mut [Partial; LANES],
 ) {
-    let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let bu = bernstein(du, t.u);
-    let bv = bernstein(dv, t.v);
-    // The shader's weights bu[a] * bv[b] in its (a, b) order, computed once for all lanes.
-    let mut w = [0.0f32; NB * NB];
-    for a in 0..du + 1 {
-        for b in 0..dv + 1 {
-            w[a * (dv + 1) + b] = bu[a] * bv[b];
-        }
-    }
-    let ncp = (du + 1) * (dv + 1);
-    // Each coordinate accumulates over the control points in the shader's order; running the
-    // coordinates one after the other keeps a single accumulator in registers.
-    let mut s = [[0.0f32; LANES]; DIM];
-    for (c, sc) in s.iter_mut().enumerate() {
-        let mut acc = [0.0f32; LANES];
-        for (&wk, p) in w[..ncp].iter().zip(&cp[..ncp]) {
+    let config = b.config;
+    let ncp = (config.degree_u as usize + 1) * (config.degree_v as usize + 1);
+    let (first, last) = group_range(config, group);
+    let mut sum = [0.0f32; LANES];
+    let mut worst = [0.0f32; LANES];
+    let mut held = [NONE; LANES];
+    let mut p = first;
+    while p < last {
+        let end = run_end(b.targets, p, last);
+        load_patch(config, b.net, b.targets[p].patch_id, cp, &mut held);
+        for (t, w) in b.targets[p..end]
+            .iter()
+            .zip(b.weights[p * ncp..end * ncp].chunks_exact(ncp))
+        {
+            let r0 = [t.rx, t.ry, t.rz];
+            // Coordinates one after the other: one accumulator in registers; each still adds
+            // its terms in the shader's order.
+            let mut s = [[0.0f32; LANES]; DIM];
+            for (c, sc) in s.iter_mut().enumerate() {
+                let mut acc = [r0[c]; LANES];
+                for (&wk, q) in w.iter().zip(&cp[..ncp]) {
+                    for l in 0..LANES {
+                        acc[l] = A::fma(wk, q[c][l], acc[l]);
+                    }
+                }
+                *sc = acc;
+            }
             for l in 0..LANES {
-                acc[l] = fma(wk, p[c][l], acc[l]);
+                let mut e2 = 0.0f32;
+                for sc in &s {
+                    e2 = A::fma(sc[l], sc[l], e2);
+                }
+                sum[l] += e2;
+                worst[l] = worst[l].max(e2);
             }
         }
-        *sc = acc;
+        p = end;
     }
-    let q = [t.x, t.y, t.z];
-    for l in 0..LANES {
-        let mut e2 = 0.0f32;
-        for c in 0..DIM {
-            let d = s[c][l] - q[c];
-            e2 = fma(d, d, e2);
-        }
-        sum[l] += e2;
-        worst[l] = worst[l].max(e2);
-    }
+    store(&sum, &worst, partials);
 }
 
-/// `bernstein` with per-lane t.
+/// `main` with `newton >= 1` for point group `group`: `foot_point_sq` over every point.
 #[inline(always)]
-fn bernstein_lanes(n: usize, t: &Lanes) -> [Lanes; NB] {
-    let mut out = [[0.0f32; LANES]; NB];
-    out[0] = [1.0; LANES];
-    let s = t.map(|x| 1.0 - x);
-    for j in 1..n + 1 {
-        let mut saved = [0.0f32; LANES];
-        for k in 0..j {
+pub(crate) fn newton<A: Arith, const DIM: usize>(
+    b: &Bindings<'_>,
+    group: usize,
+    cp: &mut [Point],
+    work: &mut NewtonWork,
+    partials: &mut [Partial; LANES],
+) {
+    let (first, last) = group_range(b.config, group);
+    let mut sum = [0.0f32; LANES];
+    let mut worst = [0.0f32; LANES];
+    let mut held = [NONE; LANES];
+    let mut p = first;
+    while p < last {
+        let end = run_end(b.targets, p, last);
+        load_patch(b.config, b.net, b.targets[p].patch_id, cp, &mut held);
+        while p < end {
+            let e2 = foot_point_sq::<A, DIM>(b, p, cp, &mut held, work);
             for l in 0..LANES {
-                let tmp = out[k][l];
-                out[k][l] = fma(s[l], tmp, saved[l]);
-                saved[l] = t[l] * tmp;
+                sum[l] += e2[l];
+                worst[l] = worst[l].max(e2[l]);
             }
+            p += 1;
         }
-        out[j] = saved;
     }
-    out
+    store(&sum, &worst, partials);
 }
 
-/// `offset_sq` with per-lane parameters.
+/// `offset_sq`: the squared length of `base` plus the held patch at per-lane (u, v).
 #[inline(always)]
-fn offset_sq_lanes<const DIM: usize>(
+fn offset_sq<A: Arith, const DIM: usize>(
     config: &Config,
     u: &Lanes,
     v: &Lanes,
-    q: [f32; 3],
+    base: &Point,
     cp: &[Point],
 ) -> Lanes {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
-    let bu = bernstein_lanes(du, u);
-    let bv = bernstein_lanes(dv, v);
-    let mut e2 = [0.0f32; LANES];
-    for c in 0..DIM {
-        let mut s = [0.0f32; LANES];
-        for a in 0..du + 1 {
-            for b in 0..dv + 1 {
-                let p = &cp[a * (dv + 1) + b][c];
-                for l in 0..LANES {
-                    s[l] = fma(bu[a][l] * bv[b][l], p[l], s[l]);
+    let bu = bernstein_lanes::<A>(du, u);
+    let bv = bernstein_lanes::<A>(dv, v);
+    let mut s = *base;
+    for a in 0..du + 1 {
+        for b in 0..dv + 1 {
+            let p = &cp[a * (dv + 1) + b];
+            for l in 0..LANES {
+                let w = bu[a][l] * bv[b][l];
+                for c in 0..DIM {
+                    s[c][l] = A::fma(w, p[c][l], s[c][l]);
                 }
             }
         }
+    }
+    let mut e2 = [0.0f32; LANES];
+    for c in 0..DIM {
         for l in 0..LANES {
-            let d = s[l] - q[c];
-            e2[l] = fma(d, d, e2[l]);
+            e2[l] = A::fma(s[c][l], s[c][l], e2[l]);
         }
     }
     e2
-}
-
-/// `Basis`: Bernstein values with first and second derivatives, per lane.
-#[derive(Clone, Debug)]
-pub(crate) struct LaneBasis {
-    /// Values.
-    pub b: [Lanes; NB],
-    /// First derivatives.
-    pub d1: [Lanes; NB],
-    /// Second derivatives.
-    pub d2: [Lanes; NB],
-}
-
-/// The Newton path's function-scope arrays (the shader's `lvl`, `low1`, `low2`, the two bases
-/// and the jet), kept per task so that a step neither clears nor copies them whole: only the
-/// entries `0..=n` a degree-n basis uses are written, and read after being written.
-#[derive(Clone, Debug)]
-pub(crate) struct NewtonWork {
-    lvl: [Lanes; NB],
-    low1: [Lanes; NB],
-    low2: [Lanes; NB],
-    bu: LaneBasis,
-    bv: LaneBasis,
-    jet: LaneJet,
-}
-
-impl Default for NewtonWork {
-    fn default() -> Self {
-        let basis = LaneBasis {
-            b: [[0.0; LANES]; NB],
-            d1: [[0.0; LANES]; NB],
-            d2: [[0.0; LANES]; NB],
-        };
-        let zero = [[0.0; LANES]; 3];
-        NewtonWork {
-            lvl: [[0.0; LANES]; NB],
-            low1: [[0.0; LANES]; NB],
-            low2: [[0.0; LANES]; NB],
-            bu: basis.clone(),
-            bv: basis,
-            jet: LaneJet {
-                s: zero,
-                su: zero,
-                sv: zero,
-                suu: zero,
-                suv: zero,
-                svv: zero,
-            },
-        }
-    }
-}
-
-/// `basis`: the degree-n basis at per-lane t with its derivatives, into `out[..=n]`.
-#[inline(always)]
-fn basis_lanes(
-    n: usize,
-    t: &Lanes,
-    lvl: &mut [Lanes; NB],
-    low1: &mut [Lanes; NB],
-    low2: &mut [Lanes; NB],
-    out: &mut LaneBasis,
-) {
-    // The shader's zero-initialised arrays, as far as a degree-n basis reads them.
-    for x in [&mut *lvl, &mut *low1, &mut *low2] {
-        for e in &mut x[..=n] {
-            *e = [0.0; LANES];
-        }
-    }
-    lvl[0] = [1.0; LANES];
-    let s = t.map(|x| 1.0 - x);
-    for j in 1..n + 1 {
-        if j + 1 == n {
-            low2[..=n].copy_from_slice(&lvl[..=n]);
-        }
-        if j == n {
-            low1[..=n].copy_from_slice(&lvl[..=n]);
-        }
-        let mut saved = [0.0f32; LANES];
-        for k in 0..j {
-            for l in 0..LANES {
-                let tmp = lvl[k][l];
-                lvl[k][l] = fma(s[l], tmp, saved[l]);
-                saved[l] = t[l] * tmp;
-            }
-        }
-        lvl[j] = saved;
-    }
-    out.b[..=n].copy_from_slice(&lvl[..=n]);
-    let nf = n as f32;
-    let nn = nf * (nf - 1.0);
-    // low1[i - 1], low2[i - 2] and low2[i - 1], zero before the start.
-    let mut l1 = [0.0f32; LANES];
-    let mut l2a = [0.0f32; LANES];
-    let mut l2b = [0.0f32; LANES];
-    for i in 0..n + 1 {
-        for l in 0..LANES {
-            out.d1[i][l] = nf * (l1[l] - low1[i][l]);
-            out.d2[i][l] = nn * ((l2a[l] - 2.0 * l2b[l]) + low2[i][l]);
-            l1[l] = low1[i][l];
-            l2a[l] = l2b[l];
-            l2b[l] = low2[i][l];
-        }
-    }
 }
 
 /// `Jet`: a point with its first and second partials, per coordinate (the first DIM used)
@@ -349,20 +230,53 @@ struct LaneJet {
     svv: Point,
 }
 
+/// The Newton path's function-scope arrays (the basis work, the two bases and the jet), kept
+/// per task.
+#[derive(Clone, Debug)]
+pub(crate) struct NewtonWork {
+    basis: BasisWork,
+    bu: LaneBasis,
+    bv: LaneBasis,
+    jet: LaneJet,
+}
+
+impl Default for NewtonWork {
+    fn default() -> Self {
+        let zero = [[0.0; LANES]; 3];
+        NewtonWork {
+            basis: BasisWork::default(),
+            bu: LaneBasis::default(),
+            bv: LaneBasis::default(),
+            jet: LaneJet {
+                s: zero,
+                su: zero,
+                sv: zero,
+                suu: zero,
+                suv: zero,
+                svv: zero,
+            },
+        }
+    }
+}
+
 /// `jet`: the held patch and its partials at per-lane local (u, v), into `work.jet`.
 #[inline(always)]
-fn jet_lanes<const DIM: usize>(config: &Config, u: &Lanes, v: &Lanes, cp: &[Point], work: &mut NewtonWork) {
+fn jet<A: Arith, const DIM: usize>(
+    config: &Config,
+    u: &Lanes,
+    v: &Lanes,
+    cp: &[Point],
+    work: &mut NewtonWork,
+) {
     let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
     let NewtonWork {
-        lvl,
-        low1,
-        low2,
+        basis,
         bu,
         bv,
         jet: out,
     } = work;
-    basis_lanes(du, u, lvl, low1, low2, bu);
-    basis_lanes(dv, v, lvl, low1, low2, bv);
+    basis_lanes::<A>(du, u, basis, bu);
+    basis_lanes::<A>(dv, v, basis, bv);
     // The shader's loops with the coordinate loop outermost: every sum still runs over b, then
     // over a, in the shader's order, and the six sums of a coordinate stay in registers.
     for c in 0..DIM {
@@ -374,18 +288,18 @@ fn jet_lanes<const DIM: usize>(config: &Config, u: &Lanes, v: &Lanes, cp: &[Poin
             for b in 0..dv + 1 {
                 let p = &cp[a * (dv + 1) + b][c];
                 for l in 0..LANES {
-                    r0[l] = fma(bv.b[b][l], p[l], r0[l]);
-                    r1[l] = fma(bv.d1[b][l], p[l], r1[l]);
-                    r2[l] = fma(bv.d2[b][l], p[l], r2[l]);
+                    r0[l] = A::fma(bv.b[b][l], p[l], r0[l]);
+                    r1[l] = A::fma(bv.d1[b][l], p[l], r1[l]);
+                    r2[l] = A::fma(bv.d2[b][l], p[l], r2[l]);
                 }
             }
             for l in 0..LANES {
-                acc[0][l] = fma(bu.b[a][l], r0[l], acc[0][l]);
-                acc[1][l] = fma(bu.d1[a][l], r0[l], acc[1][l]);
-                acc[2][l] = fma(bu.d2[a][l], r0[l], acc[2][l]);
-                acc[3][l] = fma(bu.b[a][l], r1[l], acc[3][l]);
-                acc[4][l] = fma(bu.d1[a][l], r1[l], acc[4][l]);
-                acc[5][l] = fma(bu.b[a][l], r2[l], acc[5][l]);
+                acc[0][l] = A::fma(bu.b[a][l], r0[l], acc[0][l]);
+                acc[1][l] = A::fma(bu.d1[a][l], r0[l], acc[1][l]);
+                acc[2][l] = A::fma(bu.d2[a][l], r0[l], acc[2][l]);
+                acc[3][l] = A::fma(bu.b[a][l], r1[l], acc[3][l]);
+                acc[4][l] = A::fma(bu.d1[a][l], r1[l], acc[4][l]);
+                acc[5][l] = A::fma(bu.b[a][l], r2[l], acc[5][l]);
             }
         }
         out.s[c] = acc[0];
@@ -397,12 +311,43 @@ fn jet_lanes<const DIM: usize>(config: &Config, u: &Lanes, v: &Lanes, cp: &[Poin
     }
 }
 
-/// `relocate`: move local t of segment k (chain breaks from `breaks[first]`, `count`
-/// segments) to the segment holding it, clamped to `[0, 1]`.
+/// `Taylor`: the reference's Taylor polynomial at per-lane displacement `(du, dv)`.
+struct LaneTaylor {
+    val: Point,
+    du: Point,
+    dv: Point,
+}
+
+/// `taylor` for every lane.
 #[inline(always)]
-fn relocate(breaks: &[f32], first: usize, count: usize, k: usize, t: f32) -> (usize, f32) {
-    let t0 = breaks[first + k];
-    let g = fma(t, breaks[first + k + 1] - t0, t0).clamp(0.0, 1.0);
+fn taylor<A: Arith, const DIM: usize>(rj: &RefJet, t: &Target, du: &Lanes, dv: &Lanes) -> LaneTaylor {
+    let r0 = [t.rx, t.ry, t.rz];
+    let zero = [[0.0f32; LANES]; 3];
+    let mut out = LaneTaylor {
+        val: zero,
+        du: zero,
+        dv: zero,
+    };
+    for c in 0..DIM {
+        for l in 0..LANES {
+            let tu = A::fma(rj.suu[c], du[l], A::fma(rj.suv[c], dv[l], rj.su[c]));
+            let tv = A::fma(rj.suv[c], du[l], A::fma(rj.svv[c], dv[l], rj.sv[c]));
+            out.val[c][l] = A::fma(
+                0.5 * du[l],
+                tu + rj.su[c],
+                A::fma(0.5 * dv[l], tv + rj.sv[c], r0[c]),
+            );
+            out.du[c][l] = tu;
+            out.dv[c][l] = tv;
+        }
+    }
+    out
+}
+
+/// `locate`: the segment of a chain (breaks from `breaks[first]`, `count` segments) holding
+/// global g, and the local parameter in it.
+#[inline(always)]
+fn locate(breaks: &[f32], first: usize, count: usize, g: f32) -> (usize, f32) {
     let mut m = 0;
     for i in 1..count {
         if g >= breaks[first + i] {
@@ -410,16 +355,22 @@ fn relocate(breaks: &[f32], first: usize, count: usize, k: usize, t: f32) -> (us
         }
     }
     let b0 = breaks[first + m];
-    (m, ((g - b0) / (breaks[first + m + 1] - b0)).clamp(0.0, 1.0))
+    (m, clamp((g - b0) / (breaks[first + m + 1] - b0), 0.0, 1.0))
+}
+
+/// WGSL's `clamp(x, lo, hi)`: `min(max(x, lo), hi)`.
+#[inline(always)]
+fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
 }
 
 /// `dot_n` for every lane.
 #[inline(always)]
-fn dot_lanes<const DIM: usize>(x: &Point, y: &Point) -> Lanes {
+fn dot<A: Arith, const DIM: usize>(x: &Point, y: &Point) -> Lanes {
     let mut acc = [0.0f32; LANES];
     for c in 0..DIM {
         for l in 0..LANES {
-            acc[l] = fma(x[c][l], y[c][l], acc[l]);
+            acc[l] = A::fma(x[c][l], y[c][l], acc[l]);
         }
     }
     acc
@@ -454,74 +405,104 @@ fn newton_step(gu: f32, gv: f32, guu: f32, guv: f32, gvv: f32, huu: f32, huv: f3
     }
 }
 
-/// `foot_point_sq` for every lane: `config.newton` (at least 1) Newton steps from the
-/// target's start parameters on the held patch.
+/// `foot_point_sq` for every lane: `config.newton` (at least 1) Newton steps from target
+/// `p`'s start parameters on the held patch.
 #[inline(always)]
-fn foot_point_sq<const DIM: usize>(
-    config: &Config,
-    breaks: &[f32],
-    net: &[Lanes],
-    t: &Target,
+#[allow(clippy::manual_range_contains)] // the shader's test, which lets NaN through
+fn foot_point_sq<A: Arith, const DIM: usize>(
+    bind: &Bindings<'_>,
+    p: usize,
     cp: &mut [Point],
     held: &mut [u32; LANES],
     work: &mut NewtonWork,
 ) -> Lanes {
+    let (config, breaks, net) = (bind.config, bind.breaks, bind.net);
+    let t = &bind.targets[p];
+    let rj = &bind.jets[p];
     let pv = config.patches_v;
     let (pu_count, pv_count) = (config.patches_u as usize, config.patches_v as usize);
-    let i0 = t.patch_id / pv;
-    let mut i = [i0; LANES];
-    let mut j = [t.patch_id - i0 * pv; LANES];
+    let i0 = (t.patch_id / pv) as usize;
+    let j0 = (t.patch_id - i0 as u32 * pv) as usize;
+    let fv = pu_count + 1;
+    let cross = config.cross != 0;
+    let (mut h0u, mut h0v) = (1.0f32, 1.0f32);
+    let (mut lo_u, mut hi_u, mut lo_v, mut hi_v) = (-t.u, 1.0 - t.u, -t.v, 1.0 - t.v);
+    if cross {
+        h0u = breaks[i0 + 1] - breaks[i0];
+        h0v = breaks[fv + j0 + 1] - breaks[fv + j0];
+        lo_u = -(t.u + breaks[i0] / h0u);
+        hi_u = (1.0 - breaks[i0]) / h0u - t.u;
+        lo_v = -(t.v + breaks[fv + j0] / h0v);
+        hi_v = (1.0 - breaks[fv + j0]) / h0v - t.v;
+    }
+    lo_u = lo_u.max(-t.reach_u);
+    hi_u = hi_u.min(t.reach_u);
+    lo_v = lo_v.max(-t.reach_v);
+    hi_v = hi_v.min(t.reach_v);
+    let mut du = [0.0f32; LANES];
+    let mut dv = [0.0f32; LANES];
     let mut u = [t.u; LANES];
     let mut v = [t.v; LANES];
+    let mut ku = [1.0f32; LANES];
+    let mut kv = [1.0f32; LANES];
     let mut best = [3.0e38f32; LANES];
-    let q = [t.x, t.y, t.z];
     let mut it = 0;
     loop {
-        jet_lanes::<DIM>(config, &u, &v, cp, work);
+        jet::<A, DIM>(config, &u, &v, cp, work);
+        let f = taylor::<A, DIM>(rj, t, &du, &dv);
         let e = &work.jet;
-        let mut r = [[0.0f32; LANES]; 3];
+        let zero = [[0.0f32; LANES]; 3];
+        let (mut r, mut su, mut sv, mut suu, mut suv, mut svv) = (zero, zero, zero, zero, zero, zero);
         for c in 0..DIM {
             for l in 0..LANES {
-                r[c][l] = e.s[c][l] - q[c];
+                r[c][l] = f.val[c][l] + e.s[c][l];
+                su[c][l] = A::fma(ku[l], e.su[c][l], f.du[c][l]);
+                sv[c][l] = A::fma(kv[l], e.sv[c][l], f.dv[c][l]);
+                suu[c][l] = A::fma(ku[l] * ku[l], e.suu[c][l], rj.suu[c]);
+                suv[c][l] = A::fma(ku[l] * kv[l], e.suv[c][l], rj.suv[c]);
+                svv[c][l] = A::fma(kv[l] * kv[l], e.svv[c][l], rj.svv[c]);
             }
         }
-        let rr = dot_lanes::<DIM>(&r, &r);
-        let gu = dot_lanes::<DIM>(&r, &e.su);
-        let gv = dot_lanes::<DIM>(&r, &e.sv);
-        let guu = dot_lanes::<DIM>(&e.su, &e.su);
-        let guv = dot_lanes::<DIM>(&e.su, &e.sv);
-        let gvv = dot_lanes::<DIM>(&e.sv, &e.sv);
-        let ruu = dot_lanes::<DIM>(&r, &e.suu);
-        let ruv = dot_lanes::<DIM>(&r, &e.suv);
-        let rvv = dot_lanes::<DIM>(&r, &e.svv);
+        let rr = dot::<A, DIM>(&r, &r);
+        let gu = dot::<A, DIM>(&r, &su);
+        let gv = dot::<A, DIM>(&r, &sv);
+        let guu = dot::<A, DIM>(&su, &su);
+        let guv = dot::<A, DIM>(&su, &sv);
+        let gvv = dot::<A, DIM>(&sv, &sv);
+        let ruu = dot::<A, DIM>(&r, &suu);
+        let ruv = dot::<A, DIM>(&r, &suv);
+        let rvv = dot::<A, DIM>(&r, &svv);
         for l in 0..LANES {
             best[l] = best[l].min(rr[l]);
-            let (gu, gv, guu, guv, gvv) = (gu[l], gv[l], guu[l], guv[l], gvv[l]);
-            let huu = guu + ruu[l];
-            let huv = guv + ruv[l];
-            let hvv = gvv + rvv[l];
-            let (step_u, step_v) = newton_step(gu, gv, guu, guv, gvv, huu, huv, hvv);
-            u[l] += step_u;
-            v[l] += step_v;
+            let (huu, huv, hvv) = (guu[l] + ruu[l], guv[l] + ruv[l], gvv[l] + rvv[l]);
+            let (step_u, step_v) = newton_step(gu[l], gv[l], guu[l], guv[l], gvv[l], huu, huv, hvv);
+            du[l] = clamp(du[l] + step_u, lo_u, hi_u);
+            dv[l] = clamp(dv[l] + step_v, lo_v, hi_v);
         }
-        if config.cross == 0 {
+        if !cross {
             for l in 0..LANES {
-                u[l] = u[l].clamp(0.0, 1.0);
-                v[l] = v[l].clamp(0.0, 1.0);
+                u[l] = clamp(t.u + du[l], 0.0, 1.0);
+                v[l] = clamp(t.v + dv[l], 0.0, 1.0);
             }
         } else {
             for l in 0..LANES {
-                if u[l] < 0.0 || u[l] > 1.0 {
-                    let (m, t) = relocate(breaks, 0, pu_count, i[l] as usize, u[l]);
-                    i[l] = m as u32;
-                    u[l] = t;
+                let (wu, wv) = (t.u + du[l], t.v + dv[l]);
+                let (mut i, mut j) = (i0, j0);
+                u[l] = wu;
+                v[l] = wv;
+                ku[l] = 1.0;
+                kv[l] = 1.0;
+                if wu < 0.0 || wu > 1.0 {
+                    let g = clamp(A::fma(wu, h0u, breaks[i0]), 0.0, 1.0);
+                    (i, u[l]) = locate(breaks, 0, pu_count, g);
+                    ku[l] = h0u / (breaks[i + 1] - breaks[i]);
                 }
-                if v[l] < 0.0 || v[l] > 1.0 {
-                    let (m, t) = relocate(breaks, pu_count + 1, pv_count, j[l] as usize, v[l]);
-                    j[l] = m as u32;
-                    v[l] = t;
+                if wv < 0.0 || wv > 1.0 {
+                    let g = clamp(A::fma(wv, h0v, breaks[fv + j0]), 0.0, 1.0);
+                    (j, v[l]) = locate(breaks, fv, pv_count, g);
+                    kv[l] = h0v / (breaks[fv + j + 1] - breaks[fv + j]);
                 }
-                let moved = i[l] * pv + j[l];
+                let moved = i as u32 * pv + j as u32;
                 if moved != held[l] {
                     held[l] = moved;
                     load_patch_lane(config, net, moved, l, cp);
@@ -533,10 +514,11 @@ fn foot_point_sq<const DIM: usize>(
             break;
         }
     }
-    let e2 = offset_sq_lanes::<DIM>(config, &u, &v, q, cp);
+    let base = taylor::<A, DIM>(rj, t, &du, &dv).val;
+    let e2 = offset_sq::<A, DIM>(config, &u, &v, &base, cp);
     for l in 0..LANES {
         best[l] = best[l].min(e2[l]);
-        if config.cross != 0 && held[l] != t.patch_id {
+        if cross && held[l] != t.patch_id {
             held[l] = t.patch_id;
             load_patch_lane(config, net, t.patch_id, l, cp);
         }

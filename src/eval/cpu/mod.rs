@@ -1,184 +1,350 @@
 //! The CPU path: rayon over blocks of `LANES` individuals, each block a blocked
 //! structure-of-arrays (`value[lane]`) so the kernels vectorise over individuals.
 //!
-//! Every file here mirrors the shader of the same name in `shaders/`, operation for operation.
-//! The shaders' `fma(a, b, c)` is [`fma`] here: a multiply, then an add. That is what Mesa
-//! lavapipe computes for it (measured: the GPU and the CPU results are bit-identical over
-//! whole populations), so the two paths agree exactly there; a GPU that fuses the operation
-//! rounds once less and differs in the last bits. The kernels are compiled twice: with AVX2
-//! (picked at run time when the CPU has it) and for the build target (SSE2 on x86_64); both
-//! compute the same values.
+//! Every file here mirrors the shader of the same name in `shaders/`, operation for operation
+//! (`basis.rs` mirrors `basis.wgsl`, spliced into the shaders). The shaders' `fma(a, b, c)` is
+//! [`Arith::fma`] here, in two forms:
+//!
+//! - [`Unfused`]: a multiply, then an add. That is what Mesa lavapipe computes for it
+//!   (measured: the GPU and the CPU results are bit-identical over whole populations), so the
+//!   portable kernels agree with lavapipe exactly.
+//! - [`Fused`]: one rounding (`f32::mul_add`, a hardware FMA), on the SIMD kernels, as a GPU
+//!   that fuses computes it; results differ from lavapipe's in the last bits.
+//!
+//! Three kernel sets ([`Simd`]), picked at run time: AVX-512 (the fixed-parameter loop in
+//! explicit 16-lane intrinsics, the rest auto-vectorised with AVX-512 and FMA), AVX2 + FMA (8
+//! lanes) and portable (whatever the build target has, SSE2 on x86_64). All three compute the
+//! same sums in the same order; the tests run each.
 
 // The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
 #![allow(clippy::needless_range_loop)]
 
 pub(crate) mod aero;
+pub(crate) mod basis;
 pub(crate) mod dense_grid;
 pub(crate) mod eval_patch;
 pub(crate) mod expand;
+pub(crate) mod fixed;
 pub(crate) mod reduce;
 
-use super::kernel::{point_groups, Config, Partial, Problem};
+use self::eval_patch::{Bindings, NewtonWork};
+use super::kernel::{point_groups, Config, Gene, Partial, Problem};
 use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt;
 
-/// Individuals per block: one lane each.
-pub(crate) const LANES: usize = 32;
+/// Individuals per block: one lane each (one AVX-512 register, two AVX2 registers).
+pub(crate) const LANES: usize = 16;
 /// One value per lane of a block.
 pub(crate) type Lanes = [f32; LANES];
 /// The coordinates of one point for every lane (the third unused for curves).
 pub(crate) type Point = [Lanes; 3];
 
-/// The shaders' `fma(a, b, c)` as lavapipe computes it: `a * b + c`, rounded twice.
-#[inline(always)]
-pub(crate) fn fma(a: f32, b: f32, c: f32) -> f32 {
-    a * b + c
+/// How the kernels compute the shaders' `fma(a, b, c)`.
+pub(crate) trait Arith {
+    /// `a * b + c`.
+    fn fma(a: f32, b: f32, c: f32) -> f32;
 }
 
-/// Which compiled kernels run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Simd {
-    /// AVX2 (x86_64, detected at run time).
+/// `a * b + c` rounded twice, as lavapipe computes `fma`.
+pub(crate) struct Unfused;
+
+impl Arith for Unfused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a * b + c
+    }
+}
+
+/// `a * b + c` rounded once. Only inside functions compiled with the `fma` feature (elsewhere
+/// `mul_add` is a library call).
+pub(crate) struct Fused;
+
+impl Arith for Fused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a.mul_add(b, c)
+    }
+}
+
+/// A set of CPU kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Simd {
+    /// AVX-512F with FMA (x86_64, detected at run time): 16 lanes a register, fused.
+    Avx512,
+    /// AVX2 with FMA (x86_64, detected at run time): 8 lanes a register, fused.
     Avx2,
-    /// Whatever the build target has.
+    /// Whatever the build target has; unfused, bit-identical to lavapipe.
     Portable,
 }
 
 impl Simd {
     /// The best kernels this CPU runs.
-    pub(crate) fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Simd::Avx2;
-            }
-        }
-        Simd::Portable
+    #[must_use]
+    pub fn detect() -> Self {
+        [Simd::Avx512, Simd::Avx2]
+            .into_iter()
+            .find(|s| s.supported())
+            .unwrap_or(Simd::Portable)
     }
 
-    pub(crate) fn describe(self) -> &'static str {
+    /// Whether this CPU runs these kernels.
+    #[must_use]
+    pub fn supported(self) -> bool {
         match self {
-            Simd::Avx2 => "AVX2",
-            Simd::Portable => "portable",
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+            }
+            Simd::Portable => true,
+            #[allow(unreachable_patterns)]
+            _ => false,
         }
+    }
+
+    /// Every kernel set this CPU runs, best first.
+    #[must_use]
+    pub fn available() -> Vec<Simd> {
+        [Simd::Avx512, Simd::Avx2, Simd::Portable]
+            .into_iter()
+            .filter(|s| s.supported())
+            .collect()
     }
 }
 
-/// Per-task scratch: a block's transposed design rows, its control nets and the held patch.
+impl fmt::Display for Simd {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Simd::Avx512 => "AVX-512",
+            Simd::Avx2 => "AVX2",
+            Simd::Portable => "portable",
+        })
+    }
+}
+
+/// Per-task scratch: a block's transposed design differences, its difference nets, the held
+/// patch and the Newton path's arrays.
 pub(crate) struct Scratch {
     pub(crate) design: Vec<Lanes>,
     pub(crate) net: Vec<Lanes>,
     pub(crate) cp: Vec<Point>,
-    pub(crate) newton: Box<eval_patch::NewtonWork>,
+    pub(crate) newton: Box<NewtonWork>,
 }
 
 impl Scratch {
     pub(crate) fn new(problem: &Problem) -> Self {
-        let patch = (problem.du + 1) * (problem.dv + 1);
         Scratch {
             design: vec![[0.0; LANES]; problem.n_vars],
             net: vec![[0.0; LANES]; problem.n_ctrl * problem.dim],
-            cp: vec![[[0.0; LANES]; 3]; patch],
+            cp: vec![[[0.0; LANES]; 3]; problem.ncp()],
             newton: Box::default(),
         }
     }
 }
 
-/// The `expand` mirror for block `block` into the scratch net.
+/// A kernel set: its `fma` and its fixed-parameter loop.
+trait Kernels {
+    type A: Arith;
+    /// The fixed-parameter partials of group `group`.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must have the set's features.
+    unsafe fn fixed<const DIM: usize>(
+        b: &Bindings<'_>,
+        group: usize,
+        s: &mut Scratch,
+        out: &mut [Partial; LANES],
+    );
+}
+
+struct PortableKernels;
+
+impl Kernels for PortableKernels {
+    type A = Unfused;
+    #[inline(always)]
+    unsafe fn fixed<const DIM: usize>(
+        b: &Bindings<'_>,
+        group: usize,
+        s: &mut Scratch,
+        out: &mut [Partial; LANES],
+    ) {
+        eval_patch::fixed::<Unfused, DIM>(b, group, &mut s.cp, out);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Avx2Kernels;
+
+#[cfg(target_arch = "x86_64")]
+impl Kernels for Avx2Kernels {
+    type A = Fused;
+    #[inline(always)]
+    unsafe fn fixed<const DIM: usize>(
+        b: &Bindings<'_>,
+        group: usize,
+        _: &mut Scratch,
+        out: &mut [Partial; LANES],
+    ) {
+        use std::arch::x86_64::__m256;
+        // G points at a time: G × DIM accumulators, G broadcast weights and a control point
+        // in the 16 ymm registers.
+        if DIM == 3 {
+            fixed::fixed::<__m256, DIM, 3>(b.config, b.targets, b.weights, b.net, group, out);
+        } else {
+            fixed::fixed::<__m256, DIM, 4>(b.config, b.targets, b.weights, b.net, group, out);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Avx512Kernels;
+
+#[cfg(target_arch = "x86_64")]
+impl Kernels for Avx512Kernels {
+    type A = Fused;
+    #[inline(always)]
+    unsafe fn fixed<const DIM: usize>(
+        b: &Bindings<'_>,
+        group: usize,
+        _: &mut Scratch,
+        out: &mut [Partial; LANES],
+    ) {
+        use std::arch::x86_64::__m512;
+        // As for AVX2, in the 32 zmm registers.
+        if DIM == 3 {
+            fixed::fixed::<__m512, DIM, 7>(b.config, b.targets, b.weights, b.net, group, out);
+        } else {
+            fixed::fixed::<__m512, DIM, 10>(b.config, b.targets, b.weights, b.net, group, out);
+        }
+    }
+}
+
+/// One (block, group) task on kernel set `K`: expand the block's differences, then evaluate
+/// the group.
+///
+/// # Safety
+///
+/// The CPU must have `K`'s features.
 #[inline(always)]
-fn expand_block(config: &Config, problem: &Problem, population: &[f32], block: usize, scratch: &mut Scratch) {
-    expand::expand(
+#[allow(clippy::too_many_arguments)]
+unsafe fn task<K: Kernels, T: Gene>(
+    config: &Config,
+    problem: &Problem,
+    population: &[T],
+    block: usize,
+    group: usize,
+    scratch: &mut Scratch,
+    out: &mut [Partial; LANES],
+) {
+    expand::expand::<K::A, T>(
         config,
         &problem.map_start,
         &problem.map_entries,
+        problem.reference(),
         population,
         block,
         &mut scratch.design,
         &mut scratch.net,
     );
-}
-
-/// The `eval_patch` mirror for point group `group` on the scratch net.
-#[inline(always)]
-fn eval_block<const DIM: usize>(
-    config: &Config,
-    problem: &Problem,
-    group: usize,
-    scratch: &mut Scratch,
-    partial: &mut [Partial; LANES],
-) {
-    let Scratch { net, cp, newton, .. } = scratch;
-    eval_patch::eval_patch::<DIM>(
+    let net = std::mem::take(&mut scratch.net);
+    let b = Bindings {
         config,
-        &problem.targets,
-        &problem.breaks,
-        net,
-        group,
-        cp,
-        newton,
-        partial,
-    );
+        targets: &problem.targets,
+        breaks: &problem.breaks,
+        net: &net,
+        weights: &problem.weights,
+        jets: &problem.jets,
+    };
+    match (problem.dim, config.newton) {
+        (2, 0) => K::fixed::<2>(&b, group, scratch, out),
+        (_, 0) => K::fixed::<3>(&b, group, scratch, out),
+        (2, _) => eval_patch::newton::<K::A, 2>(&b, group, &mut scratch.cp, &mut scratch.newton, out),
+        _ => eval_patch::newton::<K::A, 3>(&b, group, &mut scratch.cp, &mut scratch.newton, out),
+    }
+    scratch.net = net;
 }
 
-// The AVX2 builds: one function per kernel, so that each is optimised on its own.
+// One compiled function per kernel set, so that each is optimised for its features.
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn expand_avx2(config: &Config, problem: &Problem, population: &[f32], block: usize, scratch: &mut Scratch) {
-    expand_block(config, problem, population, block, scratch);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn eval_avx2<const DIM: usize>(
-    config: &Config,
-    problem: &Problem,
-    group: usize,
-    scratch: &mut Scratch,
-    partial: &mut [Partial; LANES],
-) {
-    eval_block::<DIM>(config, problem, group, scratch, partial);
-}
-
-/// Run one (block, group) task, expanding the block and evaluating the group, on the kernels
-/// `simd` names.
 #[allow(clippy::too_many_arguments)]
-fn run_block(
-    simd: Simd,
+fn task_portable<T: Gene>(
     config: &Config,
     problem: &Problem,
-    population: &[f32],
+    population: &[T],
     block: usize,
     group: usize,
     scratch: &mut Scratch,
-    partial: &mut [Partial; LANES],
+    out: &mut [Partial; LANES],
+) {
+    // SAFETY: the portable set needs no feature beyond the build target's.
+    unsafe { task::<PortableKernels, T>(config, problem, population, block, group, scratch, out) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn task_avx2<T: Gene>(
+    config: &Config,
+    problem: &Problem,
+    population: &[T],
+    block: usize,
+    group: usize,
+    scratch: &mut Scratch,
+    out: &mut [Partial; LANES],
+) {
+    task::<Avx2Kernels, T>(config, problem, population, block, group, scratch, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn task_avx512<T: Gene>(
+    config: &Config,
+    problem: &Problem,
+    population: &[T],
+    block: usize,
+    group: usize,
+    scratch: &mut Scratch,
+    out: &mut [Partial; LANES],
+) {
+    task::<Avx512Kernels, T>(config, problem, population, block, group, scratch, out);
+}
+
+/// Run one (block, group) task on the kernels `simd` names.
+#[allow(clippy::too_many_arguments)]
+fn run_task<T: Gene>(
+    simd: Simd,
+    config: &Config,
+    problem: &Problem,
+    population: &[T],
+    block: usize,
+    group: usize,
+    scratch: &mut Scratch,
+    out: &mut [Partial; LANES],
 ) {
     match simd {
+        // SAFETY: a `CpuEvaluator` holds `Avx512` or `Avx2` only where `Simd::supported`
+        // saw the features on this CPU.
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Simd::Avx2` is only produced by `Simd::detect` after it has seen AVX2 on
-        // this CPU, which is all these functions require.
-        Simd::Avx2 => unsafe {
-            expand_avx2(config, problem, population, block, scratch);
-            if problem.dim == 2 {
-                eval_avx2::<2>(config, problem, group, scratch, partial);
-            } else {
-                eval_avx2::<3>(config, problem, group, scratch, partial);
-            }
-        },
-        _ => {
-            expand_block(config, problem, population, block, scratch);
-            if problem.dim == 2 {
-                eval_block::<2>(config, problem, group, scratch, partial);
-            } else {
-                eval_block::<3>(config, problem, group, scratch, partial);
-            }
-        }
+        Simd::Avx512 => unsafe { task_avx512(config, problem, population, block, group, scratch, out) },
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx2 => unsafe { task_avx2(config, problem, population, block, group, scratch, out) },
+        _ => task_portable(config, problem, population, block, group, scratch, out),
     }
 }
 
 /// Population evaluation on the CPU: rayon over (block of `LANES` individuals, point group)
-/// tasks, each expanding its block and running the `eval_patch` mirror, then `reduce`.
+/// tasks, each expanding its block and running the `eval_patch` kernels, then `reduce`.
 #[derive(Clone, Debug)]
 pub struct CpuEvaluator {
     problem: Problem,
@@ -193,23 +359,29 @@ impl CpuEvaluator {
         Self::with_simd(layout, targets, newton, Simd::detect())
     }
 
-    /// The same, forced onto the portable kernels (for tests and comparisons).
-    pub fn new_portable(layout: &EvalLayout, targets: &Targets, newton: u32) -> Result<Self> {
-        Self::with_simd(layout, targets, newton, Simd::Portable)
-    }
-
-    fn with_simd(layout: &EvalLayout, targets: &Targets, newton: u32, simd: Simd) -> Result<Self> {
+    /// The same on the kernel set `simd`; an error when this CPU lacks its features.
+    pub fn with_simd(layout: &EvalLayout, targets: &Targets, newton: u32, simd: Simd) -> Result<Self> {
+        if !simd.supported() {
+            return Err(Error::invalid(format!(
+                "this CPU does not run the {simd} kernels"
+            )));
+        }
         let problem = Problem::new(layout, targets, newton)?;
         let info = BackendInfo {
             backend: Backend::Cpu,
             adapter: format!(
-                "CPU: {} rayon threads, {} kernels, {LANES} individuals per block",
+                "CPU: {} rayon threads, {simd} kernels, {LANES} individuals per block",
                 rayon::current_num_threads(),
-                simd.describe()
             ),
             fallback: None,
         };
         Ok(CpuEvaluator { problem, simd, info })
+    }
+
+    /// The kernel set in use.
+    #[must_use]
+    pub fn simd(&self) -> Simd {
+        self.simd
     }
 
     /// Let Newton steps cross patch borders (see [`EvalOptions::cross_patches`]).
@@ -226,12 +398,10 @@ impl CpuEvaluator {
         self.info.fallback = Some(why);
         self
     }
-}
 
-impl PopulationEvaluator for CpuEvaluator {
-    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
+    fn run<T: Gene>(&self, population: &[T], out: &mut [Fitness]) -> Result<()> {
         let problem = &self.problem;
-        let rows = problem.rows(population, out.len())?;
+        let rows = problem.rows(population.len(), out.len())?;
         if rows == 0 {
             return Ok(());
         }
@@ -244,7 +414,7 @@ impl PopulationEvaluator for CpuEvaluator {
             || Scratch::new(problem),
             |scratch, (k, partial)| {
                 let (group, block) = (k / blocks, k % blocks);
-                run_block(simd, &config, problem, population, block, group, scratch, partial);
+                run_task(simd, &config, problem, population, block, group, scratch, partial);
             },
         );
         out.par_chunks_mut(LANES)
@@ -252,13 +422,31 @@ impl PopulationEvaluator for CpuEvaluator {
             .for_each(|(block, fitness)| reduce::reduce(&config, &partials, blocks, block, fitness));
         Ok(())
     }
+}
+
+impl PopulationEvaluator for CpuEvaluator {
+    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
+
+    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
 
     fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
         self.problem.set_params(params)
     }
 
+    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
+        self.problem.set_reference(design)
+    }
+
     fn set_newton(&mut self, newton: u32) {
         self.problem.newton = newton;
+    }
+
+    fn resolution(&self, sum_sq: f64) -> f64 {
+        self.problem.resolution(sum_sq)
     }
 
     fn info(&self) -> &BackendInfo {

@@ -1,11 +1,12 @@
-//! The GPU path: a wgpu context on the Vulkan backend, the four shaders specialised for a
-//! layout, and `GpuEvaluator`, which keeps its pipelines and buffers from one population to
-//! the next and splits populations beyond the device limits into chunks.
+//! The GPU path: one wgpu context per process on the Vulkan backend (a service every
+//! evaluator shares), the shaders specialised for a layout, and `GpuEvaluator`, which keeps its
+//! pipelines and buffers from one population to the next and splits populations beyond the
+//! device limits into chunks.
 
-use super::kernel::{point_groups, Problem};
+use super::kernel::{point_groups, Gene, Problem};
 use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
 use crate::error::{Error, Result};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
 pub(crate) mod aero;
@@ -15,6 +16,12 @@ pub use unroll::unroll;
 
 /// The WGSL sources, embedded; `tests/shaders.rs` validates them as they stand and specialised.
 pub mod source {
+    use crate::error::{Error, Result};
+
+    /// `shaders/config.wgsl`: the `Config` uniform block, included by every shader.
+    pub const CONFIG: &str = include_str!("../../../shaders/config.wgsl");
+    /// `shaders/basis.wgsl`: the Bernstein basis, included by the shaders that evaluate patches.
+    pub const BASIS: &str = include_str!("../../../shaders/basis.wgsl");
     /// `shaders/expand.wgsl`.
     pub const EXPAND: &str = include_str!("../../../shaders/expand.wgsl");
     /// `shaders/eval_patch.wgsl`.
@@ -23,6 +30,31 @@ pub mod source {
     pub const REDUCE: &str = include_str!("../../../shaders/reduce.wgsl");
     /// `shaders/dense_grid.wgsl`.
     pub const DENSE_GRID: &str = include_str!("../../../shaders/dense_grid.wgsl");
+
+    /// The files a shader may include, by name.
+    pub const INCLUDES: [(&str, &str); 2] = [("config.wgsl", CONFIG), ("basis.wgsl", BASIS)];
+
+    /// `src` with every line `// @include NAME` replaced by the file of that name (once each;
+    /// included files include nothing).
+    pub fn expand(src: &str) -> Result<String> {
+        let mut out = String::with_capacity(src.len() + CONFIG.len() + BASIS.len());
+        for line in src.lines() {
+            match line.trim().strip_prefix("// @include ") {
+                Some(name) => {
+                    let (_, text) = INCLUDES
+                        .iter()
+                        .find(|(n, _)| *n == name.trim())
+                        .ok_or_else(|| Error::Gpu(format!("shader includes unknown file '{name}'")))?;
+                    out.push_str(text);
+                }
+                None => {
+                    out.push_str(line);
+                    out.push('\n');
+                }
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// The environment variable that makes every GPU request fail as if no adapter existed.
@@ -60,9 +92,10 @@ pub fn specialise(src: &str, consts: &[(&str, u32)]) -> Result<String> {
     }
 }
 
-/// A shader ready for the driver: `consts` specialised, then the `// @unroll` loops unrolled.
+/// A shader ready for the driver: its includes spliced in, `consts` specialised, then the
+/// `// @unroll` loops unrolled.
 pub fn prepare(src: &str, consts: &[(&str, u32)]) -> Result<String> {
-    unroll(&specialise(src, consts)?)
+    unroll(&specialise(&source::expand(src)?, consts)?)
 }
 
 /// Options of the GPU path.
@@ -80,8 +113,10 @@ impl Default for GpuOptions {
     }
 }
 
-/// A wgpu device and queue on the best Vulkan adapter, created once and shared by every
-/// evaluator of a run (cheap to clone).
+/// A wgpu device and queue on the best Vulkan adapter: one per process, opened on first use
+/// by [`GpuContext::shared`] and shared by every evaluator (a clone is a handle to the same
+/// device). Device errors are collected in one place and reported by the next evaluator call
+/// that checks.
 #[derive(Clone, Debug)]
 pub struct GpuContext {
     pub(crate) device: wgpu::Device,
@@ -91,15 +126,28 @@ pub struct GpuContext {
 }
 
 impl GpuContext {
-    /// Open the best adapter wgpu's Vulkan backend finds (discrete, integrated, virtual, then
-    /// CPU adapters such as Mesa lavapipe). Fails with [`Error::Gpu`] when there is none or
-    /// when `BEZCHAIN_NO_GPU` is set to anything but `0`.
-    pub fn new() -> Result<Self> {
+    /// The process's context: the best adapter wgpu's Vulkan backend finds (discrete,
+    /// integrated, virtual, then CPU adapters such as Mesa lavapipe), opened on the first call;
+    /// later calls return it (or the first call's error) at once. Fails with [`Error::Gpu`]
+    /// when there is no adapter or when `BEZCHAIN_NO_GPU` is set to anything but `0`.
+    pub fn shared() -> Result<Self> {
         if let Ok(v) = std::env::var(NO_GPU_ENV) {
             if !v.is_empty() && v != "0" {
                 return Err(Error::Gpu(format!("no adapter: {NO_GPU_ENV}={v} is set")));
             }
         }
+        static SHARED: OnceLock<std::result::Result<GpuContext, String>> = OnceLock::new();
+        let opened = SHARED.get_or_init(|| {
+            Self::open().map_err(|e| match e {
+                Error::Gpu(why) => why,
+                other => other.to_string(),
+            })
+        });
+        opened.clone().map_err(Error::Gpu)
+    }
+
+    /// Open a device on the best adapter.
+    fn open() -> Result<Self> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN,
             flags: wgpu::InstanceFlags::empty(),
@@ -302,10 +350,13 @@ pub struct GpuEvaluator {
     reduce: wgpu::ComputePipeline,
     config: wgpu::Buffer,
     targets: wgpu::Buffer,
+    jets: wgpu::Buffer,
     breaks: wgpu::Buffer,
     map_start: wgpu::Buffer,
     map_entries: wgpu::Buffer,
     work: Option<Work>,
+    /// One chunk's rows as differences from the reference, for upload.
+    rows: Vec<f32>,
     info: BackendInfo,
 }
 
@@ -332,18 +383,19 @@ impl GpuEvaluator {
         ];
         let expand = ctx.pipeline("expand", &prepare(source::EXPAND, &consts[..1])?)?;
         let eval = ctx.pipeline("eval_patch", &prepare(source::EVAL_PATCH, &consts)?)?;
-        let reduce = ctx.pipeline("reduce", source::REDUCE)?;
+        let reduce = ctx.pipeline("reduce", &prepare(source::REDUCE, &[])?)?;
         let config = ctx.buffer(
             "config",
             std::mem::size_of::<super::Config>() as u64,
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let targets_buf = ctx.buffer_init("targets", bytemuck::cast_slice(&problem.targets), STORAGE);
+        let jets = ctx.buffer_init("jets", bytemuck::cast_slice(&problem.jets), STORAGE);
         let breaks = ctx.buffer_init("breaks", bytemuck::cast_slice(&problem.breaks), STORAGE);
         let map_start = ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), STORAGE);
         let map_entries = ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), STORAGE);
         let limit = ctx.limits().max_storage_buffer_binding_size;
-        if std::mem::size_of_val(&problem.targets[..]) as u64 > limit {
+        if std::mem::size_of_val(&problem.jets[..]) as u64 > limit {
             return Err(Error::invalid(format!(
                 "{} target points exceed the device's storage binding limit of {limit} bytes",
                 problem.n_points()
@@ -364,10 +416,12 @@ impl GpuEvaluator {
             reduce,
             config,
             targets: targets_buf,
+            jets,
             breaks,
             map_start,
             map_entries,
             work: None,
+            rows: Vec::new(),
             info,
         })
     }
@@ -452,7 +506,14 @@ impl GpuEvaluator {
         );
         let bind_eval = ctx.bind(
             &self.eval,
-            &[&self.config, &self.targets, &self.breaks, &net, &partials],
+            &[
+                &self.config,
+                &self.targets,
+                &self.breaks,
+                &net,
+                &partials,
+                &self.jets,
+            ],
         );
         let bind_reduce = ctx.bind(&self.reduce, &[&self.config, &partials, &fitness]);
         self.work = Some(Work {
@@ -468,9 +529,9 @@ impl GpuEvaluator {
     }
 }
 
-impl PopulationEvaluator for GpuEvaluator {
-    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
-        let rows = self.problem.rows(population, out.len())?;
+impl GpuEvaluator {
+    fn run<T: Gene>(&mut self, population: &[T], out: &mut [Fitness]) -> Result<()> {
+        let rows = self.problem.rows(population.len(), out.len())?;
         if rows == 0 {
             return Ok(());
         }
@@ -485,13 +546,13 @@ impl PopulationEvaluator for GpuEvaluator {
             let len = chunk.min(rows - start);
             // Lanes past `len` in the last workgroup compute on the padding of the net.
             let config = self.problem.config(len, len.next_multiple_of(WORKGROUP), groups);
+            self.problem.differences(
+                &population[start * n_vars..(start + len) * n_vars],
+                &mut self.rows,
+            );
             let queue = &self.ctx.queue;
             queue.write_buffer(&self.config, 0, bytemuck::bytes_of(&config));
-            queue.write_buffer(
-                &work.population,
-                0,
-                bytemuck::cast_slice(&population[start * n_vars..(start + len) * n_vars]),
-            );
+            queue.write_buffer(&work.population, 0, bytemuck::cast_slice(&self.rows));
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -513,16 +574,41 @@ impl PopulationEvaluator for GpuEvaluator {
         Ok(())
     }
 
+    /// Upload the per-target arrays after the parameters or the reference changed.
+    fn upload_targets(&self) {
+        let queue = &self.ctx.queue;
+        queue.write_buffer(&self.targets, 0, bytemuck::cast_slice(&self.problem.targets));
+        queue.write_buffer(&self.jets, 0, bytemuck::cast_slice(&self.problem.jets));
+    }
+}
+
+impl PopulationEvaluator for GpuEvaluator {
+    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
+
+    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
+
     fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
         self.problem.set_params(params)?;
-        self.ctx
-            .queue
-            .write_buffer(&self.targets, 0, bytemuck::cast_slice(&self.problem.targets));
+        self.upload_targets();
+        Ok(())
+    }
+
+    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
+        self.problem.set_reference(design)?;
+        self.upload_targets();
         Ok(())
     }
 
     fn set_newton(&mut self, newton: u32) {
         self.problem.newton = newton;
+    }
+
+    fn resolution(&self, sum_sq: f64) -> f64 {
+        self.problem.resolution(sum_sq)
     }
 
     fn info(&self) -> &BackendInfo {
@@ -551,6 +637,13 @@ mod tests {
             "const DU: u32 = 5u;\nconst DV: u32 = 0u;\nconst DUX: u32 = 1u;\nfn f() {}\n"
         );
         assert!(specialise(src, &[("DIM", 2)]).is_err());
+    }
+
+    #[test]
+    fn includes_are_spliced_and_unknown_ones_refused() {
+        let out = source::expand("const A: u32 = 1u;\n// @include config.wgsl\nfn f() {}\n").unwrap();
+        assert!(out.contains("struct Config {") && out.ends_with("fn f() {}\n"));
+        assert!(source::expand("// @include nothing.wgsl\n").is_err());
     }
 
     #[test]

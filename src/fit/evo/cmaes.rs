@@ -2,7 +2,7 @@
 //! step-size adaptation, rank-one and rank-μ updates (Hansen, "The CMA Evolution Strategy: A
 //! Tutorial", 2016, the defaults of its Table 1 with positive weights only).
 //!
-//! Sample `k` of generation `g` is `x = m + σ B D z` with `z ~ N(0, I)` from its own random
+//! Sample `k` of generation `g` is `x = m + σ B D Bᵀ z` with `z ~ N(0, I)` from its own random
 //! stream `(seed, g, k)`; a sample outside the box bounds is drawn again from the same stream
 //! (up to [`CmaesOptions::resample`] times), then clamped. The strategy learns from the
 //! samples as evaluated (rounded to f32, clamped): `y = (x - m) / σ`. The eigendecomposition
@@ -30,8 +30,10 @@ pub struct CmaesOptions {
     /// Stop when `C`'s condition number exceeds this. Default 1e14.
     pub max_condition: f64,
     /// Stop when the generation-best sums of squares of the last `10 + ⌈30 n / λ⌉`
-    /// generations lie within this fraction of their least (Hansen's TolHistFun, relative):
-    /// the objective is flat to the evaluator's f32 resolution. Default 1e-4.
+    /// generations, and the sums of the last generation, lie within this many times the
+    /// evaluator's resolution at their least (Hansen's TolFun, with the evaluator's f32
+    /// rounding at that level as the unit, see `PopulationEvaluator::resolution`): the
+    /// objective no longer changes by more than the evaluator can tell. Default 1.
     pub tol_fun: f64,
 }
 
@@ -41,7 +43,7 @@ impl Default for CmaesOptions {
             resample: 10,
             tol_x: 1e-8,
             max_condition: 1e14,
-            tol_fun: 1e-4,
+            tol_fun: 1.0,
         }
     }
 }
@@ -191,17 +193,19 @@ impl CmaesState {
         (max / min).powi(2)
     }
 
-    /// True when the flatness window is full and its bests lie within `tol` of their least
-    /// (relative to its size: objectives may be negative).
+    /// True when the flatness window is full and its bests, and the sums `last` of the last
+    /// generation, lie within `tol(least)` of their least: `tol` gives the tolerance (model
+    /// units squared) at a level.
     #[must_use]
-    pub fn flat(&self, n: usize, lambda: usize, tol: f64) -> bool {
+    pub fn flat(&self, n: usize, lambda: usize, last: &[f64], tol: impl Fn(f64) -> f64) -> bool {
         let window = flat_window(n, lambda);
         if self.recent.len() < window {
             return false;
         }
-        let lo = self.recent.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-        let hi = self.recent.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-        lo.is_finite() && hi - lo <= tol * lo.abs()
+        let all = || self.recent.iter().chain(last);
+        let lo = all().fold(f64::INFINITY, |a, &b| a.min(b));
+        let hi = all().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        lo.is_finite() && hi.is_finite() && hi - lo <= tol(lo)
     }
 
     /// Check the shapes against `n` variables (a checkpoint read from disk).
@@ -264,8 +268,21 @@ impl Cmaes {
         let n = problem.dim();
         let st = &self.state;
         let bounds = problem.bounds();
-        // B D, row-major: sample rows are then plain dot products.
-        let bd: Vec<f64> = (0..n * n).map(|k| st.basis[k] * st.scales[k % n]).collect();
+        // C^½ = B D Bᵀ, row-major: sample rows are then plain dot products. The symmetric root
+        // (Hansen's tutorial writes B D z, the same distribution) does not depend on which
+        // eigenvectors the decomposition picks inside an eigenspace of repeated eigenvalues
+        // (C starts as I): two runs whose covariances differ by rounding draw nearly the same
+        // samples, instead of samples in unrelated directions.
+        let mut bd = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..=i {
+                let v: f64 = (0..n)
+                    .map(|k| st.basis[i * n + k] * st.scales[k] * st.basis[j * n + k])
+                    .sum();
+                bd[i * n + j] = v;
+                bd[j * n + i] = v;
+            }
+        }
         self.samples
             .par_chunks_mut(n)
             .enumerate()

@@ -625,7 +625,9 @@ impl<'p> Evolution<'p> {
             if es.state.condition() > o.cmaes.max_condition {
                 return Some(EvoStop::Condition);
             }
-            if es.state.flat(self.problem.dim(), self.size, o.cmaes.tol_fun) {
+            let last: Vec<f64> = es.scores.iter().map(|s| s.sum_sq).collect();
+            let tol = |level: f64| o.cmaes.tol_fun * self.scorer.resolution(level);
+            if es.state.flat(self.problem.dim(), self.size, &last, tol) {
                 return Some(EvoStop::Flat);
             }
         }
@@ -724,7 +726,8 @@ impl<'p> Evolution<'p> {
         self.size
     }
 
-    /// The best individual so far (f32, as evaluated) and its score.
+    /// The best individual so far (f32, as evaluated, in the objective's frame: see
+    /// [`PopulationObjective::absolute`]) and its score.
     #[must_use]
     pub fn best(&self) -> (&[f32], Score) {
         (&self.best, self.best_score)
@@ -776,6 +779,7 @@ impl<'p> Evolution<'p> {
         }
         let mut best: Option<(Vec<f64>, f64)> = None;
         for c in candidates {
+            let c = self.problem.absolute(&c);
             let m = self.problem.measure(&c, &self.options)?;
             if best.as_ref().is_none_or(|(_, b)| m < *b) {
                 best = Some((c, m));

@@ -49,6 +49,15 @@ pub trait PopulationObjective: Sync {
     /// `[lower, upper]` of every variable.
     fn bounds(&self) -> &[[f64; 2]];
 
+    /// The variables `x` as the design a run hands back and [`measure`](Self::measure)
+    /// takes. Populations are carried in f32, so an objective may define its variables in a
+    /// frame of its own (the fitting problem: the design less the centre of its box, see
+    /// [`crate::fit::population::Frame`]); start, bounds and the rows scored are in that
+    /// frame. Default: the variables themselves.
+    fn absolute(&self, x: &[f64]) -> Vec<f64> {
+        x.to_vec()
+    }
+
     /// The variables' scale, in their units: the initial spread and the step-size tolerance
     /// are fractions of it.
     fn extent(&self) -> f64;
@@ -71,8 +80,9 @@ pub trait PopulationObjective: Sync {
         score.sum_sq.is_finite()
     }
 
-    /// The objective of one design measured as exactly as the objective can (the fitting
-    /// problem: closest points by the global f64 search); the run's result is re-measured so.
+    /// The objective of one design (as [`absolute`](Self::absolute) gives it) measured as
+    /// exactly as the objective can (the fitting problem: closest points by the global f64
+    /// search); the run's result is re-measured so.
     fn measure(&self, design: &[f64], options: &EvoOptions) -> Result<f64>;
 }
 
@@ -82,8 +92,16 @@ pub trait Scorer {
     fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()>;
 
     /// Called before generation `generation` with the best design so far (the fitting
-    /// problem re-projects its data there when due).
+    /// problem re-projects its data there when due and re-anchors its evaluator there).
     fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()>;
+
+    /// The rounding a score near `level` may carry: differences below it are not resolved
+    /// (CMA-ES stops when its objective is flat to it). The fitting problem: the population
+    /// evaluator's f32 rounding of a sum of offsets. Default: one f32 unit in the last place,
+    /// `2⁻²³ |level|` (objectives may be negative, as `−CL`).
+    fn resolution(&self, level: f64) -> f64 {
+        level.abs() * f64::from(f32::EPSILON)
+    }
 
     /// What a checkpoint must hold to continue bit-identically (the fitting problem: the
     /// evaluator's start parameters).

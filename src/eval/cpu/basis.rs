@@ -1,0 +1,216 @@
+//! CPU mirror of `shaders/basis.wgsl`: the Bernstein basis with its first and second
+//! derivatives, for one parameter ([`bernstein`], [`basis`]) or one per lane
+//! ([`bernstein_lanes`], [`basis_lanes`]).
+
+use super::{Arith, Lanes, LANES};
+use crate::eval::kernel::NB;
+
+/// `bernstein`: the degree-n Bernstein polynomials at t.
+#[inline(always)]
+pub(crate) fn bernstein<A: Arith>(n: usize, t: f32) -> [f32; NB] {
+    let mut out = [0.0f32; NB];
+    out[0] = 1.0;
+    let s = 1.0 - t;
+    for j in 1..n + 1 {
+        let mut saved = 0.0f32;
+        for k in 0..j {
+            let tmp = out[k];
+            out[k] = A::fma(s, tmp, saved);
+            saved = t * tmp;
+        }
+        out[j] = saved;
+    }
+    out
+}
+
+/// `Basis`: Bernstein values with first and second derivatives at one parameter.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Basis {
+    /// Values.
+    pub b: [f32; NB],
+    /// First derivatives.
+    pub d1: [f32; NB],
+    /// Second derivatives.
+    pub d2: [f32; NB],
+}
+
+/// `basis`: the degree-n basis at t with its derivatives.
+#[inline(always)]
+pub(crate) fn basis<A: Arith>(n: usize, t: f32) -> Basis {
+    let mut lvl = [0.0f32; NB];
+    let mut low1 = [0.0f32; NB];
+    let mut low2 = [0.0f32; NB];
+    lvl[0] = 1.0;
+    let s = 1.0 - t;
+    for j in 1..n + 1 {
+        if j + 1 == n {
+            low2 = lvl;
+        }
+        if j == n {
+            low1 = lvl;
+        }
+        let mut saved = 0.0f32;
+        for k in 0..j {
+            let tmp = lvl[k];
+            lvl[k] = A::fma(s, tmp, saved);
+            saved = t * tmp;
+        }
+        lvl[j] = saved;
+    }
+    let mut out = Basis {
+        b: lvl,
+        d1: [0.0; NB],
+        d2: [0.0; NB],
+    };
+    let nf = n as f32;
+    let nn = nf * (nf - 1.0);
+    // low1[i - 1], low2[i - 2] and low2[i - 1], zero before the start.
+    let (mut l1, mut l2a, mut l2b) = (0.0f32, 0.0f32, 0.0f32);
+    for i in 0..n + 1 {
+        out.d1[i] = nf * (l1 - low1[i]);
+        out.d2[i] = nn * ((l2a - 2.0 * l2b) + low2[i]);
+        l1 = low1[i];
+        l2a = l2b;
+        l2b = low2[i];
+    }
+    out
+}
+
+/// `bernstein` with per-lane t.
+#[inline(always)]
+pub(crate) fn bernstein_lanes<A: Arith>(n: usize, t: &Lanes) -> [Lanes; NB] {
+    let mut out = [[0.0f32; LANES]; NB];
+    out[0] = [1.0; LANES];
+    let s = t.map(|x| 1.0 - x);
+    for j in 1..n + 1 {
+        let mut saved = [0.0f32; LANES];
+        for k in 0..j {
+            for l in 0..LANES {
+                let tmp = out[k][l];
+                out[k][l] = A::fma(s[l], tmp, saved[l]);
+                saved[l] = t[l] * tmp;
+            }
+        }
+        out[j] = saved;
+    }
+    out
+}
+
+/// `Basis` per lane.
+#[derive(Clone, Debug)]
+pub(crate) struct LaneBasis {
+    /// Values.
+    pub b: [Lanes; NB],
+    /// First derivatives.
+    pub d1: [Lanes; NB],
+    /// Second derivatives.
+    pub d2: [Lanes; NB],
+}
+
+impl Default for LaneBasis {
+    fn default() -> Self {
+        LaneBasis {
+            b: [[0.0; LANES]; NB],
+            d1: [[0.0; LANES]; NB],
+            d2: [[0.0; LANES]; NB],
+        }
+    }
+}
+
+/// The function-scope arrays of `basis` (`lvl`, `low1`, `low2`), kept by the caller so that
+/// a call neither clears nor copies them whole: only the entries `0..=n` a degree-n basis
+/// uses are written, and read after being written.
+#[derive(Clone, Debug)]
+pub(crate) struct BasisWork {
+    lvl: [Lanes; NB],
+    low1: [Lanes; NB],
+    low2: [Lanes; NB],
+}
+
+impl Default for BasisWork {
+    fn default() -> Self {
+        BasisWork {
+            lvl: [[0.0; LANES]; NB],
+            low1: [[0.0; LANES]; NB],
+            low2: [[0.0; LANES]; NB],
+        }
+    }
+}
+
+/// `basis` with per-lane t, into `out[..=n]`.
+#[inline(always)]
+pub(crate) fn basis_lanes<A: Arith>(n: usize, t: &Lanes, work: &mut BasisWork, out: &mut LaneBasis) {
+    let BasisWork { lvl, low1, low2 } = work;
+    // The shader's zero-initialised arrays, as far as a degree-n basis reads them.
+    for x in [&mut *lvl, &mut *low1, &mut *low2] {
+        for e in &mut x[..=n] {
+            *e = [0.0; LANES];
+        }
+    }
+    lvl[0] = [1.0; LANES];
+    let s = t.map(|x| 1.0 - x);
+    for j in 1..n + 1 {
+        if j + 1 == n {
+            low2[..=n].copy_from_slice(&lvl[..=n]);
+        }
+        if j == n {
+            low1[..=n].copy_from_slice(&lvl[..=n]);
+        }
+        let mut saved = [0.0f32; LANES];
+        for k in 0..j {
+            for l in 0..LANES {
+                let tmp = lvl[k][l];
+                lvl[k][l] = A::fma(s[l], tmp, saved[l]);
+                saved[l] = t[l] * tmp;
+            }
+        }
+        lvl[j] = saved;
+    }
+    out.b[..=n].copy_from_slice(&lvl[..=n]);
+    let nf = n as f32;
+    let nn = nf * (nf - 1.0);
+    let mut l1 = [0.0f32; LANES];
+    let mut l2a = [0.0f32; LANES];
+    let mut l2b = [0.0f32; LANES];
+    for i in 0..n + 1 {
+        for l in 0..LANES {
+            out.d1[i][l] = nf * (l1[l] - low1[i][l]);
+            out.d2[i][l] = nn * ((l2a[l] - 2.0 * l2b[l]) + low2[i][l]);
+            l1[l] = low1[i][l];
+            l2a[l] = l2b[l];
+            l2b[l] = low2[i][l];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Unfused;
+    use super::*;
+    use crate::bezier::{bernstein as bernstein_f64, bernstein_deriv};
+
+    #[test]
+    fn the_basis_matches_the_f64_one() {
+        for n in 0..=7 {
+            for &t in &[0.0f32, 0.2, 0.5, 0.93, 1.0] {
+                let got = basis::<Unfused>(n, t);
+                let lanes = bernstein_lanes::<Unfused>(n, &[t; LANES]);
+                assert_eq!(bernstein::<Unfused>(n, t), got.b);
+                let mut b = [0.0; 16];
+                let mut d = [0.0; 16];
+                bernstein_f64(n, f64::from(t), &mut b);
+                bernstein_deriv(n, f64::from(t), &mut d);
+                for i in 0..=n {
+                    assert!((f64::from(got.b[i]) - b[i]).abs() < 1e-6, "n {n} t {t} b{i}");
+                    assert!((f64::from(got.d1[i]) - d[i]).abs() < 1e-4, "n {n} t {t} d{i}");
+                    assert_eq!(lanes[i][3], got.b[i]);
+                }
+                let sum2: f32 = got.d2[..=n].iter().sum();
+                assert!(
+                    sum2.abs() < 1e-3,
+                    "second derivatives of a partition of unity sum to 0"
+                );
+            }
+        }
+    }
+}
