@@ -416,7 +416,7 @@ fn choose_breaks_v(
     .with_context(|| format!("{}: searching the span breaks", args.cloud.display()))?;
     bar.finish_and_clear();
     let search = match decided {
-        AutoBreaks::Searched(search) => search,
+        AutoBreaks::Searched(search) => *search,
         AutoBreaks::SinglePatch => return Ok(None),
         AutoBreaks::TooLarge { limit } => {
             eprintln!(

@@ -132,7 +132,7 @@ pub const CHECKED_POINTS: usize = 20_000;
 #[derive(Debug)]
 pub enum AutoBreaks {
     /// The search ran: its fit and candidates.
-    Searched(BreakSearch),
+    Searched(Box<BreakSearch>),
     /// One patch along v: nothing to search, uniform breaks.
     SinglePatch,
     /// The cloud has more than `limit` points (the smaller of [`CHECKED_POINTS`] and the
@@ -167,7 +167,7 @@ pub fn auto_breaks_v(
         method: SurfaceMethod::Lsq,
         ..opts.clone()
     };
-    search_breaks_v(points, grid, layout, &lsq, progress).map(AutoBreaks::Searched)
+    search_breaks_v(points, grid, layout, &lsq, progress).map(|s| AutoBreaks::Searched(Box::new(s)))
 }
 
 /// The projection check of a finished fit of `points` (`earlier`, the break search's check of
