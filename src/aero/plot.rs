@@ -1,7 +1,8 @@
 //! SVG pictures of pressure distributions: Cp against x (suction up, as aerodynamicists draw
 //! it) above the shapes that carry them, drawn to equal scales.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::export::plot_err;
 use glam::DVec2;
 use plotters::prelude::*;
 
@@ -45,10 +46,6 @@ const PALETTE: [RGBColor; 6] = [
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
 ];
-
-fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
-    Error::Output(format!("svg plot: {e:?}"))
-}
 
 impl CpPlot {
     /// Render as an SVG document.

@@ -308,16 +308,7 @@ impl DenseGpu {
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let population = ctx.buffer_init("designs", bytemuck::cast_slice(designs), storage);
         let net = ctx.buffer("net", net_bytes, wgpu::BufferUsages::STORAGE);
-        let out = ctx.buffer(
-            "vertices",
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let staging = ctx.buffer(
-            "staging",
-            bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
+        let (out, staging) = ctx.read_back("vertices", bytes);
         let bind_expand = ctx.bind(
             &self.expand,
             &[

@@ -25,7 +25,8 @@ const BOTTOM_HEIGHT: u32 = 300;
 /// Room taken by the caption, labels and margins of the top panel, in pixels.
 const TOP_FRAME: (u32, u32) = (90, 110);
 
-fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
+/// A plotters error as the library's output error (every SVG plot of the crate uses it).
+pub(crate) fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Output(format!("svg plot: {e:?}"))
 }
 

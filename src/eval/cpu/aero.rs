@@ -922,7 +922,11 @@ impl CpuAero {
             adapter: format!(
                 "CPU: {} rayon threads, {} kernels, {LANES} individuals per block",
                 rayon::current_num_threads(),
-                simd
+                // The panel kernel has an AVX2 form only; AVX-512 machines run it.
+                match simd {
+                    Simd::Portable => "portable",
+                    _ => "AVX2",
+                }
             ),
             fallback: None,
         };

@@ -98,23 +98,16 @@ impl GpuAero {
     /// Most individuals per chunk: the work buffer within the device's binding and buffer
     /// limits, whole workgroups within the dispatch limit, and [`GpuOptions::max_chunk`].
     pub fn chunk_size(&self) -> Result<usize> {
-        let limits = self.ctx.limits();
-        let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         let per_individual = (self.kernel.work_words() * 4) as u64;
-        let by_memory = usize::try_from(binding / per_individual).unwrap_or(usize::MAX);
-        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize * WORKGROUP;
-        let chunk = by_memory.min(by_dispatch).min(self.options.max_chunk.max(1));
-        if chunk >= WORKGROUP {
-            Ok(chunk / WORKGROUP * WORKGROUP)
-        } else if by_memory >= WORKGROUP {
-            Ok(chunk)
-        } else {
-            Err(Error::invalid(format!(
-                "one workgroup of the panel method ({} nodes, {per_individual} bytes per individual) \
-                 exceeds the device's storage binding limit of {binding} bytes",
-                self.kernel.config.n_nodes
-            )))
-        }
+        self.ctx
+            .chunk_size(per_individual, self.options.max_chunk)
+            .map_err(|binding| {
+                Error::invalid(format!(
+                    "one workgroup of the panel method ({} nodes, {per_individual} bytes per \
+                     individual) exceeds the device's storage binding limit of {binding} bytes",
+                    self.kernel.config.n_nodes
+                ))
+            })
     }
 
     /// Make sure the buffers hold `individuals` (a multiple of the workgroup size).
@@ -131,16 +124,7 @@ impl GpuAero {
             wgpu::BufferUsages::STORAGE,
         );
         let bytes = (individuals * std::mem::size_of::<AeroResult>()) as u64;
-        let results = ctx.buffer(
-            "aero results",
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let staging = ctx.buffer(
-            "aero staging",
-            bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
+        let (results, staging) = ctx.read_back("aero results", bytes);
         let layout = self.pipeline.get_bind_group_layout(0);
         let buffers = [
             &self.config,

@@ -269,6 +269,45 @@ impl GpuContext {
         })
     }
 
+    /// A result buffer of `size` bytes that a shader writes and its mappable staging copy, for
+    /// [`GpuContext::read`].
+    pub(crate) fn read_back(&self, label: &str, size: u64) -> (wgpu::Buffer, wgpu::Buffer) {
+        let out = self.buffer(
+            label,
+            size,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let staging = self.buffer(
+            &format!("{label} staging"),
+            size,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        (out, staging)
+    }
+
+    /// Most individuals per dispatch when each takes `per_individual` bytes of its largest
+    /// storage buffer: the device's binding and dispatch limits and `max_chunk`, in whole
+    /// workgroups of [`WORKGROUP`] (a `max_chunk` below one workgroup is honoured as it is).
+    /// `None` when not even one workgroup fits the binding limit (the limit is returned).
+    pub(crate) fn chunk_size(
+        &self,
+        per_individual: u64,
+        max_chunk: usize,
+    ) -> std::result::Result<usize, u64> {
+        let limits = self.limits();
+        let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let by_memory = usize::try_from(binding / per_individual.max(1)).unwrap_or(usize::MAX);
+        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize * WORKGROUP;
+        let chunk = by_memory.min(by_dispatch).min(max_chunk.max(1));
+        if chunk >= WORKGROUP {
+            Ok(chunk / WORKGROUP * WORKGROUP)
+        } else if by_memory >= WORKGROUP {
+            Ok(chunk)
+        } else {
+            Err(binding)
+        }
+    }
+
     /// A bind group for group 0 of `pipeline` with `buffers` at bindings 0, 1, ….
     pub(crate) fn bind(
         &self,
@@ -435,27 +474,19 @@ impl GpuEvaluator {
     /// Most individuals per chunk with `groups` point groups: the device's binding and
     /// dispatch limits and [`GpuOptions::max_chunk`], in whole workgroups.
     pub fn chunk_size(&self, groups: usize) -> Result<usize> {
-        let limits = self.ctx.limits();
-        let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         let p = &self.problem;
         let per_individual = [p.n_vars * 4, p.n_ctrl * p.dim * 4, groups * 8, 8]
             .into_iter()
             .max()
             .unwrap_or(8) as u64;
-        let by_memory = usize::try_from(binding / per_individual).unwrap_or(usize::MAX);
-        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize * WORKGROUP;
-        let chunk = by_memory.min(by_dispatch).min(self.options.max_chunk.max(1));
-        if chunk >= WORKGROUP {
-            Ok(chunk / WORKGROUP * WORKGROUP)
-        } else if by_memory >= WORKGROUP {
-            // A max_chunk below one workgroup: honour it, the net still has whole workgroups.
-            Ok(chunk)
-        } else {
-            Err(Error::invalid(format!(
-                "one workgroup of this layout ({per_individual} bytes per individual) exceeds \
-                 the device's storage binding limit of {binding} bytes"
-            )))
-        }
+        self.ctx
+            .chunk_size(per_individual, self.options.max_chunk)
+            .map_err(|binding| {
+                Error::invalid(format!(
+                    "one workgroup of this layout ({per_individual} bytes per individual) exceeds \
+                     the device's storage binding limit of {binding} bytes"
+                ))
+            })
     }
 
     /// Make sure the work buffers hold `individuals` (a multiple of the workgroup size) and
@@ -484,16 +515,7 @@ impl GpuEvaluator {
             (individuals * groups * 8) as u64,
             wgpu::BufferUsages::STORAGE,
         );
-        let fitness = ctx.buffer(
-            "fitness",
-            (individuals * 8) as u64,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let staging = ctx.buffer(
-            "staging",
-            (individuals * 8) as u64,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
+        let (fitness, staging) = ctx.read_back("fitness", (individuals * 8) as u64);
         let bind_expand = ctx.bind(
             &self.expand,
             &[
