@@ -858,24 +858,15 @@ fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{ChainLayout, Continuity, GridLayout};
+    use crate::chain::{Continuity, GridLayout};
 
     #[test]
     fn a_saddle_is_drawn_where_it_projects() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-        );
-        let (nu, nv) = layout.design_shape();
-        let design = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64 - 0.5,
-                    (i % nv) as f64 / (nv - 1) as f64 - 0.5,
-                );
-                DVec3::new(a, b, 0.3 * a * b)
-            })
-            .collect();
+        let layout = GridLayout::uniform((3, 3), (2, 2), Continuity::C1).unwrap();
+        let design = layout.design_from(|a, b| {
+            let (a, b) = (a - 0.5, b - 0.5);
+            DVec3::new(a, b, 0.3 * a * b)
+        });
         let grid = PatchGrid::new(layout, design).unwrap();
         let opts = RenderOptions {
             width: 200,
@@ -927,10 +918,7 @@ mod tests {
 
     #[test]
     fn the_surface_is_coloured_by_the_local_offset_with_a_bar() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
-            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
-        );
+        let layout = GridLayout::uniform((1, 1), (1, 1), Continuity::C0).unwrap();
         // The unit square in z = 0, seen from above: u along x, v along y.
         let design = vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1.0, 1.0, 0.0)];
         let grid = PatchGrid::new(layout, design).unwrap();

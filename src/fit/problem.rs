@@ -1248,10 +1248,7 @@ mod tests {
 
     #[test]
     fn grid_gradient_matches_finite_differences() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
-        );
+        let layout = GridLayout::uniform((2, 2), (2, 2), Continuity::C1).unwrap();
         let (nu, nv) = layout.design_shape();
         let design: Vec<DVec3> = (0..nu * nv)
             .map(|i| {
