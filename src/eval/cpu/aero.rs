@@ -246,27 +246,34 @@ impl Near {
     }
 }
 
+impl Far {
+    /// The source stream function's far-field series.
+    #[inline(always)]
+    fn psis(&self) -> f32 {
+        let (len, len2, c2, y2, rho) = (self.len, self.len2, self.c2, self.y2, self.rho);
+        let g = ln(rho);
+        let g2 = 2.0 * (y2 - c2) / (rho * rho);
+        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
+        0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4
+    }
+
+    /// Whether the series serve: `f` farther than `FAR2` panel lengths (squared).
+    #[inline(always)]
+    fn far(&self) -> bool {
+        self.rho > FAR2 * self.len2
+    }
+}
+
 /// The shader's `vortex_terms` in the far field (its Taylor series), and whether the panel is
 /// far: `((psis, psid), far)`. Branch-free, so the lanes run it side by side.
 #[inline(always)]
 fn vortex_far(f: V2, a: V2, b: V2) -> ([f32; 2], bool) {
-    let Far {
-        len,
-        len2,
-        c,
-        c2,
-        y2,
-        rho,
-        ..
-    } = far_frame(f, a, b);
-    let g = ln(rho);
+    let far = far_frame(f, a, b);
+    let (len2, c, c2, y2, rho) = (far.len2, far.c, far.c2, far.y2, far.rho);
     let g1 = 2.0 * c / rho;
-    let g2 = 2.0 * (y2 - c2) / (rho * rho);
     let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
-    let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-    let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
     let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
-    ([psis, psid], rho > FAR2 * len2)
+    ([far.psis(), psid], far.far())
 }
 
 /// The shader's `vortex_terms` in the near field (the closed forms).
@@ -280,37 +287,17 @@ fn vortex_near(f: V2, a: V2, b: V2) -> [f32; 2] {
 /// The shader's `source_terms`: `(psis, psig)`.
 #[inline(always)]
 fn source_terms(f: V2, a: V2, b: V2) -> [f32; 2] {
-    let Far {
-        s,
-        len,
-        len2,
-        c,
-        y,
-        c2,
-        y2,
-        rho,
-    } = far_frame(f, a, b);
-    if rho > FAR2 * len2 {
-        let g = ln(rho);
-        let g2 = 2.0 * (y2 - c2) / (rho * rho);
-        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-        let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
+    let far = far_frame(f, a, b);
+    if far.far() {
+        let (len, len2, c, y, rho) = (far.len, far.len2, far.c, far.y, far.rho);
         let t = atan2r(c, y);
         let t2 = -2.0 * c * y / (rho * rho);
-        return [psis, -(len * t + len * len2 / 24.0 * t2)];
+        return [far.psis(), -(len * t + len * len2 / 24.0 * t2)];
     }
-    let near = near_frame(f, a, b, s);
+    let near = near_frame(f, a, b, far.s);
     let (t1, t2) = near.thetas();
-    let Near {
-        x1,
-        x2,
-        yy,
-        g1,
-        g2,
-        psis,
-        ..
-    } = near;
-    [psis, 0.5 * yy * (g1 - g2) + x2 * t2 - x1 * t1]
+    let (x1, x2, yy) = (near.x1, near.x2, near.yy);
+    [near.psis, 0.5 * yy * (near.g1 - near.g2) + x2 * t2 - x1 * t1]
 }
 
 /// The shader's `panel_derivs`.
