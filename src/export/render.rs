@@ -687,21 +687,15 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
                 hex(colour)
             );
         }
-        for r in 0..mu {
-            let row: Vec<String> = (0..mv).map(|c| xy(net[r * mv + c])).collect();
+        // The control net: its rows, then its columns.
+        let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
+        let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
+        for line in rows.chain(cols) {
+            let path: Vec<String> = line.iter().map(|&k| xy(net[k])).collect();
             let _ = writeln!(
                 svg,
                 r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
-                row.join(" "),
-                hex(NET)
-            );
-        }
-        for c in 0..mv {
-            let col: Vec<String> = (0..mu).map(|r| xy(net[r * mv + c])).collect();
-            let _ = writeln!(
-                svg,
-                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
-                col.join(" "),
+                path.join(" "),
                 hex(NET)
             );
         }
