@@ -80,11 +80,17 @@ pub const NO_GPU_ENV: &str = "BEZCHAIN_NO_GPU";
 /// in eval_patch.wgsl 64 / PER invocations of PER individuals each).
 pub(crate) const WORKGROUP: usize = 64;
 
-/// Individuals per invocation of eval_patch.wgsl on CPU adapters. On lavapipe each invocation
-/// then loads a point's data once for all of them and runs one point loop for all of them:
-/// bicubic, 1024 individuals × 4096 points, 4 took 0.4× the CPU time of 1 with fixed
-/// parameters and the same with two Newton steps (2 took 0.6× and the same).
+/// Most individuals per invocation of eval_patch.wgsl on CPU adapters. On lavapipe each
+/// invocation then loads a point's data once for all of them and runs one point loop for all
+/// of them: bicubic patches in space, 1024 individuals × 4096 points, 4 took 0.4× the CPU time
+/// of 1 with fixed parameters and the same with two Newton steps (2 took 0.6× and the same).
 const CPU_PER_INVOCATION: u32 = 4;
+
+/// Most control-point coordinates an invocation holds on a CPU adapter (PER patches of
+/// (du + 1)(dv + 1) points in DIM coordinates): that of the measured bicubic case, 4 × 16 × 3,
+/// so that larger patches take fewer individuals an invocation rather than more registers
+/// than were measured.
+const CPU_HELD_FLOATS: u32 = 192;
 
 /// Replace the line `const NAME: u32 = …;` of `src` by the given value, for every pair.
 ///
@@ -134,8 +140,8 @@ pub struct GpuOptions {
     /// Default: 65 536.
     pub max_chunk: usize,
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl), a
-    /// divisor of 64; `None`: the adapter's ([`CPU_PER_INVOCATION`] on CPU adapters such as
-    /// lavapipe, 1 on GPUs). Results do not depend on it. Default: `None`.
+    /// divisor of 64; `None`: the adapter's (up to [`CPU_PER_INVOCATION`] on CPU adapters such
+    /// as lavapipe, 1 on GPUs). Results do not depend on it. Default: `None`.
     pub per_invocation: Option<u32>,
     /// Read the target points with subgroup operations where the device has them
     /// (shaders/points_subgroup.wgsl). Results do not depend on it. Default: true.
@@ -161,8 +167,8 @@ pub struct GpuContext {
     pub(crate) device: wgpu::Device,
     pub(crate) queue: wgpu::Queue,
     adapter: String,
-    /// A CPU adapter (lavapipe): each invocation of the population kernel then evaluates
-    /// [`CPU_PER_INVOCATION`] individuals.
+    /// A CPU adapter (lavapipe): each invocation of the population kernel then evaluates up
+    /// to [`CPU_PER_INVOCATION`] individuals.
     cpu: bool,
     errors: Arc<Mutex<Option<String>>>,
 }
@@ -245,13 +251,15 @@ impl GpuContext {
         &self.adapter
     }
 
-    /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl).
-    pub(crate) fn per_invocation(&self) -> u32 {
-        if self.cpu {
-            CPU_PER_INVOCATION
-        } else {
-            1
+    /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl) for
+    /// patches of `held` control-point coordinates: 1 on GPUs; on CPU adapters the most of 4,
+    /// 2 and 1 whose patches fit [`CPU_HELD_FLOATS`].
+    pub(crate) fn per_invocation(&self, held: u32) -> u32 {
+        let mut per = if self.cpu { CPU_PER_INVOCATION } else { 1 };
+        while per > 1 && per * held > CPU_HELD_FLOATS {
+            per /= 2;
         }
+        per
     }
 
     /// The includes that eval_patch.wgsl takes on this device: the subgroup reads of its
@@ -495,7 +503,8 @@ impl GpuEvaluator {
     ) -> Result<Self> {
         let mut problem = Problem::new(layout, targets, newton)?;
         problem.cross = cross;
-        let per = options.per_invocation.unwrap_or_else(|| ctx.per_invocation());
+        let held = ((problem.du + 1) * (problem.dv + 1) * problem.dim) as u32;
+        let per = options.per_invocation.unwrap_or_else(|| ctx.per_invocation(held));
         if per == 0 || WORKGROUP as u32 % per != 0 {
             return Err(Error::invalid(format!(
                 "{per} individuals per invocation: must divide {WORKGROUP}"
