@@ -80,11 +80,13 @@ pub const NO_GPU_ENV: &str = "BEZCHAIN_NO_GPU";
 /// in eval_patch.wgsl 64 / PER invocations of PER individuals each).
 pub(crate) const WORKGROUP: usize = 64;
 
-/// Most individuals per invocation of eval_patch.wgsl on CPU adapters. On lavapipe each
-/// invocation then loads a point's data once for all of them and runs one point loop for all
-/// of them: bicubic patches in space, 1024 individuals × 4096 points, 4 took 0.4× the CPU time
-/// of 1 with fixed parameters and the same with two Newton steps (2 took 0.6× and the same).
-const CPU_PER_INVOCATION: u32 = 4;
+/// Most individuals per invocation of eval_patch.wgsl on CPU adapters, with parameters held
+/// fixed and with Newton steps. On lavapipe each invocation then loads a point's data once for
+/// all of them and runs one point loop for all of them. Bicubic patches in space, 1024
+/// individuals × 4096 points, CPU time per population: fixed, 4 took 0.39× that of 1 (2:
+/// 0.59×); two Newton steps, 2 took 0.90× that of 1 and 4 1.09× (the Newton code of 4
+/// individuals spills more than the shared loads save).
+const CPU_PER_INVOCATION: [u32; 2] = [4, 2];
 
 /// Most control-point coordinates an invocation holds on a CPU adapter (PER patches of
 /// (du + 1)(dv + 1) points in DIM coordinates): that of the measured bicubic case, 4 × 16 × 3,
@@ -140,8 +142,9 @@ pub struct GpuOptions {
     /// Default: 65 536.
     pub max_chunk: usize,
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl), a
-    /// divisor of 64; `None`: the adapter's (up to [`CPU_PER_INVOCATION`] on CPU adapters such
-    /// as lavapipe, 1 on GPUs). Results do not depend on it. Default: `None`.
+    /// divisor of 64; `None`: the adapter's for the Newton steps the evaluator is built with
+    /// (on CPU adapters such as lavapipe 4 with fixed parameters, 2 with steps, fewer for large
+    /// patches; 1 on GPUs). Results do not depend on it. Default: `None`.
     pub per_invocation: Option<u32>,
     /// Read the target points with subgroup operations where the device has them
     /// (shaders/points_subgroup.wgsl). Results do not depend on it. Default: true.
@@ -167,8 +170,8 @@ pub struct GpuContext {
     pub(crate) device: wgpu::Device,
     pub(crate) queue: wgpu::Queue,
     adapter: String,
-    /// A CPU adapter (lavapipe): each invocation of the population kernel then evaluates up
-    /// to [`CPU_PER_INVOCATION`] individuals.
+    /// A CPU adapter (lavapipe): each invocation of the population kernel then evaluates
+    /// several individuals ([`CPU_PER_INVOCATION`]).
     cpu: bool,
     errors: Arc<Mutex<Option<String>>>,
 }
@@ -252,10 +255,14 @@ impl GpuContext {
     }
 
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl) for
-    /// patches of `held` control-point coordinates: 1 on GPUs; on CPU adapters the most of 4,
-    /// 2 and 1 whose patches fit [`CPU_HELD_FLOATS`].
-    pub(crate) fn per_invocation(&self, held: u32) -> u32 {
-        let mut per = if self.cpu { CPU_PER_INVOCATION } else { 1 };
+    /// patches of `held` control-point coordinates and `newton` steps: 1 on GPUs; on CPU
+    /// adapters [`CPU_PER_INVOCATION`]'s, halved until their patches fit [`CPU_HELD_FLOATS`].
+    pub(crate) fn per_invocation(&self, held: u32, newton: u32) -> u32 {
+        let mut per = if self.cpu {
+            CPU_PER_INVOCATION[usize::from(newton > 0)]
+        } else {
+            1
+        };
         while per > 1 && per * held > CPU_HELD_FLOATS {
             per /= 2;
         }
@@ -504,7 +511,9 @@ impl GpuEvaluator {
         let mut problem = Problem::new(layout, targets, newton)?;
         problem.cross = cross;
         let held = ((problem.du + 1) * (problem.dv + 1) * problem.dim) as u32;
-        let per = options.per_invocation.unwrap_or_else(|| ctx.per_invocation(held));
+        let per = options
+            .per_invocation
+            .unwrap_or_else(|| ctx.per_invocation(held, newton));
         if per == 0 || WORKGROUP as u32 % per != 0 {
             return Err(Error::invalid(format!(
                 "{per} individuals per invocation: must divide {WORKGROUP}"
@@ -722,6 +731,8 @@ impl PopulationEvaluator for GpuEvaluator {
     }
 
     fn set_newton(&mut self, newton: u32) {
+        // The kernel keeps the individuals per invocation chosen for the steps it was built
+        // with: they change its speed, not its results.
         self.problem.newton = newton;
     }
 
