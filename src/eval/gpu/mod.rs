@@ -514,7 +514,7 @@ impl GpuEvaluator {
         let per = options
             .per_invocation
             .unwrap_or_else(|| ctx.per_invocation(held, newton));
-        if per == 0 || WORKGROUP as u32 % per != 0 {
+        if !(WORKGROUP as u32).is_multiple_of(per) {
             return Err(Error::invalid(format!(
                 "{per} individuals per invocation: must divide {WORKGROUP}"
             )));
