@@ -11,17 +11,28 @@
 //! the reference then enters through its second-order Taylor polynomial about the start
 //! parameters, whose partials (`jets`) are also computed in f64.
 //!
-//! One invocation owns one individual; the invocations of a workgroup walk the same group of
-//! target points in the same order, so every per-point load (target, jets, breaks) has the
-//! same address in every lane. Targets are sorted by patch: the control points of a
-//! patch are loaded into registers once per run of points on it and reused for all of them.
-//! A curve is the one-dimensional case: DV = 0, one patch along v, DIM = 2.
+//! One invocation owns PER individuals (a workgroup, 64); the invocations of a workgroup walk
+//! the same group of target points in the same order, so every per-point load (target, jets,
+//! breaks) has the same address in every lane. Targets are sorted by patch: the control
+//! points of a patch are loaded into registers once per run of points on it and reused for
+//! all of them. A curve is the one-dimensional case: DV = 0, one patch along v, DIM = 2.
 //!
 //! Written for a SIMD-on-CPU driver (Mesa lavapipe) as much as for GPUs: the body of an `if`
 //! runs, masked, even when no lane takes it, so no expensive work sits under a per-point
 //! condition; loops marked `// @unroll` have constant trip counts and are unrolled before
 //! compilation (src/eval/gpu/unroll.rs), which turns every array index into a constant and
 //! every array into registers.
+//!
+//! Per-point loads are lavapipe's other cost: inside a loop it loads from a storage buffer
+//! lane by lane, a scalar loop with a branch per lane for every load instruction, even where
+//! every lane reads the same address (as here). So a point's data are six `vec4`s in one
+//! buffer (its Target, then its RefJet), read by `fetch_target` and `fetch_point` of the
+//! include points.wgsl: on devices with subgroup operations the host splices in
+//! points_subgroup.wgsl instead, where lane l loads vec4 l alone and the others are
+//! broadcast from it (one load instruction a point instead of one a scalar). And on a CPU
+//! adapter the host specialises PER > 1, so that each load and each point's loop overhead
+//! serve PER individuals. Neither changes an individual's arithmetic: results are the same
+//! for every PER and either include.
 
 // Specialised at pipeline creation (src/eval/gpu/mod.rs rewrites these lines with the
 // layout's values); the values written here keep the file valid on its own for naga.
@@ -31,6 +42,12 @@ const DIM: u32 = 3u;
 // 1: Newton steps may cross patch borders (reloading control points as they go); 0: they are
 // clamped to the patch the point starts on.
 const CROSS: u32 = 0u;
+// Individuals per invocation, a divisor of 64 (specialised by the host: 1 on GPUs, more on
+// CPU adapters, where they share the per-point loads and loop overhead).
+const PER: u32 = 1u;
+// Invocations per workgroup: a workgroup covers 64 individuals whatever PER is, the individual
+// of slot k of invocation `lane` of workgroup w being w * 64 + k * WG + lane.
+const WG: u32 = 64u / PER;
 
 const NU: u32 = DU + 1u;
 const NV: u32 = DV + 1u;
@@ -43,6 +60,7 @@ const SINGULAR: f32 = 1e-6;
 
 // @include config.wgsl
 // @include basis.wgsl
+// @include points.wgsl
 
 // Must be kept in sync with `Target` in src/eval/kernel.rs.
 struct Target {
@@ -79,7 +97,9 @@ struct Partial {
 }
 
 @group(0) @binding(0) var<uniform> config: Config;
-@group(0) @binding(1) var<storage, read> targets: array<Target>;
+// Six vec4s a target point p: its Target (points[6p], points[6p + 1], see `target_of`) and
+// its RefJet (points[6p + 2] to points[6p + 5], see `jet_of`); read through points.wgsl.
+@group(0) @binding(1) var<storage, read> points: array<vec4<f32>>;
 // breaks_u (patches_u + 1 values) followed by breaks_v (patches_v + 1 values).
 @group(0) @binding(2) var<storage, read> breaks: array<f32>;
 // Difference nets as structure of arrays: coordinate c of control point r of individual i is
@@ -87,23 +107,45 @@ struct Partial {
 @group(0) @binding(3) var<storage, read> net: array<f32>;
 // partials[group * population + individual].
 @group(0) @binding(4) var<storage, read_write> partials: array<Partial>;
-// jets[p]: the reference's partials at target p's start parameters.
-@group(0) @binding(5) var<storage, read> jets: array<RefJet>;
 
-// The control points of the patch this invocation holds, (a * NV + b) * DIM + c, and its index.
-var<private> cp: array<f32, NCP * DIM>;
-var<private> held: u32;
+// The control points of the patch slot k holds, (k * NCP + a * NV + b) * DIM + c, and its
+// index.
+var<private> cp: array<f32, PER * NCP * DIM>;
+var<private> held: array<u32, PER>;
 
-// Load the control points of patch `patch_id` of individual `ind` into `cp`.
-fn load_patch(ind: u32, patch_id: u32) {
-    held = patch_id;
+// A Target from its two vec4s (the patch index is stored as the bits of a float).
+fn target_of(a: vec4<f32>, b: vec4<f32>) -> Target {
+    return Target(a.x, a.y, a.z, bitcast<u32>(a.w), b.x, b.y, b.z, b.w);
+}
+
+// A RefJet from its four vec4s.
+fn jet_of(a: vec4<f32>, b: vec4<f32>, c: vec4<f32>, d: vec4<f32>) -> RefJet {
+    return RefJet(
+        array<f32, 3>(a.x, a.y, a.z),
+        array<f32, 3>(a.w, b.x, b.y),
+        array<f32, 3>(b.z, b.w, c.x),
+        array<f32, 3>(c.y, c.z, c.w),
+        array<f32, 3>(d.x, d.y, d.z),
+        d.w,
+    );
+}
+
+// A target point with the reference's partials there.
+struct PointData {
+    t: Target,
+    rj: RefJet,
+}
+
+// Load the control points of patch `patch_id` of individual `ind` into slot k of `cp`.
+fn load_patch(k: u32, ind: u32, patch_id: u32) {
+    held[k] = patch_id;
     let i = patch_id / config.patches_v;
     let j = patch_id - i * config.patches_v;
     for (var a = 0u; a < NU; a++) { // @unroll
         for (var b = 0u; b < NV; b++) { // @unroll
             let r = (i * DU + a) * config.net_cols + j * DV + b;
             for (var c = 0u; c < DIM; c++) { // @unroll
-                cp[(a * NV + b) * DIM + c] = net[(r * DIM + c) * config.net_stride + ind];
+                cp[(k * NCP + a * NV + b) * DIM + c] = net[(r * DIM + c) * config.net_stride + ind];
             }
         }
     }
@@ -112,7 +154,7 @@ fn load_patch(ind: u32, patch_id: u32) {
 // Squared offset of target t at its start parameters: |r0 + Σ B_a(u) B_b(v) cp_ab|², the GA
 // fitness kernel proper. (The CPU kernels read the same weights, computed once per point by
 // this recurrence on the host, from the `weights` binding.)
-fn offset_sq_fixed(t: Target) -> f32 {
+fn offset_sq_fixed(k: u32, t: Target) -> f32 {
     let r0 = array<f32, 3>(t.rx, t.ry, t.rz);
     var s: array<f32, DIM>;
     for (var c = 0u; c < DIM; c++) { // @unroll
@@ -124,7 +166,7 @@ fn offset_sq_fixed(t: Target) -> f32 {
         for (var b = 0u; b < NV; b++) { // @unroll
             let w = bu[a] * bv[b];
             for (var c = 0u; c < DIM; c++) { // @unroll
-                s[c] = fma(w, cp[(a * NV + b) * DIM + c], s[c]);
+                s[c] = fma(w, cp[(k * NCP + a * NV + b) * DIM + c], s[c]);
             }
         }
     }
@@ -135,8 +177,8 @@ fn offset_sq_fixed(t: Target) -> f32 {
     return e2;
 }
 
-// Squared length of `base` plus the held patch at local (u, v).
-fn offset_sq(u: f32, v: f32, base: array<f32, DIM>) -> f32 {
+// Squared length of `base` plus slot k's patch at local (u, v).
+fn offset_sq(k: u32, u: f32, v: f32, base: array<f32, DIM>) -> f32 {
     let bu = bernstein(DU, u);
     let bv = bernstein(DV, v);
     var s = base;
@@ -144,7 +186,7 @@ fn offset_sq(u: f32, v: f32, base: array<f32, DIM>) -> f32 {
         for (var b = 0u; b < NV; b++) { // @unroll
             let w = bu[a] * bv[b];
             for (var c = 0u; c < DIM; c++) { // @unroll
-                s[c] = fma(w, cp[(a * NV + b) * DIM + c], s[c]);
+                s[c] = fma(w, cp[(k * NCP + a * NV + b) * DIM + c], s[c]);
             }
         }
     }
@@ -165,8 +207,8 @@ struct Jet {
     svv: array<f32, DIM>,
 }
 
-// The held patch and its partials at local (u, v): rows contracted along v first, then along u.
-fn jet(u: f32, v: f32) -> Jet {
+// Slot k's patch and its partials at local (u, v): rows contracted along v first, then along u.
+fn jet(k: u32, u: f32, v: f32) -> Jet {
     let bu = basis(DU, u);
     let bv = basis(DV, v);
     var out: Jet;
@@ -176,7 +218,7 @@ fn jet(u: f32, v: f32) -> Jet {
         var r2: array<f32, DIM>;
         for (var b = 0u; b < NV; b++) { // @unroll
             for (var c = 0u; c < DIM; c++) { // @unroll
-                let p = cp[(a * NV + b) * DIM + c];
+                let p = cp[(k * NCP + a * NV + b) * DIM + c];
                 r0[c] = fma(bv.b[b], p, r0[c]);
                 r1[c] = fma(bv.d1[b], p, r1[c]);
                 r2[c] = fma(bv.d2[b], p, r2[c]);
@@ -244,13 +286,13 @@ fn dot_n(x: array<f32, DIM>, y: array<f32, DIM>) -> f32 {
     return acc;
 }
 
-// Squared closest-point offset of target p, from config.newton (>= 1) Newton steps on
-// |r(Δ)|², r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held difference
-// patch at the local parameters Δ reaches. Δ is clamped to the start patch, or with CROSS to
+// Squared closest-point offset of target t (individual `ind`, patch slot k; rj the
+// reference's partials at t), from config.newton (>= 1) Newton steps on |r(Δ)|²,
+// r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held difference patch at
+// the local parameters Δ reaches. Δ is clamped to the start patch, or with CROSS to
 // the domain (the steps then cross borders), and to the target's reach; the result is the
 // least squared offset met on the way, so it never exceeds the start's.
-fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
-    let rj = jets[p];
+fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
     let i0 = t.patch_id / config.patches_v;
     let j0 = t.patch_id - i0 * config.patches_v;
     // First v break; the start patch's lengths and the domain of Δ: the start patch (or with
@@ -284,7 +326,7 @@ fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
     var best = 3.0e38;
     var it = 0u;
     loop {
-        let e = jet(u, v);
+        let e = jet(k, u, v);
         let f = taylor(rj, t, du, dv);
         var r: array<f32, DIM>;
         var su: array<f32, DIM>;
@@ -360,8 +402,8 @@ fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
                 kv = h0v / (breaks[fv + j + 1u] - breaks[fv + j]);
             }
             let moved = i * config.patches_v + j;
-            if (moved != held) {
-                load_patch(ind, moved);
+            if (moved != held[k]) {
+                load_patch(k, ind, moved);
             }
         }
         continuing {
@@ -369,59 +411,69 @@ fn foot_point_sq(ind: u32, p: u32, t: Target) -> f32 {
             break if it >= config.newton;
         }
     }
-    let e2 = min(best, offset_sq(u, v, taylor(rj, t, du, dv).val));
-    if (CROSS != 0u && held != t.patch_id) {
-        load_patch(ind, t.patch_id);
+    let e2 = min(best, offset_sq(k, u, v, taylor(rj, t, du, dv).val));
+    if (CROSS != 0u && held[k] != t.patch_id) {
+        load_patch(k, ind, t.patch_id);
     }
     return e2;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+@compute @workgroup_size(WG)
+fn main(ids: Ids) {
     // Lanes past the population compute on padding (the net is allocated for whole
-    // workgroups) and only their store is skipped: no early return, so the point loops stay
-    // free of divergent control flow.
-    let ind = gid.x;
-    let group = gid.y;
+    // workgroups of 64 individuals) and only their store is skipped: no early return, so the
+    // point loops stay free of divergent control flow.
+    let ind = ids.wid.x * 64u + ids.lane;
+    let group = ids.wid.y;
     let first = group * config.group_points;
     let last = min(first + config.group_points, config.n_points);
-    var sum = 0.0;
-    var worst = 0.0;
+    var sum: array<f32, PER>;
+    var worst: array<f32, PER>;
     // One outer iteration per run of points on one patch, whose control points are loaded
     // once; the two variants are separate loops so that neither runs inside the other's `if`.
     var p = first;
     if (config.newton == 0u) {
         while (p < last) {
-            let run = targets[p].patch_id;
-            load_patch(ind, run);
+            let run = fetch_target(ids, p).patch_id;
+            for (var k = 0u; k < PER; k++) { // @unroll
+                load_patch(k, ind + k * WG, run);
+            }
             while (p < last) {
-                let t = targets[p];
+                let t = fetch_target(ids, p);
                 if (t.patch_id != run) {
                     break;
                 }
-                let e2 = offset_sq_fixed(t);
-                sum += e2;
-                worst = max(worst, e2);
+                for (var k = 0u; k < PER; k++) { // @unroll
+                    let e2 = offset_sq_fixed(k, t);
+                    sum[k] += e2;
+                    worst[k] = max(worst[k], e2);
+                }
                 p++;
             }
         }
     } else {
         while (p < last) {
-            let run = targets[p].patch_id;
-            load_patch(ind, run);
+            let run = fetch_target(ids, p).patch_id;
+            for (var k = 0u; k < PER; k++) { // @unroll
+                load_patch(k, ind + k * WG, run);
+            }
             while (p < last) {
-                let t = targets[p];
-                if (t.patch_id != run) {
+                let d = fetch_point(ids, p);
+                if (d.t.patch_id != run) {
                     break;
                 }
-                let e2 = foot_point_sq(ind, p, t);
-                sum += e2;
-                worst = max(worst, e2);
+                for (var k = 0u; k < PER; k++) { // @unroll
+                    let e2 = foot_point_sq(k, ind + k * WG, d.t, d.rj);
+                    sum[k] += e2;
+                    worst[k] = max(worst[k], e2);
+                }
                 p++;
             }
         }
     }
-    if (ind < config.population) {
-        partials[group * config.population + ind] = Partial(sum, worst);
+    for (var k = 0u; k < PER; k++) { // @unroll
+        if (ind + k * WG < config.population) {
+            partials[group * config.population + ind + k * WG] = Partial(sum[k], worst[k]);
+        }
     }
 }

@@ -5,7 +5,7 @@
 mod eval_support;
 
 use bezchain::chain::Continuity;
-use bezchain::eval::{Fitness, GpuOptions, Simd};
+use bezchain::eval::{Fitness, GpuEvaluator, GpuOptions, PopulationEvaluator, Simd};
 use eval_support::*;
 
 /// f32 evaluation against the f64 chain or grid: relative difference of `sum_sq` and `max`.
@@ -135,7 +135,10 @@ fn clamped_newton_lies_between_the_closest_and_the_fixed_offsets() {
 fn chunked_populations_match_unchunked_ones() {
     let Some(ctx) = gpu() else { return };
     let case = grid_case(51, (3, 3), (2, 2), Continuity::C1, 300, 300, 1e-2, 1e-2);
-    let small = GpuOptions { max_chunk: 64 };
+    let small = GpuOptions {
+        max_chunk: 64,
+        ..GpuOptions::default()
+    };
     let mut evs = evaluators(&case, 0, false, Some(&ctx), &small);
     let (_, gpu_ev) = evs.pop().unwrap();
     let mut gpu_ev = gpu_ev;
@@ -274,6 +277,58 @@ fn the_portable_kernels_and_lavapipe_agree_to_the_bit_on_the_fitness_kernel() {
             "{name}: portable cpu and lavapipe differ"
         );
     }
+}
+
+#[test]
+fn every_form_of_the_gpu_kernel_gives_the_same_results() {
+    // Individuals per invocation and subgroup reads of the points change how the population
+    // kernel loads its data, not an individual's arithmetic: results are identical, with
+    // parameters held fixed and with Newton steps, clamped and crossing patch borders. (The
+    // population is over two workgroups, the second partly padding; the reference is the
+    // case's base design, so that its partials enter the Newton steps.)
+    let Some(ctx) = gpu() else { return };
+    let curve = curve_case(93, 3, 4, Continuity::C1, 300, 100, 5e-3, 5e-3);
+    let grid = grid_case(94, (3, 2), (2, 3), Continuity::C1, 500, 100, 1e-2, 1e-2);
+    let forms = [(1, false), (1, true), (2, true), (4, false), (4, true)];
+    for (name, case) in [("curve", &curve), ("grid", &grid)] {
+        for cross in [false, true] {
+            let mut evaluators: Vec<GpuEvaluator> = forms
+                .iter()
+                .map(|&(per, subgroups)| {
+                    let options = GpuOptions {
+                        per_invocation: Some(per),
+                        subgroups,
+                        ..GpuOptions::default()
+                    };
+                    let mut ev =
+                        GpuEvaluator::new(&ctx, &case.layout, &case.targets, 0, cross, &options).unwrap();
+                    ev.set_reference(&case.base).unwrap();
+                    ev
+                })
+                .collect();
+            for newton in [0, 2] {
+                let results: Vec<Vec<Fitness>> = evaluators
+                    .iter_mut()
+                    .map(|ev| {
+                        ev.set_newton(newton);
+                        run(ev, &case.population)
+                    })
+                    .collect();
+                for (form, got) in forms.iter().zip(&results).skip(1) {
+                    assert_eq!(
+                        got, &results[0],
+                        "{name}, cross {cross}, newton {newton}: {form:?} differs from {:?}",
+                        forms[0]
+                    );
+                }
+            }
+        }
+    }
+    let three = GpuOptions {
+        per_invocation: Some(3),
+        ..GpuOptions::default()
+    };
+    assert!(GpuEvaluator::new(&ctx, &grid.layout, &grid.targets, 0, false, &three).is_err());
 }
 
 #[test]

@@ -3,36 +3,52 @@
 //! checked against naga's layout of its WGSL twin.
 
 use bezchain::aero::batch::{AeroConfig, AeroResult, AeroStep};
-use bezchain::eval::gpu::{prepare, source};
+use bezchain::eval::gpu::{prepare, prepare_with, source};
 use bezchain::eval::{Config, Fitness, MapEntry, Partial, RefJet, Sample, Target, Vertex};
 use std::mem::{offset_of, size_of};
 
 fn validate(name: &str, src: &str) -> naga::Module {
+    validate_with(name, src, naga::valid::Capabilities::empty())
+}
+
+/// [`validate`] for a device with `capabilities` (subgroup operations for the shaders that
+/// splice in points_subgroup.wgsl).
+fn validate_with(name: &str, src: &str, capabilities: naga::valid::Capabilities) -> naga::Module {
     let module = naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{name}: parse error\n{}", e.emit_to_string(src)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{name}: invalid\n{}", e.emit_to_string(src)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: invalid\n{}", e.emit_to_string(src)));
     module
 }
 
+/// The point reads that eval_patch.wgsl splices in on devices with subgroup operations.
+const SUBGROUP_POINTS: [(&str, &str); 1] = [("points.wgsl", source::POINTS_SUBGROUP)];
+
 /// `(name, contents)` of every file in `shaders/`, includes spliced in; an include file alone
-/// gets the constant it expects from its includer.
+/// gets the constant it expects from its includer, and the point reads are checked in it.
 fn shader_files() -> Vec<(String, String)> {
     raw_files()
         .into_iter()
         .map(|(name, src)| {
-            let src = if name == "basis.wgsl" {
-                format!("const NMAX: u32 = 4u;\n{src}")
-            } else {
-                source::expand(&src).unwrap()
+            let src = match name.as_str() {
+                "basis.wgsl" => format!("const NMAX: u32 = 4u;\n{src}"),
+                "points.wgsl" => source::expand(source::EVAL_PATCH).unwrap(),
+                "points_subgroup.wgsl" => source::expand_with(source::EVAL_PATCH, &SUBGROUP_POINTS).unwrap(),
+                _ => source::expand(&src).unwrap(),
             };
             (name, src)
         })
         .collect()
+}
+
+/// What validating `name` needs of the device.
+fn capabilities(name: &str) -> naga::valid::Capabilities {
+    if name == "points_subgroup.wgsl" {
+        naga::valid::Capabilities::SUBGROUP
+    } else {
+        naga::valid::Capabilities::empty()
+    }
 }
 
 /// `(name, contents)` of every file in `shaders/`, as written.
@@ -64,11 +80,13 @@ fn every_wgsl_file_validates_as_written() {
             "dense_grid.wgsl",
             "eval_patch.wgsl",
             "expand.wgsl",
+            "points.wgsl",
+            "points_subgroup.wgsl",
             "reduce.wgsl"
         ]
     );
     for (name, src) in &files {
-        let module = validate(name, src);
+        let module = validate_with(name, src, capabilities(name));
         let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
         let expect: &[&str] = if ["basis.wgsl", "config.wgsl"].contains(&name.as_str()) {
             &[]
@@ -88,6 +106,8 @@ fn the_embedded_sources_are_the_files() {
         source::DENSE_GRID,
         source::EVAL_PATCH,
         source::EXPAND,
+        source::POINTS,
+        source::POINTS_SUBGROUP,
         source::REDUCE,
     ];
     for ((name, src), e) in raw_files().iter().zip(embedded) {
@@ -104,6 +124,10 @@ fn shared_definitions_are_written_once() {
         match name.as_str() {
             "config.wgsl" => assert_eq!(configs, 1),
             "basis.wgsl" => assert_eq!(bases, 2),
+            // eval_patch.wgsl's point reads: spliced into it after its config.
+            "points.wgsl" | "points_subgroup.wgsl" => {
+                assert_eq!(configs + bases, 0, "{name} defines a shared item itself");
+            }
             // The panel kernel has its own `AeroConfig` and no Bernstein basis.
             "aero.wgsl" => assert_eq!(configs + bases, 0, "{name} defines a shared item itself"),
             _ => {
@@ -128,14 +152,27 @@ fn specialised_shaders_validate_for_every_supported_shape() {
         }
     }
     for (du, dv, dim) in shapes {
-        for cross in [0, 1] {
-            let consts = [("DIM", dim), ("DU", du), ("DV", dv), ("CROSS", cross)];
+        for (cross, per) in [(0, 1), (1, 1), (0, 4), (1, 4)] {
+            let consts = [
+                ("DIM", dim),
+                ("DU", du),
+                ("DV", dv),
+                ("CROSS", cross),
+                ("PER", per),
+            ];
             let eval = prepare(source::EVAL_PATCH, &consts).unwrap();
             assert!(
                 !eval.lines().any(|l| l.trim_end().ends_with("// @unroll")),
                 "every marked loop is unrolled"
             );
-            validate(&format!("eval_patch {du}x{dv} dim {dim} cross {cross}"), &eval);
+            let name = format!("eval_patch {du}x{dv} dim {dim} cross {cross} per {per}");
+            validate(&name, &eval);
+            let eval = prepare_with(source::EVAL_PATCH, &consts, &SUBGROUP_POINTS).unwrap();
+            validate_with(
+                &format!("{name} subgroups"),
+                &eval,
+                capabilities("points_subgroup.wgsl"),
+            );
         }
         validate("expand", &prepare(source::EXPAND, &[("DIM", dim)]).unwrap());
         if dim == 3 {
@@ -170,7 +207,9 @@ fn wgsl_layout(src: &str, name: &str) -> Option<(u32, Vec<(String, u32)>)> {
 fn check(name: &str, size: usize, offsets: &[(&str, usize)], expect_in: &[&str]) {
     let mut seen = Vec::new();
     for (file, src) in shader_files() {
-        if file == "basis.wgsl" || (file == "config.wgsl" && name != "Config") {
+        // The point reads are checked as spliced into eval_patch.wgsl, so they are that file.
+        let include = ["basis.wgsl", "points.wgsl", "points_subgroup.wgsl"].contains(&file.as_str());
+        if include || (file == "config.wgsl" && name != "Config") {
             continue;
         }
         if let Some((wsize, members)) = wgsl_layout(&src, name) {
