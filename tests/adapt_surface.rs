@@ -119,14 +119,14 @@ fn chord_rule_net(r: &AdaptedSurface) -> Vec<DVec3> {
             }
         }
         let x = s / (d * (d - 1) / 2) as f64;
-        for j in 0..nv {
+        for (j, gj) in g.iter().enumerate() {
             let f = &e.coords[4 * j..4 * j + 4];
             let (dx, dy) = (f[2].cos(), f[2].sin());
             let y = e.coords[4 * nv + i * nv + j];
             net.push(DVec3::new(
                 f[0] + f[3] * x * dx - y * dy,
                 f[1] + f[3] * x * dy + y * dx,
-                rule.ends[0] + g[j] * (rule.ends[1] - rule.ends[0]),
+                rule.ends[0] + gj * (rule.ends[1] - rule.ends[0]),
             ));
         }
     }
