@@ -23,6 +23,11 @@
 //! Without it all three coordinates are stored and `v_k` follows the distance between the
 //! sections' centroids.
 //!
+//! **Chord rule.** Where the span rule holds and every section looks like an aerofoil
+//! section, each design column stores a frame (leading edge, chord angle, chord length) and
+//! each design point one thickness-direction offset, x following the aerofoil rule in the
+//! column's frame ([`mod@super::blade`]); [`ChordRule`] says when it is searched.
+//!
 //! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
 //! data-driven positions) run in parallel. Each starts with one patch and grows the direction
 //! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
