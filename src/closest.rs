@@ -1002,20 +1002,9 @@ mod tests {
 
     #[test]
     fn surface_feet_recover_the_sampling_parameters() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
-        );
-        let (nu, nv) = layout.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64,
-                    (i % nv) as f64 / (nv - 1) as f64,
-                );
-                DVec3::new(a, b, 0.2 * (3.0 * a).sin() * (2.0 * b).cos())
-            })
-            .collect();
+        let layout = GridLayout::uniform((3, 2), (2, 2), Continuity::C1).unwrap();
+        let design: Vec<DVec3> =
+            layout.design_from(|a, b| DVec3::new(a, b, 0.2 * (3.0 * a).sin() * (2.0 * b).cos()));
         let grid_surface = PatchGrid::new(layout.clone(), design.clone()).unwrap();
         let shape = GridShape::<DVec3>::new(layout);
         let grid = SampleGrid::new(&shape, 6);
@@ -1060,17 +1049,10 @@ mod tests {
             ChainLayout::with_breaks(3, vec![0.0, 0.2, 0.5, 0.8, 1.0], Continuity::C1).unwrap(),
             ChainLayout::uniform(3, 3, Continuity::C1).unwrap(),
         );
-        let (nu, nv) = layout.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64,
-                    (i % nv) as f64 / (nv - 1) as f64,
-                );
-                let ang = std::f64::consts::PI * 1.9 * a;
-                DVec3::new(0.5 * ang.cos() + 0.1 * b, 0.05 * ang.sin(), 3.0 * b)
-            })
-            .collect();
+        let design: Vec<DVec3> = layout.design_from(|a, b| {
+            let ang = std::f64::consts::PI * 1.9 * a;
+            DVec3::new(0.5 * ang.cos() + 0.1 * b, 0.05 * ang.sin(), 3.0 * b)
+        });
         let surface = PatchGrid::new(layout.clone(), design.clone()).unwrap();
         let shape = GridShape::<DVec3>::new(layout);
         let grid = SampleGrid::new(&shape, 8);

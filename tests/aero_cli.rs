@@ -1,36 +1,9 @@
 //! `bezchain aero` end to end: the table, the JSON report (polar and pressures), the SVG, a
 //! curve report as input, and bad input answered with exit status 2 and nothing written.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_bezchain"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run bezchain")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_user_error(o: &Output, needle: &str) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(lines.len(), 1, "one error line expected: {err}");
-    assert!(lines[0].contains(needle), "'{needle}' not in: {err}");
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::cli::{assert_user_error, json, run, stderr};
 
 #[test]
 fn an_aerofoil_file_gives_its_polar_pressures_and_picture() {

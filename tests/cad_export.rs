@@ -6,31 +6,15 @@
 
 mod common;
 
+use common::cli::{ok, run};
+
 use bezchain::export::{CadShape, Report};
-use common::{bin, crate_root, scratch};
+use common::{crate_root, scratch};
 use glam::DVec3;
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(crate_root())
-        .output()
-        .expect("run bezchain")
-}
-
-fn ok(o: Output) -> Output {
-    assert!(
-        o.status.success(),
-        "exit {:?}: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
+use std::process::Command;
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()

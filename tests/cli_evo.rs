@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::cli::{assert_user_error, json, run, stderr};
+
 use bezchain::fit::evo::Checkpoint;
 use common::check::check_curve_report;
 use common::{bin, crate_root, naca4413, scratch};
@@ -11,36 +13,8 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn run(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(crate_root())
-        .output()
-        .expect("run bezchain")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
-
 /// Exit status 2, one `error:` line of ours naming `needle` (the Vulkan loader may print
 /// lines of its own), and no panic.
-fn assert_user_error(o: &Output, needle: &str) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    let lines: Vec<&str> = err
-        .lines()
-        .filter(|l| l.starts_with("error:") && !l.contains("XDG_RUNTIME_DIR"))
-        .collect();
-    assert_eq!(lines.len(), 1, "one error line expected: {err}");
-    assert!(lines[0].contains(needle), "'{needle}' not in: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-}
-
 /// `fit` on case 1 with the given method and extra arguments.
 fn fit(method: &str, extra: &[&str]) -> Output {
     let mut args = vec![

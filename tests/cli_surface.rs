@@ -6,42 +6,15 @@
 
 mod common;
 
+use common::cli::{assert_user_error_naming, ok, run, stderr};
+
 use common::check::{check_surface_report, IndependentGrid};
-use common::{bin, crate_root, scratch};
+use common::{crate_root, scratch};
 use glam::DVec3;
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(crate_root())
-        .output()
-        .expect("run bezchain")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn ok(o: Output) -> Output {
-    assert!(o.status.success(), "exit {:?}: {}", o.status.code(), stderr(&o));
-    o
-}
 
 /// Exit status 2, exactly one `error:` line containing every needle, and no panic.
-fn assert_user_error(o: &Output, needles: &[&str]) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(lines.len(), 1, "one error line expected: {err}");
-    for needle in needles {
-        assert!(lines[0].contains(needle), "'{needle}' not in: {err}");
-    }
-    assert!(!err.contains("panicked"), "{err}");
-}
-
 /// The `x,y,z` columns of a cloud CSV written by `bezchain blade`, parsed here.
 fn read_xyz(path: &Path) -> Vec<DVec3> {
     let text = std::fs::read_to_string(path).unwrap();
@@ -328,7 +301,7 @@ fn evolutionary_methods_report_their_stages_and_backend() {
     );
     assert!(a < 1.25 * b, "cmaes+lsq rms {a}, lsq {b}");
     // Evolutionary flags are refused for least squares.
-    assert_user_error(
+    assert_user_error_naming(
         &run(&[
             "fit-surface",
             cloud.to_str().unwrap(),
@@ -378,7 +351,7 @@ fn bad_blade_files_exit_2_naming_the_field() {
         std::fs::write(&path, json).unwrap();
         let out_csv = dir.join(format!("cloud{k}.csv"));
         let o = run(&["blade", path.to_str().unwrap(), "-o", out_csv.to_str().unwrap()]);
-        assert_user_error(&o, &[needle, path.to_str().unwrap()]);
+        assert_user_error_naming(&o, &[needle, path.to_str().unwrap()]);
         assert!(!out_csv.exists(), "a cloud was written for a bad blade file");
     }
     std::fs::remove_dir_all(&dir).unwrap();
@@ -405,7 +378,7 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
     };
     // A bad line, named by file and line.
     std::fs::write(p("bad.csv"), "x,y,z\n0.1,0.2,0.3\n0.1,zz,0.3\n0.2,0.2,0.3\n").unwrap();
-    assert_user_error(&fit(&p("bad.csv"), &[]), &[&format!("{}:3", p("bad.csv"))]);
+    assert_user_error_naming(&fit(&p("bad.csv"), &[]), &[&format!("{}:3", p("bad.csv"))]);
     // Too few points for the 10 x 6 design net (an unordered 20-point cloud).
     ok(run(&[
         "blade",
@@ -418,11 +391,11 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
         "-o",
         &p("few.csv"),
     ]));
-    assert_user_error(&fit(&p("few.csv"), &[]), &[&p("few.csv"), "at least 60"]);
+    assert_user_error_naming(&fit(&p("few.csv"), &[]), &[&p("few.csv"), "at least 60"]);
     // No data, a missing file, a bad layout, an unknown method, an output in a missing folder.
     std::fs::write(p("empty.csv"), "x,y,z\n").unwrap();
-    assert_user_error(&fit(&p("empty.csv"), &[]), &[&p("empty.csv")]);
-    assert_user_error(&fit(&p("missing.csv"), &[]), &[&p("missing.csv")]);
+    assert_user_error_naming(&fit(&p("empty.csv"), &[]), &[&p("empty.csv")]);
+    assert_user_error_naming(&fit(&p("missing.csv"), &[]), &[&p("missing.csv")]);
     ok(run(&["blade", "data/blade_paper.json", "-o", &p("blade.csv")]));
     let o = run(&[
         "fit-surface",
@@ -433,12 +406,12 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
         "4x2",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_user_error(
+    assert_user_error_naming(
         &fit(&p("blade.csv"), &["--breaks-u", "0.5,0.2,0.7"]),
         &["breaks along u"],
     );
-    assert_user_error(&fit(&p("blade.csv"), &["--method", "bfgs"]), &["bfgs"]);
-    assert_user_error(
+    assert_user_error_naming(&fit(&p("blade.csv"), &["--method", "bfgs"]), &["bfgs"]);
+    assert_user_error_naming(
         &fit(
             &p("blade.csv"),
             &["--obj", &format!("{}/no/such/dir/b.obj", p(""))],
@@ -549,7 +522,7 @@ fn a_station_point_cloud_with_text_columns_fits_and_adapts_like_the_blade_cloud(
     // The same table without x and y columns: exit 2 naming the file and line 1.
     let bad = dir.join("no_xy.csv");
     std::fs::write(&bad, "station,point,radius,chord\n0,0,0.344,0.177\n").unwrap();
-    assert_user_error(
+    assert_user_error_naming(
         &run(&[
             "fit-surface",
             bad.to_str().unwrap(),

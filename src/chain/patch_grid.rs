@@ -1,6 +1,6 @@
 //! `PatchGrid`: a grid of tensor-product Bezier patches chained in both directions.
 
-use super::layout::ChainLayout;
+use super::layout::{ChainLayout, Continuity};
 use crate::bezier::{BezierPatch, Vector};
 use crate::error::{Error, Result};
 
@@ -20,6 +20,29 @@ impl GridLayout {
     #[must_use]
     pub fn new(u: ChainLayout, v: ChainLayout) -> Self {
         GridLayout { u, v }
+    }
+
+    /// A grid of uniformly spaced patches: `degree` and `patches` as `(u, v)`, one continuity
+    /// order for every join.
+    ///
+    /// # Errors
+    /// As [`ChainLayout::uniform`] for either direction.
+    pub fn uniform(degree: (usize, usize), patches: (usize, usize), continuity: Continuity) -> Result<Self> {
+        Ok(GridLayout {
+            u: ChainLayout::uniform(degree.0, patches.0, continuity)?,
+            v: ChainLayout::uniform(degree.1, patches.1, continuity)?,
+        })
+    }
+
+    /// A row-major design net sampled from `f(a, b)` at the normalised design indices
+    /// `a = i / (nu - 1)` and `b = j / (nv - 1)`: test surfaces, benchmark workloads.
+    #[must_use]
+    pub fn design_from<P>(&self, f: impl Fn(f64, f64) -> P) -> Vec<P> {
+        let (nu, nv) = self.design_shape();
+        let unit = |k: usize, n: usize| k as f64 / (n.max(2) - 1) as f64;
+        (0..nu * nv)
+            .map(|k| f(unit(k / nv, nu), unit(k % nv, nv)))
+            .collect()
     }
 
     /// `(rows, columns)` of the design net.
@@ -394,21 +417,11 @@ mod tests {
     fn a_collapsed_edge_is_not_a_jump() {
         // A cone: the v = 1 edge of every patch is one point, so derivatives across the u
         // borders there are rounding noise.
-        let layout = GridLayout::new(
-            ChainLayout::uniform(3, 3, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 1, Continuity::C1).unwrap(),
-        );
-        let (nu, nv) = layout.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64,
-                    (i % nv) as f64 / (nv - 1) as f64,
-                );
-                let ang = 2.0 * a;
-                DVec3::new((1.0 - b) * ang.cos(), (1.0 - b) * ang.sin(), b) + DVec3::splat(0.1)
-            })
-            .collect();
+        let layout = GridLayout::uniform((3, 3), (3, 1), Continuity::C1).unwrap();
+        let design: Vec<DVec3> = layout.design_from(|a, b| {
+            let ang = 2.0 * a;
+            DVec3::new((1.0 - b) * ang.cos(), (1.0 - b) * ang.sin(), b) + DVec3::splat(0.1)
+        });
         let grid = PatchGrid::new(layout, design).unwrap();
         assert!(grid.continuity_error() < 1e-9, "{}", grid.continuity_error());
     }

@@ -49,7 +49,7 @@ pub struct EvoArgs {
     /// GA: probability that a variable is mutated [default: 1/n].
     #[arg(long, allow_negative_numbers = true)]
     pub mutation_rate: Option<f64>,
-    /// GA: individuals per tournament [default: 4].
+    /// GA: individuals per tournament [default: 8].
     #[arg(long)]
     pub tournament: Option<usize>,
     /// Write one line per generation here: generation,best,mean,evaluations,seconds.

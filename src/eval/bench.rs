@@ -32,7 +32,7 @@
 use super::peak::{measure_fma, process_cpu_seconds, CpuPeak, FmaRate, FmaSet};
 use super::{build_evaluator, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
 use super::{Backend, CpuEvaluator, PopulationEvaluator, Simd};
-use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
+use crate::chain::{Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use rand::{Rng, SeedableRng};
@@ -200,20 +200,9 @@ pub fn problem(options: &BenchOptions) -> Result<BenchProblem> {
         ));
     }
     let [pu, pv] = options.patches;
-    let layout = GridLayout::new(
-        ChainLayout::uniform(3, pu, Continuity::C1)?,
-        ChainLayout::uniform(3, pv, Continuity::C1)?,
-    );
-    let (nu, nv) = layout.design_shape();
-    let design: Vec<DVec3> = (0..nu * nv)
-        .map(|k| {
-            let (x, y) = (
-                (k / nv) as f64 / (nu - 1) as f64,
-                (k % nv) as f64 / (nv - 1) as f64,
-            );
-            DVec3::new(x, y, 0.2 * (std::f64::consts::PI * x).sin() * (2.0 * y).cos())
-        })
-        .collect();
+    let layout = GridLayout::uniform((3, 3), (pu, pv), Continuity::C1)?;
+    let design: Vec<DVec3> =
+        layout.design_from(|x, y| DVec3::new(x, y, 0.2 * (std::f64::consts::PI * x).sin() * (2.0 * y).cos()));
     let grid = PatchGrid::new(layout.clone(), design.clone())?;
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     let noise = Normal::new(0.0, 1e-3).map_err(|e| Error::invalid(e.to_string()))?;
@@ -487,10 +476,7 @@ mod tests {
         assert_eq!(kernel_flops(3, 3, 3, 2), 1591.0);
         // A cubic curve: 4 control points in the plane.
         assert_eq!(kernel_flops(3, 0, 2, 0), 2.0 * 2.0 * 4.0 + 4.0);
-        let g = GridLayout::new(
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-        );
+        let g = GridLayout::uniform((3, 3), (2, 2), Continuity::C1).unwrap();
         assert_eq!(expand_flops(&g), 384.0);
     }
 

@@ -350,16 +350,7 @@ mod tests {
             ChainLayout::with_breaks(3, vec![0.0, 0.3, 1.0], Continuity::C1).unwrap(),
             ChainLayout::uniform(2, 3, Continuity::C1).unwrap(),
         );
-        let (nu, nv) = g.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|k| {
-                let (x, y) = (
-                    (k / nv) as f64 / (nu - 1) as f64,
-                    (k % nv) as f64 / (nv - 1) as f64,
-                );
-                offset + DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y)
-            })
-            .collect();
+        let design: Vec<DVec3> = g.design_from(|x, y| offset + DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y));
         PatchGrid::new(g, design).unwrap()
     }
 

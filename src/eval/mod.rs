@@ -269,40 +269,32 @@ pub fn build_evaluator(
     targets: &Targets,
     options: &EvalOptions,
 ) -> Result<Box<dyn PopulationEvaluator>> {
-    match options.backend {
-        Backend::Cpu => Ok(Box::new(
-            CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches),
-        )),
-        Backend::Gpu => {
-            let ctx = GpuContext::shared()?;
-            Ok(Box::new(GpuEvaluator::new(
+    let cpu =
+        || CpuEvaluator::new(layout, targets, options.newton).map(|e| e.crossing(options.cross_patches));
+    let gpu = || {
+        GpuContext::shared().and_then(|ctx| {
+            GpuEvaluator::new(
                 &ctx,
                 layout,
                 targets,
                 options.newton,
                 options.cross_patches,
                 &options.gpu,
-            )?))
-        }
+            )
+        })
+    };
+    Ok(match options.backend {
+        Backend::Cpu => Box::new(cpu()?),
+        Backend::Gpu => Box::new(gpu()?),
         Backend::Auto => {
             // Input errors are the caller's whichever path runs: check them before trying.
-            let cpu = CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches);
-            let gpu = GpuContext::shared().and_then(|ctx| {
-                GpuEvaluator::new(
-                    &ctx,
-                    layout,
-                    targets,
-                    options.newton,
-                    options.cross_patches,
-                    &options.gpu,
-                )
-            });
-            match gpu {
-                Ok(g) => Ok(Box::new(g)),
-                Err(e) => Ok(Box::new(cpu.with_fallback(e.to_string()))),
+            let cpu = cpu()?;
+            match gpu() {
+                Ok(g) => Box::new(g),
+                Err(e) => Box::new(cpu.with_fallback(e.to_string())),
             }
         }
-    }
+    })
 }
 
 #[cfg(test)]

@@ -224,17 +224,10 @@ mod tests {
             ChainLayout::with_breaks(3, vec![0.0, 0.3, 1.0], Continuity::C1).unwrap(),
             ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
         );
-        let (nu, nv) = layout.design_shape();
-        let design = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64,
-                    (i % nv) as f64 / (nv - 1) as f64,
-                );
-                let ang = 3.0 * a;
-                DVec3::new(ang.cos(), ang.sin(), 2.0 * b)
-            })
-            .collect();
+        let design = layout.design_from(|a, b| {
+            let ang = 3.0 * a;
+            DVec3::new(ang.cos(), ang.sin(), 2.0 * b)
+        });
         PatchGrid::new(layout, design).unwrap()
     }
 
@@ -264,10 +257,7 @@ mod tests {
 
     #[test]
     fn collapsed_edges_drop_their_empty_triangles() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(2, 1, Continuity::C1).unwrap(),
-            ChainLayout::uniform(2, 1, Continuity::C1).unwrap(),
-        );
+        let layout = GridLayout::uniform((2, 2), (1, 1), Continuity::C1).unwrap();
         // The v = 1 edge is one point (a cone's apex).
         let design = vec![
             DVec3::new(1.0, 0.0, 0.0),

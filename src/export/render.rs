@@ -687,21 +687,15 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
                 hex(colour)
             );
         }
-        for r in 0..mu {
-            let row: Vec<String> = (0..mv).map(|c| xy(net[r * mv + c])).collect();
+        // The control net: its rows, then its columns.
+        let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
+        let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
+        for line in rows.chain(cols) {
+            let path: Vec<String> = line.iter().map(|&k| xy(net[k])).collect();
             let _ = writeln!(
                 svg,
                 r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
-                row.join(" "),
-                hex(NET)
-            );
-        }
-        for c in 0..mv {
-            let col: Vec<String> = (0..mu).map(|r| xy(net[r * mv + c])).collect();
-            let _ = writeln!(
-                svg,
-                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
-                col.join(" "),
+                path.join(" "),
                 hex(NET)
             );
         }
@@ -858,24 +852,15 @@ fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{ChainLayout, Continuity, GridLayout};
+    use crate::chain::{Continuity, GridLayout};
 
     #[test]
     fn a_saddle_is_drawn_where_it_projects() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-        );
-        let (nu, nv) = layout.design_shape();
-        let design = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64 - 0.5,
-                    (i % nv) as f64 / (nv - 1) as f64 - 0.5,
-                );
-                DVec3::new(a, b, 0.3 * a * b)
-            })
-            .collect();
+        let layout = GridLayout::uniform((3, 3), (2, 2), Continuity::C1).unwrap();
+        let design = layout.design_from(|a, b| {
+            let (a, b) = (a - 0.5, b - 0.5);
+            DVec3::new(a, b, 0.3 * a * b)
+        });
         let grid = PatchGrid::new(layout, design).unwrap();
         let opts = RenderOptions {
             width: 200,
@@ -927,10 +912,7 @@ mod tests {
 
     #[test]
     fn the_surface_is_coloured_by_the_local_offset_with_a_bar() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
-            ChainLayout::uniform(1, 1, Continuity::C0).unwrap(),
-        );
+        let layout = GridLayout::uniform((1, 1), (1, 1), Continuity::C0).unwrap();
         // The unit square in z = 0, seen from above: u along x, v along y.
         let design = vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1.0, 1.0, 0.0)];
         let grid = PatchGrid::new(layout, design).unwrap();

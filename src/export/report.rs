@@ -506,10 +506,7 @@ mod tests {
 
     #[test]
     fn surface_report_round_trips() {
-        let g = GridLayout::new(
-            ChainLayout::uniform(3, 4, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-        );
+        let g = GridLayout::uniform((3, 3), (4, 2), Continuity::C1).unwrap();
         let design: Vec<DVec3> = (0..60)
             .map(|i| DVec3::new((i / 6) as f64, (i % 6) as f64, (i as f64).cos()))
             .collect();

@@ -264,38 +264,16 @@ pub fn bfgs<O: Objective>(f: &mut O, x0: &[f64], opts: &BfgsOptions) -> Minimum 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    struct Rosenbrock(usize, usize);
-
-    impl Objective for Rosenbrock {
-        fn dim(&self) -> usize {
-            self.0
-        }
-        fn value(&mut self, x: &[f64]) -> f64 {
-            self.1 += 1;
-            x.windows(2)
-                .map(|w| 100.0 * (w[1] - w[0] * w[0]).powi(2) + (1.0 - w[0]).powi(2))
-                .sum()
-        }
-        fn value_grad(&mut self, x: &[f64], g: &mut [f64]) -> f64 {
-            g.fill(0.0);
-            for i in 0..x.len() - 1 {
-                let a = x[i + 1] - x[i] * x[i];
-                g[i] += -400.0 * x[i] * a - 2.0 * (1.0 - x[i]);
-                g[i + 1] += 200.0 * a;
-            }
-            self.value(x)
-        }
-    }
+    use crate::fit::objective::testing::Rosenbrock;
 
     #[test]
     fn finds_the_rosenbrock_minimum_superlinearly() {
         for n in [2, 10] {
-            let mut f = Rosenbrock(n, 0);
+            let mut f = Rosenbrock::new(n);
             let m = bfgs(&mut f, &vec![-1.2; n], &BfgsOptions::default());
             assert!(m.value < 1e-20, "n={n}: {}", m.value);
             assert!(m.x.iter().all(|v| (v - 1.0).abs() < 1e-9));
-            assert_eq!(f.1, m.report.evaluations, "every evaluation counted");
+            assert_eq!(f.evaluations, m.report.evaluations, "every evaluation counted");
             assert!(
                 m.report.iterations < 200,
                 "n={n}: {} iterations",

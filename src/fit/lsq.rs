@@ -1208,20 +1208,9 @@ mod tests {
 
     #[test]
     fn recovers_a_patch_grid_from_a_cloud_with_perturbed_parameters() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(3, 2, Continuity::C1).unwrap(),
-        );
-        let (nu, nv) = layout.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|i| {
-                let (a, b) = (
-                    (i / nv) as f64 / (nu - 1) as f64,
-                    (i % nv) as f64 / (nv - 1) as f64,
-                );
-                DVec3::new(a, b, 0.2 * (2.5 * a).sin() * (1.5 * b + 0.3).cos())
-            })
-            .collect();
+        let layout = GridLayout::uniform((3, 3), (2, 2), Continuity::C1).unwrap();
+        let design: Vec<DVec3> =
+            layout.design_from(|a, b| DVec3::new(a, b, 0.2 * (2.5 * a).sin() * (1.5 * b + 0.3).cos()));
         let grid = PatchGrid::new(layout.clone(), design.clone()).unwrap();
         // A 25 x 25 cloud sampled on the grid; the fit starts from parameters off by up to 0.02
         // and must recover the surface and the sampling parameters.

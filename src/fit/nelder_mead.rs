@@ -205,36 +205,14 @@ fn keep_best(simplex: &[Vec<f64>], values: &[f64], b: usize, best_x: &mut Vec<f6
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The Rosenbrock function in `n` dimensions, minimum 0 at `(1, …, 1)`.
-    pub(crate) struct Rosenbrock(pub usize);
-
-    impl Objective for Rosenbrock {
-        fn dim(&self) -> usize {
-            self.0
-        }
-        fn value(&mut self, x: &[f64]) -> f64 {
-            x.windows(2)
-                .map(|w| 100.0 * (w[1] - w[0] * w[0]).powi(2) + (1.0 - w[0]).powi(2))
-                .sum()
-        }
-        fn value_grad(&mut self, x: &[f64], g: &mut [f64]) -> f64 {
-            g.fill(0.0);
-            for i in 0..x.len() - 1 {
-                let a = x[i + 1] - x[i] * x[i];
-                g[i] += -400.0 * x[i] * a - 2.0 * (1.0 - x[i]);
-                g[i + 1] += 200.0 * a;
-            }
-            self.value(x)
-        }
-    }
+    use crate::fit::objective::testing::Rosenbrock;
 
     #[test]
     fn finds_the_rosenbrock_minimum() {
         for n in [2, 4] {
             let x0 = vec![-1.2; n];
             let m = nelder_mead(
-                &mut Rosenbrock(n),
+                &mut Rosenbrock::new(n),
                 &x0,
                 &NelderMeadOptions {
                     initial_step: 0.5,

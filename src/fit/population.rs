@@ -13,7 +13,8 @@
 //! problem in a [`Frame`] centred on its search box: their variables are the design
 //! coordinates less that centre, and the evaluator's targets are moved with them; a shape is
 //! then resolved as finely wherever its data sit. Every generation the evaluator's reference
-//! design is re-anchored at the best design so far: the kernels compute in f32 only each
+//! design is re-anchored where the population lies (the GA's best design so far, CMA-ES's
+//! mean): the kernels compute in f32 only each
 //! individual's small difference from it (see [`crate::eval::kernel`]), and
 //! [`Scorer::resolution`] reports the rounding that leaves, which CMA-ES's flatness stop uses.
 
@@ -384,16 +385,17 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
         Ok(())
     }
 
-    /// Project the data onto the best design in f64 (every `reproject_every` generations)
-    /// and start every later evaluation there; re-anchor the evaluator's reference design at
-    /// it every generation (so that a resumed run re-anchors exactly as an uninterrupted one).
-    fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()> {
+    /// Project the data onto `centre` (the GA's best design, CMA-ES's mean) in f64 (every
+    /// `reproject_every` generations) and start every later evaluation there; re-anchor the
+    /// evaluator's reference design at it every generation (so that a resumed run re-anchors
+    /// exactly as an uninterrupted one).
+    fn recentre(&mut self, generation: u64, centre: &[f64]) -> Result<()> {
         if generation.is_multiple_of(self.reproject_every) {
-            let (params, _) = self.problem.project_points(best, &self.points, self.samples);
+            let (params, _) = self.problem.project_points(centre, &self.points, self.samples);
             self.evaluator.set_params(&params)?;
             self.params = params;
         }
-        self.evaluator.set_reference(best)
+        self.evaluator.set_reference(centre)
     }
 
     /// The evaluator's f32 rounding of a sum of squares near `level` (see

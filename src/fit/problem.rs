@@ -1234,6 +1234,7 @@ pub fn increment_start<P: Vector>(points: &[P], count: usize) -> Result<Vec<P>> 
 mod tests {
     use super::*;
     use crate::chain::Continuity;
+    use crate::fit::objective::testing::assert_gradient_matches;
     use glam::{DVec2, DVec3};
 
     fn sample_chain() -> (CurveChain<DVec2>, Vec<DVec2>) {
@@ -1256,23 +1257,8 @@ mod tests {
         let (chain, pts) = sample_chain();
         for metric in [Metric::Closest, Metric::Corresponding] {
             let p = FitProblem::curve(chain.layout().clone(), &pts, metric).unwrap();
-            let mut f = p.objective_fn();
             let x = CurveProblem::<DVec2>::to_flat(chain.design());
-            let mut g = vec![0.0; x.len()];
-            let v = f.value_grad(&x, &mut g);
-            assert!((v - f.value(&x)).abs() < 1e-15 * v.max(1.0));
-            let h = 1e-6;
-            for i in 0..x.len() {
-                let (mut xp, mut xm) = (x.clone(), x.clone());
-                xp[i] += h;
-                xm[i] -= h;
-                let fd = (f.value(&xp) - f.value(&xm)) / (2.0 * h);
-                assert!(
-                    (g[i] - fd).abs() < 1e-7 * (1.0 + fd.abs()),
-                    "{metric} var {i}: {} vs {fd}",
-                    g[i]
-                );
-            }
+            assert_gradient_matches(&mut p.objective_fn(), &x, &metric.to_string());
         }
     }
 
@@ -1359,10 +1345,7 @@ mod tests {
 
     #[test]
     fn grid_gradient_matches_finite_differences() {
-        let layout = GridLayout::new(
-            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
-            ChainLayout::uniform(2, 2, Continuity::C1).unwrap(),
-        );
+        let layout = GridLayout::uniform((2, 2), (2, 2), Continuity::C1).unwrap();
         let (nu, nv) = layout.design_shape();
         let design: Vec<DVec3> = (0..nu * nv)
             .map(|i| {
@@ -1394,22 +1377,8 @@ mod tests {
             pts.push(q);
         }
         let p = FitProblem::grid(layout, &pts, params, Metric::Closest).unwrap();
-        let mut f = p.objective_fn();
         let x = GridProblem::<DVec3>::to_flat(&design);
-        let mut g = vec![0.0; x.len()];
-        f.value_grad(&x, &mut g);
-        let h = 1e-6;
-        for i in 0..x.len() {
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[i] += h;
-            xm[i] -= h;
-            let fd = (f.value(&xp) - f.value(&xm)) / (2.0 * h);
-            assert!(
-                (g[i] - fd).abs() < 1e-7 * (1.0 + fd.abs()),
-                "var {i}: {} vs {fd}",
-                g[i]
-            );
-        }
+        assert_gradient_matches(&mut p.objective_fn(), &x, "grid");
     }
 
     #[test]

@@ -24,17 +24,27 @@ fn hermite_weights(xs: &[f64], x: f64) -> (usize, [f64; 4]) {
     )
 }
 
+/// The knot spacings `h` and secant slopes `d` of `ys` over `xs`; `None` with two knots, where
+/// every slope rule gives the straight line.
+fn secants(xs: &[f64], ys: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = xs.len();
+    debug_assert!(n >= 2 && ys.len() == n, "one value per knot, at least two knots");
+    if n == 2 {
+        return None;
+    }
+    let h: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
+    let d: Vec<f64> = (0..n - 1).map(|k| (ys[k + 1] - ys[k]) / h[k]).collect();
+    Some((h, d))
+}
+
 /// PCHIP slopes of `ys` over `xs` (SciPy's `PchipInterpolator` rules): zero at local extrema,
 /// a weighted harmonic mean of the neighbouring secants elsewhere, shape-preserving ends.
 /// With two knots the interpolant is the straight line.
 fn pchip_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
+    let Some((h, d)) = secants(xs, ys) else {
+        return vec![(ys[1] - ys[0]) / (xs[1] - xs[0]); 2];
+    };
     let n = xs.len();
-    debug_assert!(n >= 2 && ys.len() == n, "one value per knot, at least two knots");
-    let h: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
-    let d: Vec<f64> = (0..n - 1).map(|k| (ys[k + 1] - ys[k]) / h[k]).collect();
-    if n == 2 {
-        return vec![d[0], d[0]];
-    }
     let mut m = vec![0.0; n];
     for k in 1..n - 1 {
         if d[k - 1] * d[k] > 0.0 {
@@ -62,13 +72,10 @@ fn pchip_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
 /// two neighbours (the end parabolas at the ends). Third-order accurate on smooth data, but
 /// free to overshoot; with two knots the interpolant is the straight line.
 fn bessel_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
+    let Some((h, d)) = secants(xs, ys) else {
+        return vec![(ys[1] - ys[0]) / (xs[1] - xs[0]); 2];
+    };
     let n = xs.len();
-    debug_assert!(n >= 2 && ys.len() == n, "one value per knot, at least two knots");
-    let h: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
-    let d: Vec<f64> = (0..n - 1).map(|k| (ys[k + 1] - ys[k]) / h[k]).collect();
-    if n == 2 {
-        return vec![d[0], d[0]];
-    }
     let mut m = vec![0.0; n];
     for k in 1..n - 1 {
         m[k] = (h[k] * d[k - 1] + h[k - 1] * d[k]) / (h[k - 1] + h[k]);

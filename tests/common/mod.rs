@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 pub mod check;
+pub mod cli;
 
 use std::path::PathBuf;
 

@@ -128,113 +128,196 @@ pub(crate) fn atan2r(y: f32, x: f32) -> f32 {
 /// The shader's `FAR2`: panels farther than 5 lengths take the series.
 const FAR2: f32 = 25.0;
 
-/// The shader's `vortex_terms` in the far field (its Taylor series), and whether the panel is
-/// far: `((psis, psid), far)`. Branch-free, so the lanes run it side by side.
+/// A panel `a → b` seen from `f`: its length, unit direction, and `f`'s coordinates along and
+/// across it measured from its midpoint (`c`, `y`, `rho = c² + y²`), which the far-field
+/// series take.
+struct Far {
+    s: V2,
+    len: f32,
+    len2: f32,
+    c: f32,
+    y: f32,
+    c2: f32,
+    y2: f32,
+    rho: f32,
+}
+
 #[inline(always)]
-fn vortex_far(f: V2, a: V2, b: V2) -> ([f32; 2], bool) {
+fn unit_along(a: V2, b: V2) -> (f32, f32, V2) {
     let d = sub(b, a);
     let len2 = d[0] * d[0] + d[1] * d[1];
     let len = len2.sqrt();
-    let s = [d[0] / len, d[1] / len];
+    (len, len2, [d[0] / len, d[1] / len])
+}
+
+#[inline(always)]
+fn far_frame(f: V2, a: V2, b: V2) -> Far {
+    let (len, len2, s) = unit_along(a, b);
     let m = scale(add(a, b), 0.5);
     let rm = sub(f, m);
     let c = s[0] * rm[0] + s[1] * rm[1];
     let y = s[0] * rm[1] - s[1] * rm[0];
-    let c2 = c * c;
-    let y2 = y * y;
-    let rho = c2 + y2;
-    let g = ln(rho);
+    let (c2, y2) = (c * c, y * y);
+    Far {
+        s,
+        len,
+        len2,
+        c,
+        y,
+        c2,
+        y2,
+        rho: c2 + y2,
+    }
+}
+
+/// The closed forms' shared terms for `f` and panel `a → b` with unit direction `s`: the
+/// coordinates of `f` along (`x1`, `x2` from each end) and across (`yy`) the panel, the squared
+/// distances and their logs, the angle the panel subtends (`sub_`) and the source stream
+/// function `psis`.
+struct Near {
+    x1: f32,
+    x2: f32,
+    yy: f32,
+    rs1: f32,
+    rs2: f32,
+    g1: f32,
+    g2: f32,
+    sub_: f32,
+    psis: f32,
+}
+
+#[inline(always)]
+fn near_frame(f: V2, a: V2, b: V2, s: V2) -> Near {
+    let r1 = sub(f, a);
+    let r2 = sub(f, b);
+    let x1 = s[0] * r1[0] + s[1] * r1[1];
+    let x2 = s[0] * r2[0] + s[1] * r2[1];
+    let yy = s[0] * r1[1] - s[1] * r1[0];
+    let rs1 = r1[0] * r1[0] + r1[1] * r1[1];
+    let rs2 = r2[0] * r2[0] + r2[1] * r2[1];
+    let g1 = ln(rs1);
+    let g2 = ln(rs2);
+    let sub_ = atan2r(r1[0] * r2[1] - r1[1] * r2[0], r1[0] * r2[0] + r1[1] * r2[1]);
+    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub_;
+    Near {
+        x1,
+        x2,
+        yy,
+        rs1,
+        rs2,
+        g1,
+        g2,
+        sub_,
+        psis,
+    }
+}
+
+impl Near {
+    /// The shader's `theta` terms: the angles from each end, 0 at the end itself.
+    #[inline(always)]
+    fn thetas(&self) -> (f32, f32) {
+        let t1 = if self.rs1 > 0.0 {
+            atan2r(self.x1, self.yy)
+        } else {
+            0.0
+        };
+        let t2 = if self.rs2 > 0.0 {
+            atan2r(self.x2, self.yy)
+        } else {
+            0.0
+        };
+        (t1, t2)
+    }
+
+    /// The linear-vortex stream function.
+    #[inline(always)]
+    fn psid(&self) -> f32 {
+        let Near {
+            x1,
+            x2,
+            rs1,
+            rs2,
+            g1,
+            g2,
+            psis,
+            ..
+        } = *self;
+        ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / (x1 - x2)
+    }
+}
+
+impl Far {
+    /// The source stream function's far-field series.
+    #[inline(always)]
+    fn psis(&self) -> f32 {
+        let (len, len2, c2, y2, rho) = (self.len, self.len2, self.c2, self.y2, self.rho);
+        let g = ln(rho);
+        let g2 = 2.0 * (y2 - c2) / (rho * rho);
+        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
+        0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4
+    }
+
+    /// Whether the series serve: `f` farther than `FAR2` panel lengths (squared).
+    #[inline(always)]
+    fn far(&self) -> bool {
+        self.rho > FAR2 * self.len2
+    }
+}
+
+/// The shader's `vortex_terms` in the far field (its Taylor series), and whether the panel is
+/// far: `((psis, psid), far)`. Branch-free, so the lanes run it side by side.
+#[inline(always)]
+fn vortex_far(f: V2, a: V2, b: V2) -> ([f32; 2], bool) {
+    let far = far_frame(f, a, b);
+    let (len2, c, c2, y2, rho) = (far.len2, far.c, far.c2, far.y2, far.rho);
     let g1 = 2.0 * c / rho;
-    let g2 = 2.0 * (y2 - c2) / (rho * rho);
     let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
-    let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-    let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
     let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
-    ([psis, psid], rho > FAR2 * len2)
+    ([far.psis(), psid], far.far())
 }
 
 /// The shader's `vortex_terms` in the near field (the closed forms).
 #[inline(always)]
 fn vortex_near(f: V2, a: V2, b: V2) -> [f32; 2] {
-    let d = sub(b, a);
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let len = len2.sqrt();
-    let s = [d[0] / len, d[1] / len];
-    let r1 = sub(f, a);
-    let r2 = sub(f, b);
-    let x1 = s[0] * r1[0] + s[1] * r1[1];
-    let x2 = s[0] * r2[0] + s[1] * r2[1];
-    let yy = s[0] * r1[1] - s[1] * r1[0];
-    let rs1 = r1[0] * r1[0] + r1[1] * r1[1];
-    let rs2 = r2[0] * r2[0] + r2[1] * r2[1];
-    let g1 = ln(rs1);
-    let g2 = ln(rs2);
-    let sub_ = atan2r(r1[0] * r2[1] - r1[1] * r2[0], r1[0] * r2[0] + r1[1] * r2[1]);
-    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub_;
-    let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / (x1 - x2);
-    [psis, psid]
+    let (_, _, s) = unit_along(a, b);
+    let near = near_frame(f, a, b, s);
+    [near.psis, near.psid()]
 }
 
 /// The shader's `source_terms`: `(psis, psig)`.
 #[inline(always)]
 fn source_terms(f: V2, a: V2, b: V2) -> [f32; 2] {
-    let d = sub(b, a);
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let len = len2.sqrt();
-    let s = [d[0] / len, d[1] / len];
-    let m = scale(add(a, b), 0.5);
-    let rm = sub(f, m);
-    let c = s[0] * rm[0] + s[1] * rm[1];
-    let y = s[0] * rm[1] - s[1] * rm[0];
-    let c2 = c * c;
-    let y2 = y * y;
-    let rho = c2 + y2;
-    if rho > FAR2 * len2 {
-        let g = ln(rho);
-        let g2 = 2.0 * (y2 - c2) / (rho * rho);
-        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-        let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
+    let far = far_frame(f, a, b);
+    if far.far() {
+        let (len, len2, c, y, rho) = (far.len, far.len2, far.c, far.y, far.rho);
         let t = atan2r(c, y);
         let t2 = -2.0 * c * y / (rho * rho);
-        return [psis, -(len * t + len * len2 / 24.0 * t2)];
+        return [far.psis(), -(len * t + len * len2 / 24.0 * t2)];
     }
-    let r1 = sub(f, a);
-    let r2 = sub(f, b);
-    let x1 = s[0] * r1[0] + s[1] * r1[1];
-    let x2 = s[0] * r2[0] + s[1] * r2[1];
-    let yy = s[0] * r1[1] - s[1] * r1[0];
-    let rs1 = r1[0] * r1[0] + r1[1] * r1[1];
-    let rs2 = r2[0] * r2[0] + r2[1] * r2[1];
-    let g1 = ln(rs1);
-    let g2 = ln(rs2);
-    let sub_ = atan2r(r1[0] * r2[1] - r1[1] * r2[0], r1[0] * r2[0] + r1[1] * r2[1]);
-    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub_;
-    let t1 = if rs1 > 0.0 { atan2r(x1, yy) } else { 0.0 };
-    let t2 = if rs2 > 0.0 { atan2r(x2, yy) } else { 0.0 };
-    [psis, 0.5 * yy * (g1 - g2) + x2 * t2 - x1 * t1]
+    let near = near_frame(f, a, b, far.s);
+    let (t1, t2) = near.thetas();
+    let (x1, x2, yy) = (near.x1, near.x2, near.yy);
+    [near.psis, 0.5 * yy * (near.g1 - near.g2) + x2 * t2 - x1 * t1]
 }
 
 /// The shader's `panel_derivs`.
 #[inline(always)]
 fn panel_derivs(f: V2, a: V2, b: V2, n: V2) -> [f32; 3] {
-    let d = sub(b, a);
-    let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-    let s = [d[0] / len, d[1] / len];
-    let r1 = sub(f, a);
-    let r2 = sub(f, b);
-    let x1 = s[0] * r1[0] + s[1] * r1[1];
-    let x2 = s[0] * r2[0] + s[1] * r2[1];
-    let yy = s[0] * r1[1] - s[1] * r1[0];
-    let rs1 = r1[0] * r1[0] + r1[1] * r1[1];
-    let rs2 = r2[0] * r2[0] + r2[1] * r2[1];
-    let g1 = ln(rs1);
-    let g2 = ln(rs2);
-    let sub_ = atan2r(r1[0] * r2[1] - r1[1] * r2[0], r1[0] * r2[0] + r1[1] * r2[1]);
-    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub_;
+    let (_, _, s) = unit_along(a, b);
+    let near = near_frame(f, a, b, s);
+    let psid = near.psid();
+    let (t1, t2) = near.thetas();
+    let Near {
+        x1,
+        x2,
+        yy,
+        g1,
+        g2,
+        sub_,
+        psis,
+        ..
+    } = near;
     let dx = x1 - x2;
-    let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / dx;
-    let t1 = if rs1 > 0.0 { atan2r(x1, yy) } else { 0.0 };
-    let t2 = if rs2 > 0.0 { atan2r(x2, yy) } else { 0.0 };
     let xn = s[0] * n[0] + s[1] * n[1];
     let yn = s[0] * n[1] - s[1] * n[0];
     let psx1 = 0.5 * g1;

@@ -47,86 +47,82 @@ mod x86 {
     use super::Vector;
     use std::arch::x86_64::*;
 
-    // SAFETY: every method needs AVX-512F, which `Simd::Avx512` is only chosen with.
-    unsafe impl Vector for __m512 {
-        const WIDTH: usize = 16;
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn splat(x: f32) -> Self {
-            _mm512_set1_ps(x)
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn load(p: *const f32) -> Self {
-            _mm512_loadu_ps(p)
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn store(self, p: *mut f32) {
-            _mm512_storeu_ps(p, self);
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn fma(a: Self, b: Self, c: Self) -> Self {
-            _mm512_fmadd_ps(a, b, c)
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn mul(a: Self, b: Self) -> Self {
-            _mm512_mul_ps(a, b)
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn add(a: Self, b: Self) -> Self {
-            _mm512_add_ps(a, b)
-        }
-        #[inline]
-        #[target_feature(enable = "avx512f")]
-        unsafe fn max(a: Self, b: Self) -> Self {
-            // vmaxps returns its second operand where either is NaN.
-            _mm512_max_ps(a, b)
-        }
+    /// `Vector` for one register type: its width, the features its methods need (all, and
+    /// for `fma`), and the intrinsic behind each method.
+    macro_rules! vector {
+        ($ty:ty, $width:expr, $feat:literal, $fma_feat:literal,
+         $splat:ident, $load:ident, $store:ident, $fma:ident, $mul:ident, $add:ident, $max:ident) => {
+            unsafe impl Vector for $ty {
+                const WIDTH: usize = $width;
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn splat(x: f32) -> Self {
+                    $splat(x)
+                }
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn load(p: *const f32) -> Self {
+                    $load(p)
+                }
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn store(self, p: *mut f32) {
+                    $store(p, self);
+                }
+                #[inline]
+                #[target_feature(enable = $fma_feat)]
+                unsafe fn fma(a: Self, b: Self, c: Self) -> Self {
+                    $fma(a, b, c)
+                }
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn mul(a: Self, b: Self) -> Self {
+                    $mul(a, b)
+                }
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn add(a: Self, b: Self) -> Self {
+                    $add(a, b)
+                }
+                #[inline]
+                #[target_feature(enable = $feat)]
+                unsafe fn max(a: Self, b: Self) -> Self {
+                    // vmaxps returns its second operand where either is NaN.
+                    $max(a, b)
+                }
+            }
+        };
     }
 
-    // SAFETY: every method needs AVX and FMA, which `Simd::Avx2` is only chosen with.
-    unsafe impl Vector for __m256 {
-        const WIDTH: usize = 8;
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn splat(x: f32) -> Self {
-            _mm256_set1_ps(x)
-        }
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn load(p: *const f32) -> Self {
-            _mm256_loadu_ps(p)
-        }
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn store(self, p: *mut f32) {
-            _mm256_storeu_ps(p, self);
-        }
-        #[inline]
-        #[target_feature(enable = "avx,fma")]
-        unsafe fn fma(a: Self, b: Self, c: Self) -> Self {
-            _mm256_fmadd_ps(a, b, c)
-        }
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn mul(a: Self, b: Self) -> Self {
-            _mm256_mul_ps(a, b)
-        }
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn add(a: Self, b: Self) -> Self {
-            _mm256_add_ps(a, b)
-        }
-        #[inline]
-        #[target_feature(enable = "avx")]
-        unsafe fn max(a: Self, b: Self) -> Self {
-            _mm256_max_ps(a, b)
-        }
-    }
+    // SAFETY: every method needs AVX-512F, which `Simd::Avx512` is only chosen with.
+    vector!(
+        __m512,
+        16,
+        "avx512f",
+        "avx512f",
+        _mm512_set1_ps,
+        _mm512_loadu_ps,
+        _mm512_storeu_ps,
+        _mm512_fmadd_ps,
+        _mm512_mul_ps,
+        _mm512_add_ps,
+        _mm512_max_ps
+    );
+
+    // SAFETY: every method needs AVX, and `fma` FMA too, which `Simd::Avx2` is only chosen with.
+    vector!(
+        __m256,
+        8,
+        "avx",
+        "avx,fma",
+        _mm256_set1_ps,
+        _mm256_loadu_ps,
+        _mm256_storeu_ps,
+        _mm256_fmadd_ps,
+        _mm256_mul_ps,
+        _mm256_add_ps,
+        _mm256_max_ps
+    );
 }
 
 /// Most control points of a patch, times 3 coordinates: the held patch of one column.

@@ -182,11 +182,20 @@ impl Kernels for PortableKernels {
     }
 }
 
+/// The vector kernel sets: `V` lanes, `G2` / `G3` points at a time in two / three dimensions.
+/// AVX2 holds G × DIM accumulators, G broadcast weights and a control point in its 16 ymm
+/// registers; AVX-512 the same in its 32 zmm registers.
 #[cfg(target_arch = "x86_64")]
-struct Avx2Kernels;
+struct Wide<V, const G2: usize, const G3: usize>(std::marker::PhantomData<V>);
 
 #[cfg(target_arch = "x86_64")]
-impl Kernels for Avx2Kernels {
+type Avx2Kernels = Wide<std::arch::x86_64::__m256, 4, 3>;
+
+#[cfg(target_arch = "x86_64")]
+type Avx512Kernels = Wide<std::arch::x86_64::__m512, 10, 7>;
+
+#[cfg(target_arch = "x86_64")]
+impl<V: fixed::Vector, const G2: usize, const G3: usize> Kernels for Wide<V, G2, G3> {
     type A = Fused;
     #[inline(always)]
     unsafe fn fixed<const DIM: usize>(
@@ -195,64 +204,38 @@ impl Kernels for Avx2Kernels {
         _: &mut Scratch,
         out: &mut [Partial; LANES],
     ) {
-        use std::arch::x86_64::__m256;
-        // G points at a time: G × DIM accumulators, G broadcast weights and a control point
-        // in the 16 ymm registers.
         if DIM == 3 {
-            fixed::fixed::<__m256, DIM, 3>(b.config, b.targets, b.weights, b.net, group, out);
+            fixed::fixed::<V, DIM, G3>(b.config, b.targets, b.weights, b.net, group, out);
         } else {
-            fixed::fixed::<__m256, DIM, 4>(b.config, b.targets, b.weights, b.net, group, out);
+            fixed::fixed::<V, DIM, G2>(b.config, b.targets, b.weights, b.net, group, out);
         }
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-struct Avx512Kernels;
-
-#[cfg(target_arch = "x86_64")]
-impl Kernels for Avx512Kernels {
-    type A = Fused;
-    #[inline(always)]
-    unsafe fn fixed<const DIM: usize>(
-        b: &Bindings<'_>,
-        group: usize,
-        _: &mut Scratch,
-        out: &mut [Partial; LANES],
-    ) {
-        use std::arch::x86_64::__m512;
-        // As for AVX2, in the 32 zmm registers.
-        if DIM == 3 {
-            fixed::fixed::<__m512, DIM, 7>(b.config, b.targets, b.weights, b.net, group, out);
-        } else {
-            fixed::fixed::<__m512, DIM, 10>(b.config, b.targets, b.weights, b.net, group, out);
-        }
-    }
+/// One (block, group) task: which individuals, which points.
+struct Task<'a, T> {
+    config: &'a Config,
+    problem: &'a Problem,
+    population: &'a [T],
+    block: usize,
+    group: usize,
 }
 
-/// One (block, group) task on kernel set `K`: expand the block's differences, then evaluate
-/// the group.
+/// Run `t` on kernel set `K`: expand the block's differences, then evaluate the group.
 ///
 /// # Safety
 ///
 /// The CPU must have `K`'s features.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-unsafe fn task<K: Kernels, T: Gene>(
-    config: &Config,
-    problem: &Problem,
-    population: &[T],
-    block: usize,
-    group: usize,
-    scratch: &mut Scratch,
-    out: &mut [Partial; LANES],
-) {
+unsafe fn task<K: Kernels, T: Gene>(t: &Task<'_, T>, scratch: &mut Scratch, out: &mut [Partial; LANES]) {
+    let (config, problem) = (t.config, t.problem);
     expand::expand::<K::A, T>(
         config,
         &problem.map_start,
         &problem.map_entries,
         problem.reference(),
-        population,
-        block,
+        t.population,
+        t.block,
         &mut scratch.design,
         &mut scratch.net,
     );
@@ -265,6 +248,7 @@ unsafe fn task<K: Kernels, T: Gene>(
         weights: &problem.weights,
         jets: &problem.jets,
     };
+    let group = t.group;
     match (problem.dim, config.newton) {
         (2, 0) => K::fixed::<2>(&b, group, scratch, out),
         (_, 0) => K::fixed::<3>(&b, group, scratch, out),
@@ -276,70 +260,33 @@ unsafe fn task<K: Kernels, T: Gene>(
 
 // One compiled function per kernel set, so that each is optimised for its features.
 
-#[allow(clippy::too_many_arguments)]
-fn task_portable<T: Gene>(
-    config: &Config,
-    problem: &Problem,
-    population: &[T],
-    block: usize,
-    group: usize,
-    scratch: &mut Scratch,
-    out: &mut [Partial; LANES],
-) {
+fn task_portable<T: Gene>(t: &Task<'_, T>, scratch: &mut Scratch, out: &mut [Partial; LANES]) {
     // SAFETY: the portable set needs no feature beyond the build target's.
-    unsafe { task::<PortableKernels, T>(config, problem, population, block, group, scratch, out) }
+    unsafe { task::<PortableKernels, T>(t, scratch, out) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn task_avx2<T: Gene>(
-    config: &Config,
-    problem: &Problem,
-    population: &[T],
-    block: usize,
-    group: usize,
-    scratch: &mut Scratch,
-    out: &mut [Partial; LANES],
-) {
-    task::<Avx2Kernels, T>(config, problem, population, block, group, scratch, out);
+unsafe fn task_avx2<T: Gene>(t: &Task<'_, T>, scratch: &mut Scratch, out: &mut [Partial; LANES]) {
+    task::<Avx2Kernels, T>(t, scratch, out);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn task_avx512<T: Gene>(
-    config: &Config,
-    problem: &Problem,
-    population: &[T],
-    block: usize,
-    group: usize,
-    scratch: &mut Scratch,
-    out: &mut [Partial; LANES],
-) {
-    task::<Avx512Kernels, T>(config, problem, population, block, group, scratch, out);
+unsafe fn task_avx512<T: Gene>(t: &Task<'_, T>, scratch: &mut Scratch, out: &mut [Partial; LANES]) {
+    task::<Avx512Kernels, T>(t, scratch, out);
 }
 
 /// Run one (block, group) task on the kernels `simd` names.
-#[allow(clippy::too_many_arguments)]
-fn run_task<T: Gene>(
-    simd: Simd,
-    config: &Config,
-    problem: &Problem,
-    population: &[T],
-    block: usize,
-    group: usize,
-    scratch: &mut Scratch,
-    out: &mut [Partial; LANES],
-) {
+fn run_task<T: Gene>(simd: Simd, t: &Task<'_, T>, scratch: &mut Scratch, out: &mut [Partial; LANES]) {
     match simd {
         // SAFETY: a `CpuEvaluator` holds `Avx512` or `Avx2` only where `Simd::supported`
         // saw the features on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { task_avx512(config, problem, population, block, group, scratch, out) },
+        Simd::Avx512 => unsafe { task_avx512(t, scratch, out) },
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { task_avx2(config, problem, population, block, group, scratch, out) },
-        _ => task_portable(config, problem, population, block, group, scratch, out),
+        Simd::Avx2 => unsafe { task_avx2(t, scratch, out) },
+        _ => task_portable(t, scratch, out),
     }
 }
 
@@ -413,8 +360,14 @@ impl CpuEvaluator {
         partials.par_iter_mut().enumerate().for_each_init(
             || Scratch::new(problem),
             |scratch, (k, partial)| {
-                let (group, block) = (k / blocks, k % blocks);
-                run_task(simd, &config, problem, population, block, group, scratch, partial);
+                let t = Task {
+                    config: &config,
+                    problem,
+                    population,
+                    block: k % blocks,
+                    group: k / blocks,
+                };
+                run_task(simd, &t, scratch, partial);
             },
         );
         out.par_chunks_mut(LANES)

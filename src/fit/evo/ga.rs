@@ -2,8 +2,10 @@
 //! polynomial mutation (both in Deb's bounded forms) and elitism, over f32 design rows.
 //!
 //! Each generation copies the `E` best individuals unchanged, then fills the rest of the
-//! population pair by pair: two tournament winners, SBX with probability `crossover_rate`,
-//! polynomial mutation of every variable with probability `mutation_rate`. Pair `k` of
+//! population pair by pair: two tournament winners, recombined with probability
+//! `crossover_rate` (a fraction `line_rate` of the pairs along the line through the parents,
+//! the others by SBX variable by variable), then polynomial mutation of every variable with
+//! probability `mutation_rate`. Pair `k` of
 //! generation `g` draws only from its own random stream `(seed, g, k)`, so pairs are bred in
 //! parallel and the result does not depend on the number of threads.
 
@@ -17,13 +19,20 @@ use serde::{Deserialize, Serialize};
 /// Options of the genetic algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaOptions {
-    /// Individuals drawn (with replacement) per tournament; the best wins. Default 4.
+    /// Individuals drawn (with replacement) per tournament; the best wins. Default 8.
     pub tournament: usize,
     /// Probability that a pair of parents is recombined by SBX (else copied). Default 1.
     pub crossover_rate: f64,
     /// SBX distribution index `η_c`: larger keeps children closer to their parents.
-    /// Default 15.
+    /// Default 2.
     pub crossover_eta: f64,
+    /// Fraction of the recombined pairs whose children lie on the line through the parents:
+    /// SBX with one spread factor for every variable (`c = m ∓ β (b - a) / 2` about the
+    /// parents' mean `m`), which keeps the parents' direction, where SBX variable by variable
+    /// scatters the children over the box the parents span. The fitting problem's design
+    /// points are strongly coupled, and steps along the lines between good designs follow its
+    /// valleys. Default 0.3.
+    pub line_rate: f64,
     /// Probability that a variable of a child is mutated; `None` is `1 / n` for `n` design
     /// variables. Default `None`.
     pub mutation_rate: Option<f64>,
@@ -31,23 +40,29 @@ pub struct GaOptions {
     /// mean step is about `1 / (η_m + 2)` of the bound width). Default 200.
     pub mutation_eta: f64,
     /// Fraction of the population carried unchanged into the next generation (the best
-    /// individuals; at least one). Default 0.01.
+    /// individuals; at least one). Default 0.03.
     pub elite_fraction: f64,
 }
 
 /// The defaults were measured on the paper's case 1 (24 variables, P = 1024, G = 500, seeds
 /// 1–8): the textbook settings (binary tournaments, crossover rate 0.9, `η_m` = 20) ended at
 /// sum_sq 6.5e-6 for seed 1; tournaments of 4, every pair recombined and `η_m` = 200 (finer
-/// mutations) ended at 1.7e-6 to 2.5e-6 (median 2.1e-6).
+/// mutations) ended at 1.7e-6 to 2.5e-6 (median 2.1e-6). Since the evaluator's reference
+/// design (seeds 1–12, CPU): those settings end at 1.8e-6 to 3.8e-6, median 2.3e-6;
+/// tournaments of 8, `η_c` = 2, 30 % of the pairs recombined along the parents' line and 3 %
+/// elites at 1.3e-6 to 3.4e-6, median 1.8e-6 (seed 1: 2.1e-6 against 1.9e-6). Mutation
+/// scaled to the population's spread per variable, differential steps (`a + F (c - d)`), and
+/// more, coarser or finer mutations all did worse on seeds 1–6.
 impl Default for GaOptions {
     fn default() -> Self {
         GaOptions {
-            tournament: 4,
+            tournament: 8,
             crossover_rate: 1.0,
-            crossover_eta: 15.0,
+            crossover_eta: 2.0,
+            line_rate: 0.3,
             mutation_rate: None,
             mutation_eta: 200.0,
-            elite_fraction: 0.01,
+            elite_fraction: 0.03,
         }
     }
 }
@@ -80,6 +95,7 @@ impl GaOptions {
             rate("mutation rate", m)?;
         }
         rate("elite fraction", self.elite_fraction)?;
+        rate("line crossover rate", self.line_rate)?;
         index("crossover distribution index", self.crossover_eta)?;
         index("mutation distribution index", self.mutation_eta)
     }
@@ -211,14 +227,21 @@ impl Ga {
                 let b = tournament(scores, opts.tournament, &mut rng);
                 let (pa, pb) = (&parents[a * n..(a + 1) * n], &parents[b * n..(b + 1) * n]);
                 let cross = uniform(&mut rng) < opts.crossover_rate;
+                // Along the parents' line: one spread factor β for every variable, drawn as
+                // SBX draws it far from the bounds (α = 2).
+                let line = (cross && uniform(&mut rng) < opts.line_rate)
+                    .then(|| spread.betaq(2.0, uniform(&mut rng)));
                 let (c1, c2) = children.split_at_mut(n);
                 for i in 0..n {
                     let [lo, hi] = bounds[i];
                     let (x1, x2) = (f64::from(pa[i]), f64::from(pb[i]));
-                    let (y1, y2) = if cross {
-                        sbx(x1, x2, lo, hi, &spread, &mut rng)
-                    } else {
-                        (x1, x2)
+                    let (y1, y2) = match line {
+                        Some(beta) => {
+                            let (m, h) = (0.5 * (x1 + x2), 0.5 * beta * (x2 - x1));
+                            ((m - h).clamp(lo, hi), (m + h).clamp(lo, hi))
+                        }
+                        None if cross => sbx(x1, x2, lo, hi, &spread, &mut rng),
+                        None => (x1, x2),
                     };
                     let y1 = mutate(y1, lo, hi, pm, opts.mutation_eta, &mut rng);
                     let y2 = mutate(y2, lo, hi, pm, opts.mutation_eta, &mut rng);
@@ -431,6 +454,10 @@ mod tests {
                 ..GaOptions::default()
             },
             GaOptions {
+                line_rate: 1.5,
+                ..GaOptions::default()
+            },
+            GaOptions {
                 elite_fraction: f64::NAN,
                 ..GaOptions::default()
             },
@@ -438,7 +465,7 @@ mod tests {
         for o in bad {
             assert!(matches!(o.check(), Err(Error::Invalid(_))), "{o:?}");
         }
-        assert_eq!(GaOptions::default().elites(1024), 10);
+        assert_eq!(GaOptions::default().elites(1024), 31);
         assert_eq!(GaOptions::default().elites(16), 1);
     }
 

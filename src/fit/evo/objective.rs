@@ -91,9 +91,10 @@ pub trait Scorer {
     /// Score every row of `population` (f32, `dim()` values each) into `scores`.
     fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()>;
 
-    /// Called before generation `generation` with the best design so far (the fitting
-    /// problem re-projects its data there when due and re-anchors its evaluator there).
-    fn recentre(&mut self, generation: u64, best: &[f64]) -> Result<()>;
+    /// Called before generation `generation` with the design it centres on (the GA: the best
+    /// so far; CMA-ES: its mean): the fitting problem re-projects its data there when due and
+    /// re-anchors its evaluator there.
+    fn recentre(&mut self, generation: u64, centre: &[f64]) -> Result<()>;
 
     /// The rounding a score near `level` may carry: differences below it are not resolved
     /// (CMA-ES stops when its objective is flat to it). The fitting problem: the population
