@@ -163,7 +163,7 @@ impl Model {
 /// B-spline coefficients of the rule's three piecewise quadratics, by blossoming (the
 /// coefficient of basis function `i` is the blossom of the polynomial piece at the knots
 /// `τ_{i+1} … τ_{i+d}`; the pieces agree wherever the window spans the leading edge).
-fn rule_rows(layout: &ChainLayout) -> Vec<[f64; 3]> {
+pub(crate) fn rule_rows(layout: &ChainLayout) -> Vec<[f64; 3]> {
     let d = layout.degree();
     let knots = layout.knots();
     let pairs = (d * (d - 1) / 2) as f64;

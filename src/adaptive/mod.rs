@@ -29,6 +29,7 @@
 // also true for NaN.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
+mod blade;
 pub mod encoding;
 mod engine;
 pub mod report;
@@ -39,7 +40,7 @@ pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
 pub use report::{AdaptBlock, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
 pub use surface::{
-    adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, SpanRule, SurfaceAdaptOptions,
+    adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule, SurfaceAdaptOptions,
     SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 

@@ -6,7 +6,8 @@
 
 use super::encoding::{Encoding, ScalarCount};
 use super::surface::{
-    AdaptedSurface, CheckedOffsets, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+    AdaptedSurface, CheckedOffsets, FoldCheck, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding,
+    SurfaceFamilyTrace,
 };
 use super::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
 use crate::export::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
@@ -97,9 +98,12 @@ impl AdaptReport {
 
 /// How the stored scalars of an adapted patch grid are counted, as the report states it.
 pub const SURFACE_COUNTING: &str = "stored scalars = every stored design-net coordinate (x, y and z of \
-each design point, or the two besides the span axis where the span rule holds) + the 2 numbers of the \
-span rule when used + every stored break in either direction; the layout integers (degrees, patch \
-counts, the continuity order of each join) are not counted";
+each design point, or the two besides the span axis where the span rule holds, or under the chord rule \
+one thickness-direction offset y_ij per design point) + the 4 numbers of every design column's frame \
+under the chord rule (leading edge O_j in the two in-plane axes, chord angle theta_j, chord length c_j; \
+design point (i, j) = O_j + c_j x_i d_j + y_ij n_j with x_i the B-spline coefficient of (2u - 1)^2, d_j = (cos theta_j, sin theta_j), n_j = (-sin theta_j, cos theta_j)) \
++ the 2 numbers of the span rule when used + every stored break in either direction; the layout \
+integers (degrees, patch counts, the continuity order of each join) are not counted";
 
 /// The `adapt` block of a surface report.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -128,6 +132,13 @@ pub struct SurfaceAdaptBlock {
     /// The held-out check (refit on every other point of each section, measured on the rest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
+    /// The fold check: the largest turn of the surface normal between neighbouring samples.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fold: Option<FoldCheck>,
+    /// The checker's max over the exact max (the projection check agrees within 10 % when at
+    /// most 1.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub projection_agreement: Option<f64>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -173,6 +184,8 @@ impl SurfaceAdaptReport {
                 family: result.family.clone(),
                 checked: result.checked,
                 held_out: result.held_out,
+                fold: Some(result.fold),
+                projection_agreement: Some(result.agreement),
                 fits: result.fits,
                 search: result.trace.clone(),
             },

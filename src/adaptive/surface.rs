@@ -23,6 +23,11 @@
 //! Without it all three coordinates are stored and `v_k` follows the distance between the
 //! sections' centroids.
 //!
+//! **Chord rule.** Where the span rule holds and every section looks like an aerofoil
+//! section, each design column stores a frame (leading edge, chord angle, chord length) and
+//! each design point one thickness-direction offset, x following the aerofoil rule in the
+//! column's frame ([`mod@super::blade`]); [`ChordRule`] says when it is searched.
+//!
 //! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
 //! data-driven positions) run in parallel. Each starts with one patch and grows the direction
 //! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
@@ -35,11 +40,15 @@
 
 #![allow(clippy::needless_range_loop)]
 
+use super::blade::{chord_x, section_frame, section_params, ColumnFrames, SectionFrame};
 use super::encoding::Breaks;
 use super::{HeldOut, Norm};
 use crate::chain::{ChainLayout, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-pub use crate::fit::checker::sampled_offsets;
+pub use crate::fit::checker::{fold_check, sampled_offsets, FoldCheck};
+
+/// Samples a patch in each direction of the result's fold check.
+pub const FOLD_SAMPLES: usize = 16;
 use crate::fit::{
     lsq, shape_offsets, Constraint, CoordRule, FitProblem, FootOptions, GridProblem, GridShape, LsqHooks,
     LsqIterate, LsqMethod, LsqOptions, Metric, OffsetStats, Start,
@@ -64,6 +73,9 @@ pub struct SurfaceAdaptOptions {
     pub degrees_v: [usize; 2],
     /// Use the span rule where the sections are planar (see the module docs). Default true.
     pub span_rule: bool,
+    /// The chord rule ([`mod@super::blade`]), where the span rule holds and every section looks
+    /// like an aerofoil section. Default [`ChordRule::Auto`].
+    pub chord_rule: ChordRule,
     /// Never report a result with more stored scalars than this. Default none.
     pub max_scalars: Option<usize>,
     /// Polish fits within twice the tolerance towards the minimax fit (Lawson's reweighting),
@@ -84,12 +96,27 @@ impl Default for SurfaceAdaptOptions {
             degrees_u: [3, 6],
             degrees_v: [2, 3],
             span_rule: true,
+            chord_rule: ChordRule::Auto,
             max_scalars: None,
             minimax: true,
             held_out: true,
             max_family_fits: 80,
         }
     }
+}
+
+/// When the search uses the chord rule ([`mod@super::blade`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChordRule {
+    /// Never: every design point stores its coordinates.
+    Off,
+    /// Wherever it applies: only chord-rule families are searched.
+    On,
+    /// The chord-rule families first; when none meets the tolerance, the families without it
+    /// too, and the fewest stored scalars of all that meet it win (or the closest layout).
+    #[default]
+    Auto,
 }
 
 /// The span rule: coordinate `axis` of design column `j` is `ends[0] + g_j (ends[1] - ends[0])`.
@@ -116,16 +143,29 @@ pub struct SurfaceEncoding {
     pub breaks_v: Breaks,
     /// The span rule, when used.
     pub span_rule: Option<SpanRule>,
-    /// The stored coordinates of the design net, row-major (rows along u): for every design
-    /// point its coordinates in axis order, the span rule's axis left out when it is used.
+    /// The chord rule ([`mod@super::blade`]), when used (it needs the span rule).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub chord_rule: bool,
+    /// The stored numbers of the design net. Without the chord rule: row-major (rows along
+    /// u), for every design point its coordinates in axis order, the span rule's axis left
+    /// out when it is used. With it: for every design column `j` its frame `[O_j, θ_j, c_j]`
+    /// (the leading edge in the two axes besides the span axis, in axis order, the chord
+    /// angle in radians in that plane and the chord length), then the thickness-direction
+    /// offset `y_ij` of every design point, row-major; design point `(i, j)` is
+    /// `O_j + c_j x_i d_j + y_ij n_j` in those two axes (`d_j = (cos θ_j, sin θ_j)`,
+    /// `n_j = (-sin θ_j, cos θ_j)`, `x_i` the B-spline coefficient of `(2u - 1)²` on the
+    /// u layout), its span coordinate the span rule's.
     pub coords: Vec<f64>,
 }
 
 /// The stored scalars of a [`SurfaceEncoding`], by kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SurfaceCount {
-    /// Stored design coordinates.
+    /// Stored design coordinates (with the chord rule: the thickness-direction numbers).
     pub coords: usize,
+    /// Numbers of the chord rule's column frames (4 a design column, or 0 without it).
+    #[serde(default)]
+    pub frames: usize,
     /// Numbers of the span rule (2 or 0).
     pub rule: usize,
     /// Stored breaks, both directions.
@@ -179,8 +219,16 @@ impl SurfaceEncoding {
     pub fn count(&self) -> SurfaceCount {
         let rule = if self.span_rule.is_some() { 2 } else { 0 };
         let breaks = stored_breaks(&self.breaks_u) + stored_breaks(&self.breaks_v);
+        let frames = if self.chord_rule {
+            self.layouts()
+                .map_or(0, |(_, lv)| 4 * lv.design_count())
+                .min(self.coords.len())
+        } else {
+            0
+        };
         SurfaceCount {
-            coords: self.coords.len(),
+            coords: self.coords.len() - frames,
+            frames,
             rule,
             breaks,
             total: self.coords.len() + rule + breaks,
@@ -191,6 +239,9 @@ impl SurfaceEncoding {
     pub fn design(&self) -> Result<Vec<DVec3>> {
         let (lu, lv) = self.layouts()?;
         let (nu, nv) = (lu.design_count(), lv.design_count());
+        if self.chord_rule {
+            return self.chord_design(&lu, &lv);
+        }
         let per = if self.span_rule.is_some() { 2 } else { 3 };
         if self.coords.len() != nu * nv * per {
             return Err(Error::invalid(format!(
@@ -222,6 +273,38 @@ impl SurfaceEncoding {
                     None => DVec3::new(c[0], c[1], c[2]),
                 };
                 out.push(p);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The design net of the chord rule ([`SurfaceEncoding::coords`]).
+    fn chord_design(&self, lu: &ChainLayout, lv: &ChainLayout) -> Result<Vec<DVec3>> {
+        let (nu, nv) = (lu.design_count(), lv.design_count());
+        let Some(r) = self.span_rule.filter(|r| r.axis <= 2) else {
+            return Err(Error::invalid(
+                "surface encoding: the chord rule needs the span rule",
+            ));
+        };
+        if lu.degree() < super::blade::MIN_DEGREE || self.coords.len() != nv * (nu + 4) {
+            return Err(Error::invalid(format!(
+                "surface encoding: {} stored numbers for a {nu} x {nv} chord-rule net of degree {} around (4 a column and one a design point, degree 2 or more)",
+                self.coords.len(),
+                lu.degree()
+            )));
+        }
+        let axes: Vec<usize> = (0..3).filter(|&a| a != r.axis).collect();
+        let x = super::blade::chord_x(lu);
+        let g = lv.greville();
+        let mut out = Vec::with_capacity(nu * nv);
+        for i in 0..nu {
+            for j in 0..nv {
+                let q = super::blade::regenerate(&x, &self.coords, nv, i, j);
+                let mut a = [0.0; 3];
+                a[axes[0]] = q.x;
+                a[axes[1]] = q.y;
+                a[r.axis] = r.ends[0] + g[j] * (r.ends[1] - r.ends[0]);
+                out.push(DVec3::from_array(a));
             }
         }
         Ok(out)
@@ -274,6 +357,11 @@ pub struct AdaptedSurface {
     pub checked: CheckedOffsets,
     /// The held-out check.
     pub held_out: Option<HeldOut>,
+    /// The fold check of the grid ([`fold_check`], [`FOLD_SAMPLES`] samples a patch).
+    pub fold: FoldCheck,
+    /// The checker's max over the true closest-point max: the projection check agrees with
+    /// the exact offsets within 10 % when it is at most 1.1.
+    pub agreement: f64,
     /// True when the tolerance holds, by the true closest-point offsets and by the checker's.
     pub met: bool,
     /// Why not, when it does not.
@@ -301,6 +389,8 @@ struct Data<'a> {
     axes: Vec<usize>,
     /// Initial `u` of every point.
     u0: Vec<f64>,
+    /// Every section's frame, when the chord rule is used.
+    blade: Option<Vec<SectionFrame>>,
 }
 
 fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
@@ -313,7 +403,7 @@ fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
 }
 
 impl<'a> Data<'a> {
-    fn new(points: &'a [DVec3], grid: Grid, span_rule: bool) -> Result<Self> {
+    fn new(points: &'a [DVec3], grid: Grid, span_rule: bool, chord_rule: bool) -> Result<Self> {
         let (sections, per) = (grid.sections, grid.per_section);
         if sections < 2 || per < 4 || sections * per != points.len() {
             return Err(Error::invalid(format!(
@@ -387,7 +477,62 @@ impl<'a> Data<'a> {
                 per_sec[k] = per_sec[near].clone();
             }
         }
-        let u0 = per_sec.into_iter().flatten().flatten().collect();
+        let mut u0: Vec<f64> = per_sec.into_iter().flatten().flatten().collect();
+        // The chord rule: every section's own leading-edge frame, and its points' parameters
+        // in that frame.
+        let blade = (chord_rule && span.is_some())
+            .then(|| {
+                let flat = |k: usize| -> Vec<glam::DVec2> {
+                    sec(k)
+                        .iter()
+                        .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                        .collect()
+                };
+                // A section collapsed to a point (a blade tip) is a frame of zero chord
+                // there.
+                let frames = (0..sections)
+                    .map(|k| {
+                        let f = flat(k);
+                        let size = f.iter().fold(0.0_f64, |m, p| m.max((*p - f[0]).length()));
+                        if size <= 1e-12 * extent.max(1e-300) {
+                            Some(SectionFrame {
+                                le: f[0],
+                                chord: glam::DVec2::ZERO,
+                                le_index: per / 2,
+                            })
+                        } else {
+                            section_frame(&f)
+                        }
+                    })
+                    .collect::<Option<Vec<SectionFrame>>>()?;
+                frames
+                    .iter()
+                    .any(|f| f.chord != glam::DVec2::ZERO)
+                    .then_some(frames)
+            })
+            .flatten();
+        if let Some(frames) = &blade {
+            // Each section's parameters in its own frame; a collapsed one borrows the
+            // nearest other section's.
+            let own: Vec<Option<Vec<f64>>> = (0..sections)
+                .map(|k| {
+                    let flat: Vec<glam::DVec2> = sec(k)
+                        .iter()
+                        .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                        .collect();
+                    (frames[k].chord != glam::DVec2::ZERO).then(|| section_params(&flat, &frames[k]))
+                })
+                .collect();
+            u0 = (0..sections)
+                .flat_map(|k| {
+                    (0..sections)
+                        .filter(|&o| own[o].is_some())
+                        .min_by_key(|&o| o.abs_diff(k))
+                        .and_then(|o| own[o].clone())
+                        .unwrap_or_default()
+                })
+                .collect();
+        }
         Ok(Data {
             points,
             per,
@@ -396,6 +541,7 @@ impl<'a> Data<'a> {
             span,
             axes,
             u0,
+            blade,
         })
     }
 
@@ -453,6 +599,7 @@ impl<'p> Fitter<'p> {
                 .collect()
         });
         let params = v.iter().map(|&v| [0.0, v]).collect();
+        let (lu_c, lv_c) = (lu.clone(), lv.clone());
         let foot = FootOptions {
             max_newton: FIT_NEWTON,
             backtrack: false,
@@ -468,6 +615,13 @@ impl<'p> Fitter<'p> {
         .ok()?
         .with_held([false, true]);
         let problem = match (data.span, span_col) {
+            (Some(rule), Some(sc)) if data.blade.is_some() => {
+                let frames = ColumnFrames::new(&lv_c, &data.v, data.blade.as_deref()?);
+                let axes = [data.axes[0], data.axes[1]];
+                problem
+                    .with_constraint(frames.constraint(&chord_x(&lu_c), axes, rule.axis, &sc))
+                    .ok()?
+            }
             (Some(rule), Some(sc)) => {
                 let m = nu * nv;
                 let coords = (0..3)
@@ -679,10 +833,19 @@ impl<'d, 'a> Search<'d, 'a> {
     fn scalars(&self, fam: &Family, bu: &[f64], bv: &[f64]) -> Option<usize> {
         let lu = fam.layout(fam.du, fam.ou, bu)?;
         let lv = fam.layout(fam.dv, fam.ov, bv)?;
-        let per = self.data.axes.len();
+        let per = if self.data.blade.is_some() {
+            1
+        } else {
+            self.data.axes.len()
+        };
+        let frames = if self.data.blade.is_some() {
+            4 * lv.design_count()
+        } else {
+            0
+        };
         let rule = if self.data.span.is_some() { 2 } else { 0 };
         let breaks = |b: &[f64]| if is_uniform(b) { 0 } else { b.len() - 2 };
-        Some(lu.design_count() * lv.design_count() * per + rule + breaks(bu) + breaks(bv))
+        Some(lu.design_count() * lv.design_count() * per + frames + rule + breaks(bu) + breaks(bv))
     }
 
     fn fit(&self, count: &mut usize, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
@@ -699,6 +862,7 @@ impl<'d, 'a> Search<'d, 'a> {
         *count += 1;
         let mut f = Fitter::new(self.data, lu, lv, self.data.points, self.data.point_v())?;
         let fit = f.fit(u0, self.opts)?;
+        store(self.data, fam, bu, bv, &fit.design)?;
         Some(Cand {
             bu: bu.to_vec(),
             bv: bv.to_vec(),
@@ -833,7 +997,8 @@ impl<'d, 'a> Search<'d, 'a> {
             }
             if let Some(err) = checked {
                 // The fit meets the tolerance but the checker's coarse search does not find
-                // the closest points: more patches around, where it misses most.
+                // the closest points: one more span break where it misses most (its seeds
+                // then sit closer along the span), or a u break where no v break fits.
                 let by_checker = Cand {
                     fit: Fitted {
                         err,
@@ -841,13 +1006,19 @@ impl<'d, 'a> Search<'d, 'a> {
                     },
                     ..cur.clone()
                 };
-                match self.fit(
-                    &mut nfits,
-                    &fam,
-                    &self.split_u(&fam, &by_checker),
-                    &cur.bv,
-                    &cur.fit.u,
-                ) {
+                let next = self
+                    .split_v(&fam, &by_checker)
+                    .and_then(|bv| self.fit(&mut nfits, &fam, &cur.bu, &bv, &cur.fit.u))
+                    .or_else(|| {
+                        self.fit(
+                            &mut nfits,
+                            &fam,
+                            &self.split_u(&fam, &by_checker),
+                            &cur.bv,
+                            &cur.fit.u,
+                        )
+                    });
+                match next {
                     Some(next) => {
                         cur = next;
                         continue;
@@ -925,6 +1096,25 @@ impl<'d, 'a> Search<'d, 'a> {
     }
 }
 
+/// The stored numbers of a fitted design net on `bu` x `bv` ([`SurfaceEncoding::coords`]);
+/// `None` when a chord-rule column's chord vanishes.
+fn store(data: &Data<'_>, fam: &Family, bu: &[f64], bv: &[f64], design: &[DVec3]) -> Option<Vec<f64>> {
+    match &data.blade {
+        Some(sections) => {
+            let lu = fam.layout(fam.du, fam.ou, bu)?;
+            let lv = fam.layout(fam.dv, fam.ov, bv)?;
+            let frames = ColumnFrames::new(&lv, &data.v, sections);
+            frames.store(&chord_x(&lu), [data.axes[0], data.axes[1]], design)
+        }
+        None => Some(
+            design
+                .iter()
+                .flat_map(|p| data.axes.iter().map(move |&a| p[a]))
+                .collect(),
+        ),
+    }
+}
+
 fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
     let stored = |b: &[f64]| {
         if is_uniform(b) {
@@ -935,12 +1125,7 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
             Breaks::Stored(b[1..b.len() - 1].to_vec())
         }
     };
-    let coords = c
-        .fit
-        .design
-        .iter()
-        .flat_map(|p| data.axes.iter().map(move |&a| p[a]))
-        .collect();
+    let coords = store(data, fam, &c.bu, &c.bv, &c.fit.design).unwrap_or_default();
     SurfaceEncoding {
         degree: [fam.du, fam.dv],
         joins_u: vec![fam.ou; c.bu.len() - 2],
@@ -948,6 +1133,7 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
         breaks_u: stored(&c.bu),
         breaks_v: stored(&c.bv),
         span_rule: data.span,
+        chord_rule: data.blade.is_some(),
         coords,
     }
 }
@@ -976,41 +1162,27 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
             super::MAX_DEGREE
         )));
     }
-    let data = Data::new(points, grid, opts.span_rule)?;
     let limit_scalars = opts.max_scalars.unwrap_or(usize::MAX).min(3 * points.len() - 1);
-    let search = Search {
-        data: &data,
-        opts,
-        fits: AtomicUsize::new(0),
-        limit_u: data.per / 2,
-        limit_scalars,
-    };
-    let mut families = Vec::new();
-    for du in u_lo..=u_hi {
-        for dv in v_lo..=v_hi.min(data.sections - 1).max(v_lo) {
-            let mut ous = vec![du - 1, 1];
-            ous.dedup();
-            for ou in ous {
-                for split in [true, false] {
-                    families.push(Family {
-                        du,
-                        dv,
-                        ou,
-                        ov: dv - 1,
-                        split,
-                    });
-                }
-            }
+    let chord = opts.chord_rule != ChordRule::Off;
+    let mut data = Data::new(points, grid, opts.span_rule, chord)?;
+    let (mut results, mut fits) = run_families(&data, opts, limit_scalars);
+    let mut trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
+    let none_met = |r: &[FamilyResult]| r.iter().all(|r| r.1.is_none());
+    if data.blade.is_some() && opts.chord_rule == ChordRule::Auto && none_met(&results) {
+        let plain = Data::new(points, grid, opts.span_rule, false)?;
+        let (more, f) = run_families(&plain, opts, limit_scalars);
+        fits += f;
+        trace.extend(more.iter().map(|r| r.3.clone()));
+        let closest = |r: &[FamilyResult]| {
+            r.iter()
+                .filter_map(|r| r.2.as_ref().map(|c| c.fit.measure))
+                .fold(f64::INFINITY, f64::min)
+        };
+        if !none_met(&more) || closest(&more) < closest(&results) {
+            data = plain;
+            results = more;
         }
     }
-    let results: Vec<(Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace)> = families
-        .par_iter()
-        .map(|&f| {
-            let (w, c, t) = search.run(f);
-            (f, w, c, t)
-        })
-        .collect();
-    let trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
     let best = results
         .iter()
         .filter_map(|(f, w, _, _)| w.as_ref().map(|w| (f, w)))
@@ -1051,6 +1223,12 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
         max: norm_of(&checked, Norm::Max),
         rms: norm_of(&checked, Norm::Rms),
     };
+    let fold = fold_check(&grid_fit, FOLD_SAMPLES);
+    let agreement = if offset.max > 0.0 {
+        checked.max / offset.max
+    } else {
+        1.0
+    };
     let checked_measure = match opts.norm {
         Norm::Max => checked.max,
         Norm::Rms => checked.rms,
@@ -1085,13 +1263,78 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
         offset,
         checked,
         held_out,
+        fold,
+        agreement,
         met,
         message,
         family: fam.name(),
         trace,
-        fits: search.fits.load(Ordering::Relaxed),
+        fits,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// One family's result: its winner, its closest layout, its trace.
+type FamilyResult = (Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace);
+
+/// Every family of the search on `data`, in parallel, and the fits run.
+fn run_families(
+    data: &Data<'_>,
+    opts: &SurfaceAdaptOptions,
+    limit_scalars: usize,
+) -> (Vec<FamilyResult>, usize) {
+    let search = Search {
+        data,
+        opts,
+        fits: AtomicUsize::new(0),
+        limit_u: data.per / 2,
+        limit_scalars,
+    };
+    let [u_lo, u_hi] = opts.degrees_u;
+    let [v_lo, v_hi] = opts.degrees_v;
+    let mut families = Vec::new();
+    // The chord rule's parabola needs degree 2 or more around.
+    let u_lo = if data.blade.is_some() {
+        u_lo.max(super::blade::MIN_DEGREE)
+    } else {
+        u_lo
+    };
+    for du in u_lo..=u_hi.max(u_lo) {
+        for dv in v_lo..=v_hi.min(data.sections - 1).max(v_lo) {
+            // Under the chord rule only the smoothest joins at data-driven breaks: on the
+            // paper's blade the C1 and equal-break families never won there.
+            let mut ous = if data.blade.is_some() {
+                vec![du - 1]
+            } else {
+                vec![du - 1, 1]
+            };
+            ous.dedup();
+            let splits: &[bool] = if data.blade.is_some() {
+                &[true]
+            } else {
+                &[true, false]
+            };
+            for ou in ous {
+                for &split in splits {
+                    families.push(Family {
+                        du,
+                        dv,
+                        ou,
+                        ov: dv - 1,
+                        split,
+                    });
+                }
+            }
+        }
+    }
+    let results = families
+        .par_iter()
+        .map(|&f| {
+            let (w, c, t) = search.run(f);
+            (f, w, c, t)
+        })
+        .collect();
+    (results, search.fits.load(Ordering::Relaxed))
 }
 
 /// Refit the winner's layout on every other point of each section (both ends kept) and
@@ -1111,11 +1354,7 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
     let u0: Vec<f64> = kept.iter().map(|&p| data.u0[p]).collect();
     let fit = f.fit(&u0, opts)?;
     let enc = SurfaceEncoding {
-        coords: fit
-            .design
-            .iter()
-            .flat_map(|p| data.axes.iter().map(move |&a| p[a]))
-            .collect(),
+        coords: store(data, fam, &c.bu, &c.bv, &fit.design)?,
         ..encode(data, fam, c)
     };
     let grid = enc.grid().ok()?;
@@ -1146,6 +1385,7 @@ mod tests {
                 axis: 2,
                 ends: [0.5, 2.0],
             }),
+            chord_rule: false,
             coords: (0..5 * 5 * 2).map(|k| (k as f64 * 0.37).sin()).collect(),
         };
         assert_eq!(enc.count().total, 50 + 2 + 2);
@@ -1168,6 +1408,7 @@ mod tests {
             breaks_u: Breaks::Stored(vec![0.25, 0.6]),
             breaks_v: Breaks::Uniform { segments: 2 },
             span_rule: None,
+            chord_rule: false,
             coords: (0..9 * 5 * 3).map(|k| (k as f64 * 0.71).cos()).collect(),
         };
         let (lu, lv) = enc.layouts().unwrap();

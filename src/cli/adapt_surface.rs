@@ -6,7 +6,7 @@ use super::output::Outputs;
 use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{
-    adapt_surface, AdaptedSurface, Breaks, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
+    adapt_surface, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
 };
 use bezchain::export::InputInfo;
 use bezchain::geometry::read_cloud;
@@ -46,6 +46,13 @@ pub struct Args {
     /// Store all three coordinates of every design point even where the sections are planar.
     #[arg(long)]
     pub no_span_rule: bool,
+    /// The chord rule (a frame per design column and one thickness-direction number per
+    /// design point, the aerofoil rule's x around; where the span rule holds and every section
+    /// looks like an aerofoil section starting and ending at its trailing edge): `auto` tries
+    /// it first and searches without it too when it meets nothing, `on` only with it, `off`
+    /// never.
+    #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
+    pub chord_rule: ChordArg,
     /// Read the tolerance as a fraction of the largest section's chord (the largest distance
     /// between two points of one section).
     #[arg(long)]
@@ -60,6 +67,17 @@ pub struct Args {
     pub json: Option<PathBuf>,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
+}
+
+/// `--chord-rule`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChordArg {
+    /// The chord rule first, without it too when it meets nothing.
+    Auto,
+    /// Only the chord rule.
+    On,
+    /// Never the chord rule.
+    Off,
 }
 
 fn parse_degrees(flag: &str, text: &str) -> Result<[usize; 2]> {
@@ -114,8 +132,16 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
     let _ = writeln!(s, "  met            {}", if r.met { "yes" } else { "NO" });
     let _ = writeln!(
         s,
-        "  stored scalars {} (net {}, span rule {}, breaks {})",
-        c.total, c.coords, c.rule, c.breaks
+        "  stored scalars {} (net {}{}, span rule {}, breaks {})",
+        c.total,
+        c.coords,
+        if e.chord_rule {
+            format!(", chord-rule frames {}", c.frames)
+        } else {
+            String::new()
+        },
+        c.rule,
+        c.breaks
     );
     let _ = writeln!(
         s,
@@ -145,6 +171,16 @@ fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) 
         s,
         "  checker        max {:.3e}, rms {:.3e} (the coarse sampled search of outside checkers: 7 x 7 seeds a patch)",
         r.checked.max, r.checked.rms
+    );
+    let _ = writeln!(
+        s,
+        "  fold check     normal turns at most {:.1}° between neighbouring samples (at u {:.4}, v {:.4}; {} a patch each way; {}); checker/exact max {:.3}",
+        r.fold.max_turn_deg,
+        r.fold.at[0],
+        r.fold.at[1],
+        r.fold.per_patch,
+        if r.fold.passes { "no fold" } else { "FOLDS" },
+        r.agreement
     );
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     super::adapt::held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
@@ -187,6 +223,11 @@ pub fn run(args: Args) -> Result<()> {
         degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?,
         degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?,
         span_rule: !args.no_span_rule,
+        chord_rule: match args.chord_rule {
+            ChordArg::Auto => ChordRule::Auto,
+            ChordArg::On => ChordRule::On,
+            ChordArg::Off => ChordRule::Off,
+        },
         max_scalars: args.max_scalars,
         ..SurfaceAdaptOptions::default()
     };

@@ -227,3 +227,74 @@ mod tests {
         assert!(check.max > 0.005, "{check:?}");
     }
 }
+
+/// The fold check of a patch grid: how far the unit normal turns between neighbouring
+/// samples of a dense sample, in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FoldCheck {
+    /// Samples a patch in each direction (the global sample is uniform within each patch).
+    pub per_patch: usize,
+    /// The largest turn of the normal between two neighbouring samples (along u or along v),
+    /// degrees.
+    pub max_turn_deg: f64,
+    /// Where: the global `(u, v)` of the first sample of that pair.
+    pub at: [f64; 2],
+    /// True when it is at most 90°: the surface neither folds back nor overhangs between
+    /// samples.
+    pub passes: bool,
+}
+
+/// The fold check of `grid` on `per_patch` × `per_patch` samples a patch (borders shared):
+/// the normal `S_u × S_v` at every sample, and the largest angle between the normals of
+/// neighbouring samples along u and along v. Samples where the normal vanishes (a collapsed
+/// edge such as a blade tip: `|S_u × S_v|` below `1e-10` of the grid's largest) have no
+/// direction and are skipped.
+#[must_use]
+pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
+    let l = grid.layout();
+    let per = per_patch.max(1);
+    let params = |b: &[f64]| -> Vec<f64> {
+        let mut t = vec![b[0]];
+        for w in b.windows(2) {
+            t.extend((1..=per).map(|k| w[0] + (w[1] - w[0]) * k as f64 / per as f64));
+        }
+        t
+    };
+    let (us, vs) = (params(l.u.breaks()), params(l.v.breaks()));
+    let normals: Vec<Vec<DVec3>> = us
+        .par_iter()
+        .map(|&u| {
+            vs.iter()
+                .map(|&v| {
+                    let (_, pu, pv) = grid.partials(u, v);
+                    pu.cross(pv)
+                })
+                .collect()
+        })
+        .collect();
+    let big = normals.iter().flatten().fold(0.0_f64, |m, n| m.max(n.length()));
+    let unit = |n: DVec3| (n.length() > 1e-10 * big).then(|| n.normalize());
+    let mut worst = (0.0_f64, [0.0, 0.0]);
+    for i in 0..us.len() {
+        for j in 0..vs.len() {
+            let Some(a) = unit(normals[i][j]) else { continue };
+            for (ni, nj) in [(i + 1, j), (i, j + 1)] {
+                if ni >= us.len() || nj >= vs.len() {
+                    continue;
+                }
+                if let Some(b) = unit(normals[ni][nj]) {
+                    let turn = a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
+                    if turn > worst.0 {
+                        worst = (turn, [us[i], vs[j]]);
+                    }
+                }
+            }
+        }
+    }
+    FoldCheck {
+        per_patch: per,
+        max_turn_deg: worst.0,
+        at: worst.1,
+        passes: worst.0 <= 90.0,
+    }
+}

@@ -144,7 +144,9 @@ impl CoordRule {
 /// Linear constraints on the design points, one [`CoordRule`] per coordinate: the design is
 /// `A z + c` for the unknowns `z` (coordinate 0's unknowns first, then coordinate 1's, ...).
 /// The aerofoil rule makes every x a combination of 2 or 3 numbers; the span rule fixes the
-/// span coordinate of every design column.
+/// span coordinate of every design column. A [`Constraint::coupled`] constraint shares
+/// unknowns between coordinates (a blade section's thickness-direction coordinate moves a
+/// design point along a direction that is not an axis).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Constraint {
     coords: Vec<CoordRule>,
@@ -152,6 +154,9 @@ pub struct Constraint {
     first: Vec<usize>,
     /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
     flat: Vec<Vec<(usize, f64)>>,
+    /// For a coupled constraint: the offset of every flat design variable and the number of
+    /// unknowns (`coords` is then empty).
+    coupled: Option<(Vec<f64>, usize)>,
 }
 
 impl Constraint {
@@ -172,19 +177,40 @@ impl Constraint {
                 rows.iter().map(|&(k, w)| (first[c] + k, w)).collect()
             })
             .collect();
-        Constraint { coords, first, flat }
+        Constraint {
+            coords,
+            first,
+            flat,
+            coupled: None,
+        }
     }
 
-    /// The rule of coordinate `c`.
+    /// A constraint whose unknowns may move several coordinates: flat design variable
+    /// `i * DIM + c` is `Σ w z_k` over the entries `(k, w)` of `rows[i * DIM + c]`, plus
+    /// `offset[i * DIM + c]`, for `unknowns` unknowns `z`.
     #[must_use]
-    pub fn coord(&self, c: usize) -> &CoordRule {
-        &self.coords[c]
+    pub fn coupled(rows: Vec<Vec<(usize, f64)>>, offset: Vec<f64>, unknowns: usize) -> Self {
+        Constraint {
+            coords: Vec::new(),
+            first: Vec::new(),
+            flat: rows,
+            coupled: Some((offset, unknowns)),
+        }
+    }
+
+    /// The rule of coordinate `c`; `None` for a coupled constraint.
+    #[must_use]
+    pub fn coord(&self, c: usize) -> Option<&CoordRule> {
+        self.coords.get(c)
     }
 
     /// Number of unknowns, all coordinates together.
     #[must_use]
     pub fn unknowns(&self) -> usize {
-        self.coords.iter().map(|c| c.unknowns).sum()
+        match &self.coupled {
+            Some((_, n)) => *n,
+            None => self.coords.iter().map(|c| c.unknowns).sum(),
+        }
     }
 
     /// The entries `(unknown, weight)` of every flat design variable `i * DIM + c`.
@@ -195,6 +221,19 @@ impl Constraint {
     /// The design points for unknowns `z`.
     #[must_use]
     pub fn design<P: Vector>(&self, z: &[f64]) -> Vec<P> {
+        if let Some((offset, _)) = &self.coupled {
+            return (0..self.flat.len() / P::DIM)
+                .map(|i| {
+                    let c: Vec<f64> = (0..P::DIM)
+                        .map(|c| {
+                            let r = i * P::DIM + c;
+                            self.flat[r].iter().map(|&(k, w)| w * z[k]).sum::<f64>() + offset[r]
+                        })
+                        .collect();
+                    P::from_coords(&c)
+                })
+                .collect();
+        }
         let m = self.coords.first().map_or(0, |c| c.rows.len());
         (0..m)
             .map(|i| {
@@ -210,6 +249,21 @@ impl Constraint {
     /// coordinate); `None` when a rule's unknowns are not determined.
     #[must_use]
     pub fn unknowns_of<P: Vector>(&self, design: &[P]) -> Option<Vec<f64>> {
+        if let Some((offset, n)) = &self.coupled {
+            let mut a = DMatrix::<f64>::zeros(*n, *n);
+            let mut b = DVector::<f64>::zeros(*n);
+            for (r, row) in self.flat.iter().enumerate() {
+                let x = design.get(r / P::DIM)?.coord(r % P::DIM) - offset[r];
+                for &(k, w) in row {
+                    b[k] += w * x;
+                    for &(l, v) in row {
+                        a[(k, l)] += w * v;
+                    }
+                }
+            }
+            let z = a.cholesky()?.solve(&b);
+            return z.iter().all(|v| v.is_finite()).then(|| z.as_slice().to_vec());
+        }
         let mut z = Vec::with_capacity(self.unknowns());
         for (c, rule) in self.coords.iter().enumerate() {
             let x: Vec<f64> = design.iter().map(|p| p.coord(c)).collect();
@@ -219,6 +273,26 @@ impl Constraint {
     }
 
     fn check(&self, dim: usize, m: usize) -> Result<()> {
+        if let Some((offset, n)) = &self.coupled {
+            if self.flat.len() != m * dim || offset.len() != m * dim {
+                return Err(Error::invalid(format!(
+                    "the coupled constraint has {} rows for {m} design points of {dim} coordinates",
+                    self.flat.len()
+                )));
+            }
+            if self
+                .flat
+                .iter()
+                .flatten()
+                .any(|&(k, w)| k >= *n || !w.is_finite())
+                || offset.iter().any(|o| !o.is_finite())
+            {
+                return Err(Error::invalid(
+                    "a constraint row names an unknown it does not have",
+                ));
+            }
+            return Ok(());
+        }
         if self.coords.len() != dim || self.coords.iter().any(|c| c.rows.len() != m) {
             return Err(Error::invalid(format!(
                 "the constraint has {} coordinate rules for {m} design points; the problem has {dim}                  coordinates",
@@ -912,11 +986,48 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     })
                     .collect()
             }
+            Some(con) if con.coupled.is_some() => {
+                // (Aᵀ (N ⊗ I) A) z = Aᵀ (q̂ - (N ⊗ I) b), with N the normal matrix, q̂ = Nᵀ q
+                // per coordinate and b the flat offsets.
+                let (offset, nz) = con
+                    .coupled
+                    .as_ref()
+                    .map_or((&[][..], 0), |(o, n)| (o.as_slice(), *n));
+                let rows = con.flat_rows();
+                let mut a = DMatrix::<f64>::zeros(nz, nz);
+                let mut rhs = DMatrix::<f64>::zeros(nz, 1);
+                for i in 0..m {
+                    for k in 0..dim {
+                        let r = i * dim + k;
+                        let nb: f64 = (0..m).map(|l| ata[i * m + l] * offset[l * dim + k]).sum();
+                        for &(p, wp) in &rows[r] {
+                            rhs[(p, 0)] += wp * (atq[r] - nb);
+                        }
+                    }
+                    for l in 0..m {
+                        let v = ata[i * m + l];
+                        if v == 0.0 {
+                            continue;
+                        }
+                        for k in 0..dim {
+                            for &(p, wp) in &rows[i * dim + k] {
+                                for &(q, wq) in &rows[l * dim + k] {
+                                    a[(p, q)] += wp * v * wq;
+                                }
+                            }
+                        }
+                    }
+                }
+                let z = cholesky_ridged(a, rhs, |_| 0.0)?;
+                con.design::<S::Point>(z.as_slice())
+            }
             Some(con) => {
                 // Per coordinate: (Aᵀ N A) z = Aᵀ (N⁻ q - N b), with N the normal matrix.
                 let mut coords = vec![vec![0.0; m]; dim];
                 for (k, x) in coords.iter_mut().enumerate() {
-                    let rule = con.coord(k);
+                    let Some(rule) = con.coord(k) else {
+                        return Err(Error::invalid("linear_fit: a constraint rule is missing"));
+                    };
                     let n = rule.unknowns();
                     let mut a = DMatrix::<f64>::zeros(n, n);
                     let mut rhs = DMatrix::<f64>::zeros(n, 1);
