@@ -94,17 +94,15 @@ pub enum ModeArg {
     Free,
 }
 
-/// Arguments of `bezchain adapt`.
+/// The tolerance arguments `adapt` and `adapt-surface` share.
 #[derive(clap::Args, Debug)]
-pub struct Args {
-    /// Contour: Selig or Lednicer `.dat`, CSV/XYZ rows of `x y`, or CSV whose header names `x`
-    /// and `y` columns; ordered along the curve (or by an `index` or `point` column).
-    pub input: PathBuf,
-    /// Tolerance in the data's units (a fraction of the data's extent with `--relative`).
+pub struct Tolerances {
+    /// Tolerance in the data's units (with `--relative`, a fraction of the data's size: the
+    /// extent of a contour, the largest section chord of a cloud).
     #[arg(long, required_unless_present = "sweep", allow_negative_numbers = true)]
     pub tol: Option<f64>,
     /// Several tolerances, comma-separated: one search each, a table of stored scalars
-    /// against tolerance (the plot and the reports are those of the last).
+    /// against tolerance (the plot is that of the last; the report is an array).
     #[arg(
         long,
         value_delimiter = ',',
@@ -115,19 +113,53 @@ pub struct Args {
     /// The norm the tolerance bounds.
     #[arg(long, value_enum, default_value_t = NormArg::Max)]
     pub norm: NormArg,
+    /// Read the tolerance as a fraction of the data's size (see `--tol`).
+    #[arg(long)]
+    pub relative: bool,
+    /// Never report more stored scalars than this.
+    #[arg(long)]
+    pub max_scalars: Option<usize>,
+}
+
+impl Tolerances {
+    /// The tolerances asked for, each checked positive, after checking `--max-scalars`
+    /// (`what`: the shape, for the message).
+    pub fn list(&self, what: &str) -> Result<Vec<f64>> {
+        if self.max_scalars == Some(0) {
+            return Err(usage(format!(
+                "--max-scalars 0: {what} stores at least a few scalars; give a positive count"
+            )));
+        }
+        let tols: Vec<f64> = match self.tol {
+            Some(t) => vec![t],
+            None => self.sweep.clone(),
+        };
+        if tols.is_empty() {
+            return Err(usage("give --tol T or --sweep T1,T2,..."));
+        }
+        if let Some(t) = tols.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+            return Err(usage(format!(
+                "--tol {t}: the tolerance must be a positive number"
+            )));
+        }
+        Ok(tols)
+    }
+}
+
+/// Arguments of `bezchain adapt`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Contour: Selig or Lednicer `.dat`, CSV/XYZ rows of `x y`, or CSV whose header names `x`
+    /// and `y` columns; ordered along the curve (or by an `index` or `point` column).
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub tolerance: Tolerances,
     /// Degrees searched, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-7")]
     pub degrees: String,
     /// How x may be stored.
     #[arg(long, value_enum, default_value_t = ModeArg::Auto)]
     pub mode: ModeArg,
-    /// Read the tolerance as a fraction of the data's extent (the largest side of its bounding
-    /// box: the chord of an unrotated aerofoil).
-    #[arg(long)]
-    pub relative: bool,
-    /// Never report more stored scalars than this.
-    #[arg(long)]
-    pub max_scalars: Option<usize>,
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
@@ -143,23 +175,14 @@ pub struct Args {
     pub cad: super::export::CadArgs,
 }
 
-fn parse_degrees(text: &str) -> Result<(usize, usize)> {
-    let bad = || {
-        usage(format!(
-            "--degrees '{text}': expected LO-HI or one degree, e.g. 2-7"
-        ))
-    };
-    let (lo, hi) = match text.split_once('-') {
-        Some((a, b)) => (
-            a.trim().parse().map_err(|_| bad())?,
-            b.trim().parse().map_err(|_| bad())?,
-        ),
-        None => {
-            let d = text.trim().parse().map_err(|_| bad())?;
-            (d, d)
-        }
-    };
-    Ok((lo, hi))
+/// `LO-HI` or one degree, the value of `flag`.
+pub(crate) fn parse_degrees(flag: &str, text: &str) -> Result<(usize, usize)> {
+    let bad = || usage(format!("{flag} '{text}': expected LO-HI or one degree, e.g. 2-7"));
+    let degree = |t: &str| t.trim().parse::<usize>().map_err(|_| bad());
+    match text.split_once('-') {
+        Some((a, b)) => Ok((degree(a)?, degree(b)?)),
+        None => degree(text).map(|d| (d, d)),
+    }
 }
 
 /// The largest side of the points' bounding box.
@@ -263,30 +286,18 @@ pub fn run(args: Args) -> Result<()> {
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let svg = outs.add_opt("--svg", args.svg.as_deref())?;
     let cad = args.cad.add(&mut outs)?;
-    if args.max_scalars == Some(0) {
-        return Err(usage(
-            "--max-scalars 0: a chain stores at least a few scalars; give a positive count",
-        ));
-    }
+    let tols = args.tolerance.list("a chain")?;
     let loaded = read_curve(&args.input)?;
     warn_all(&args.input, &loaded.warnings);
     let points = &loaded.points;
-    let (min_degree, max_degree) = parse_degrees(&args.degrees)?;
-    let tols: Vec<f64> = match args.tol {
-        Some(t) => vec![t],
-        None => args.sweep.clone(),
+    let (min_degree, max_degree) = parse_degrees("--degrees", &args.degrees)?;
+    let scale = if args.tolerance.relative {
+        extent(points)
+    } else {
+        1.0
     };
-    if tols.is_empty() {
-        return Err(usage("give --tol T or --sweep T1,T2,..."));
-    }
-    if let Some(t) = tols.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
-        return Err(usage(format!(
-            "--tol {t}: the tolerance must be a positive number"
-        )));
-    }
-    let scale = if args.relative { extent(points) } else { 1.0 };
     let base = AdaptOptions {
-        norm: args.norm.into(),
+        norm: args.tolerance.norm.into(),
         min_degree,
         max_degree,
         mode: match args.mode {
@@ -294,7 +305,7 @@ pub fn run(args: Args) -> Result<()> {
             ModeArg::Aerofoil => Mode::Aerofoil,
             ModeArg::Free => Mode::Free,
         },
-        max_scalars: args.max_scalars,
+        max_scalars: args.tolerance.max_scalars,
         search_points: args.search_points,
         ..AdaptOptions::default()
     };

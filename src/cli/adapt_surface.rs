@@ -1,7 +1,7 @@
 //! `bezchain adapt-surface`: the patch grid with the fewest stored scalars whose offsets from a
 //! sectioned 3D cloud meet a tolerance, for one tolerance or a sweep.
 
-use super::adapt::{put_reports, sweep_table, NormArg, SweepRow};
+use super::adapt::{parse_degrees, put_reports, sweep_table, SweepRow, Tolerances};
 use super::output::Outputs;
 use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
@@ -21,22 +21,8 @@ pub struct Args {
     /// points of a section ordered by `index` (or `point`), every section alike (e.g. from
     /// `bezchain blade`).
     pub cloud: PathBuf,
-    /// Tolerance in the data's units (a fraction of the largest section's chord with
-    /// `--relative`).
-    #[arg(long, required_unless_present = "sweep", allow_negative_numbers = true)]
-    pub tol: Option<f64>,
-    /// Several tolerances, comma-separated: one search each, a table of stored scalars against
-    /// tolerance (the report is an array).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        conflicts_with = "tol",
-        allow_negative_numbers = true
-    )]
-    pub sweep: Vec<f64>,
-    /// The norm the tolerance bounds.
-    #[arg(long, value_enum, default_value_t = NormArg::Max)]
-    pub norm: NormArg,
+    #[command(flatten)]
+    pub tolerance: Tolerances,
     /// Degrees searched around the sections, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "3-6")]
     pub degrees_u: String,
@@ -53,13 +39,6 @@ pub struct Args {
     /// never.
     #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
     pub chord_rule: ChordArg,
-    /// Read the tolerance as a fraction of the largest section's chord (the largest distance
-    /// between two points of one section).
-    #[arg(long)]
-    pub relative: bool,
-    /// Never report more stored scalars than this.
-    #[arg(long)]
-    pub max_scalars: Option<usize>,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
     /// §5.7; an array for a sweep); `-` for standard output (the summary then goes to standard
     /// error).
@@ -78,20 +57,6 @@ pub enum ChordArg {
     On,
     /// Never the chord rule.
     Off,
-}
-
-fn parse_degrees(flag: &str, text: &str) -> Result<[usize; 2]> {
-    let bad = || usage(format!("{flag} '{text}': expected LO-HI or one degree, e.g. 3-6"));
-    match text.split_once('-') {
-        Some((a, b)) => Ok([
-            a.trim().parse().map_err(|_| bad())?,
-            b.trim().parse().map_err(|_| bad())?,
-        ]),
-        None => {
-            let d = text.trim().parse().map_err(|_| bad())?;
-            Ok([d, d])
-        }
-    }
 }
 
 /// The largest distance between two points of one section.
@@ -192,11 +157,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let cad = args.cad.add(&mut outs)?;
-    if args.max_scalars == Some(0) {
-        return Err(usage(
-            "--max-scalars 0: a patch grid stores at least a few scalars; give a positive count",
-        ));
-    }
+    let tols = args.tolerance.list("a patch grid")?;
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let Some(grid) = loaded.grid else {
@@ -206,29 +167,22 @@ pub fn run(args: Args) -> Result<()> {
         )));
     };
     let points = &loaded.points;
-    let tols: Vec<f64> = match args.tol {
-        Some(t) => vec![t],
-        None => args.sweep.clone(),
-    };
-    if tols.is_empty() {
-        return Err(usage("give --tol T or --sweep T1,T2,..."));
-    }
-    let scale = if args.relative {
+    let scale = if args.tolerance.relative {
         largest_chord(points, grid.per_section)
     } else {
         1.0
     };
     let base = SurfaceAdaptOptions {
-        norm: args.norm.into(),
-        degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?,
-        degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?,
+        norm: args.tolerance.norm.into(),
+        degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?.into(),
+        degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?.into(),
         span_rule: !args.no_span_rule,
         chord_rule: match args.chord_rule {
             ChordArg::Auto => ChordRule::Auto,
             ChordArg::On => ChordRule::On,
             ChordArg::Off => ChordRule::Off,
         },
-        max_scalars: args.max_scalars,
+        max_scalars: args.tolerance.max_scalars,
         ..SurfaceAdaptOptions::default()
     };
     let to_stderr = outs.uses_stdout();
