@@ -187,36 +187,61 @@ fn atan2r(y: f32, x: f32) -> f32 {
 // neglected term is below 1e-7 of the result at that distance.
 const FAR2: f32 = 25.0;
 
-// The vortex integrals of panel a → b at f (src/aero/panel.rs `panel_terms`) from the Taylor
-// series about the midpoint: (psis, psid, 1 if the panel is far, else 0).
-fn vortex_far(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec3<f32> {
+// A panel a → b seen from f: its length, unit direction, and f's coordinates along (c) and
+// across (y) it from its midpoint, with rho = c² + y² (what the far-field series take).
+struct Far {
+    s: vec2<f32>,
+    len: f32,
+    len2: f32,
+    c: f32,
+    y: f32,
+    c2: f32,
+    y2: f32,
+    rho: f32,
+}
+
+fn unit_along(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let d = b - a;
+    return d / sqrt(d.x * d.x + d.y * d.y);
+}
+
+fn far_frame(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> Far {
     let d = b - a;
     let len2 = d.x * d.x + d.y * d.y;
     let len = sqrt(len2);
     let s = d / len;
-    let m = 0.5 * (a + b);
-    let rm = f - m;
+    let rm = f - 0.5 * (a + b);
     let c = s.x * rm.x + s.y * rm.y;
     let y = s.x * rm.y - s.y * rm.x;
     let c2 = c * c;
     let y2 = y * y;
-    let rho = c2 + y2;
-    let g = ln(rho);
-    let g1 = 2.0 * c / rho;
-    let g2 = 2.0 * (y2 - c2) / (rho * rho);
-    let g3 = 4.0 * c * (c2 - 3.0 * y2) / (rho * rho * rho);
-    let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-    let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
-    let psid = -len2 / 12.0 * g1 - len2 * len2 / 480.0 * g3;
-    return vec3<f32>(psis, psid, select(0.0, 1.0, rho > FAR2 * len2));
+    return Far(s, len, len2, c, y, c2, y2, c2 + y2);
 }
 
-// The same from the closed forms (near panels): (psis, psid).
-fn vortex_near(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
-    let d = b - a;
-    let len2 = d.x * d.x + d.y * d.y;
-    let len = sqrt(len2);
-    let s = d / len;
+// The source stream function's far-field series.
+fn far_psis(p: Far) -> f32 {
+    let g = ln(p.rho);
+    let g2 = 2.0 * (p.y2 - p.c2) / (p.rho * p.rho);
+    let g4 = -12.0 * (p.c2 * p.c2 - 6.0 * p.c2 * p.y2 + p.y2 * p.y2) / (p.rho * p.rho * p.rho * p.rho);
+    return 0.5 * p.len * g + p.len * p.len2 / 48.0 * g2 + p.len * p.len2 * p.len2 / 3840.0 * g4;
+}
+
+// The closed forms' shared terms for f and panel a → b with unit direction s: f's coordinates
+// along (x1, x2 from each end) and across (yy) the panel, the squared distances and their logs,
+// the angle the panel subtends (sub) and the source stream function psis.
+struct Near {
+    x1: f32,
+    x2: f32,
+    yy: f32,
+    rs1: f32,
+    rs2: f32,
+    g1: f32,
+    g2: f32,
+    sub: f32,
+    psis: f32,
+}
+
+fn near_frame(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>, s: vec2<f32>) -> Near {
     let r1 = f - a;
     let r2 = f - b;
     let x1 = s.x * r1.x + s.y * r1.y;
@@ -228,8 +253,33 @@ fn vortex_near(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     let g2 = ln(rs2);
     let sub = atan2r(r1.x * r2.y - r1.y * r2.x, r1.x * r2.x + r1.y * r2.y);
     let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub;
-    let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / (x1 - x2);
-    return vec2<f32>(psis, psid);
+    return Near(x1, x2, yy, rs1, rs2, g1, g2, sub, psis);
+}
+
+// The linear-vortex stream function.
+fn near_psid(n: Near) -> f32 {
+    return ((n.x1 + n.x2) * n.psis + 0.5 * (n.rs2 * n.g2 - n.rs1 * n.g1 + n.x1 * n.x1 - n.x2 * n.x2)) / (n.x1 - n.x2);
+}
+
+// The angles from each end, 0 at the end itself.
+fn near_thetas(n: Near) -> vec2<f32> {
+    return vec2<f32>(select(0.0, atan2r(n.x1, n.yy), n.rs1 > 0.0), select(0.0, atan2r(n.x2, n.yy), n.rs2 > 0.0));
+}
+
+// The vortex integrals of panel a → b at f (src/aero/panel.rs `panel_terms`) from the Taylor
+// series about the midpoint: (psis, psid, 1 if the panel is far, else 0).
+fn vortex_far(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec3<f32> {
+    let p = far_frame(f, a, b);
+    let g1 = 2.0 * p.c / p.rho;
+    let g3 = 4.0 * p.c * (p.c2 - 3.0 * p.y2) / (p.rho * p.rho * p.rho);
+    let psid = -p.len2 / 12.0 * g1 - p.len2 * p.len2 / 480.0 * g3;
+    return vec3<f32>(far_psis(p), psid, select(0.0, 1.0, p.rho > FAR2 * p.len2));
+}
+
+// The same from the closed forms (near panels): (psis, psid).
+fn vortex_near(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let n = near_frame(f, a, b, unit_along(a, b));
+    return vec2<f32>(n.psis, near_psid(n));
 }
 
 // The vortex integrals: the series when the panel is far, else the closed forms.
@@ -243,70 +293,34 @@ fn vortex_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
 
 // The uniform vortex and source integrals of the trailing-edge panel a → b at f: (psis, psig).
 fn source_terms(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
-    let d = b - a;
-    let len2 = d.x * d.x + d.y * d.y;
-    let len = sqrt(len2);
-    let s = d / len;
-    let m = 0.5 * (a + b);
-    let rm = f - m;
-    let c = s.x * rm.x + s.y * rm.y;
-    let y = s.x * rm.y - s.y * rm.x;
-    let c2 = c * c;
-    let y2 = y * y;
-    let rho = c2 + y2;
-    if rho > FAR2 * len2 {
-        let g = ln(rho);
-        let g2 = 2.0 * (y2 - c2) / (rho * rho);
-        let g4 = -12.0 * (c2 * c2 - 6.0 * c2 * y2 + y2 * y2) / (rho * rho * rho * rho);
-        let psis = 0.5 * len * g + len * len2 / 48.0 * g2 + len * len2 * len2 / 3840.0 * g4;
-        let t = atan2r(c, y);
-        let t2 = -2.0 * c * y / (rho * rho);
-        return vec2<f32>(psis, -(len * t + len * len2 / 24.0 * t2));
+    let p = far_frame(f, a, b);
+    if p.rho > FAR2 * p.len2 {
+        let t = atan2r(p.c, p.y);
+        let t2 = -2.0 * p.c * p.y / (p.rho * p.rho);
+        return vec2<f32>(far_psis(p), -(p.len * t + p.len * p.len2 / 24.0 * t2));
     }
-    let r1 = f - a;
-    let r2 = f - b;
-    let x1 = s.x * r1.x + s.y * r1.y;
-    let x2 = s.x * r2.x + s.y * r2.y;
-    let yy = s.x * r1.y - s.y * r1.x;
-    let rs1 = r1.x * r1.x + r1.y * r1.y;
-    let rs2 = r2.x * r2.x + r2.y * r2.y;
-    let g1 = ln(rs1);
-    let g2 = ln(rs2);
-    let sub = atan2r(r1.x * r2.y - r1.y * r2.x, r1.x * r2.x + r1.y * r2.y);
-    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub;
-    let t1 = select(0.0, atan2r(x1, yy), rs1 > 0.0);
-    let t2 = select(0.0, atan2r(x2, yy), rs2 > 0.0);
-    return vec2<f32>(psis, 0.5 * yy * (g1 - g2) + x2 * t2 - x1 * t1);
+    let n = near_frame(f, a, b, p.s);
+    let t = near_thetas(n);
+    return vec2<f32>(n.psis, 0.5 * n.yy * (n.g1 - n.g2) + n.x2 * t.y - n.x1 * t.x);
 }
 
-// The derivatives of the same along n: (d psis, d psid, d psig).
-fn panel_derivs(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>, n: vec2<f32>) -> vec3<f32> {
-    let d = b - a;
-    let len = sqrt(d.x * d.x + d.y * d.y);
-    let s = d / len;
-    let r1 = f - a;
-    let r2 = f - b;
-    let x1 = s.x * r1.x + s.y * r1.y;
-    let x2 = s.x * r2.x + s.y * r2.y;
-    let yy = s.x * r1.y - s.y * r1.x;
-    let rs1 = r1.x * r1.x + r1.y * r1.y;
-    let rs2 = r2.x * r2.x + r2.y * r2.y;
-    let g1 = ln(rs1);
-    let g2 = ln(rs2);
-    let sub = atan2r(r1.x * r2.y - r1.y * r2.x, r1.x * r2.x + r1.y * r2.y);
-    let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * sub;
+// The derivatives of the same along nv: (d psis, d psid, d psig).
+fn panel_derivs(f: vec2<f32>, a: vec2<f32>, b: vec2<f32>, nv: vec2<f32>) -> vec3<f32> {
+    let s = unit_along(a, b);
+    let n = near_frame(f, a, b, s);
+    let psid = near_psid(n);
+    let t = near_thetas(n);
+    let x1 = n.x1;
+    let x2 = n.x2;
     let dx = x1 - x2;
-    let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / dx;
-    let t1 = select(0.0, atan2r(x1, yy), rs1 > 0.0);
-    let t2 = select(0.0, atan2r(x2, yy), rs2 > 0.0);
-    let xn = s.x * n.x + s.y * n.y;
-    let yn = s.x * n.y - s.y * n.x;
-    let psx1 = 0.5 * g1;
-    let psx2 = -0.5 * g2;
-    let pdx1 = ((x1 + x2) * psx1 + psis - x1 * g1 - psid) / dx;
-    let pdx2 = ((x1 + x2) * psx2 + psis + x2 * g2 + psid) / dx;
-    let pdyy = ((x1 + x2) * sub - yy * (g1 - g2)) / dx;
-    return vec3<f32>((psx1 + psx2) * xn + sub * yn, (pdx1 + pdx2) * xn + pdyy * yn, (t2 - t1) * xn + 0.5 * (g1 - g2) * yn);
+    let xn = s.x * nv.x + s.y * nv.y;
+    let yn = s.x * nv.y - s.y * nv.x;
+    let psx1 = 0.5 * n.g1;
+    let psx2 = -0.5 * n.g2;
+    let pdx1 = ((x1 + x2) * psx1 + n.psis - x1 * n.g1 - psid) / dx;
+    let pdx2 = ((x1 + x2) * psx2 + n.psis + x2 * n.g2 + psid) / dx;
+    let pdyy = ((x1 + x2) * n.sub - n.yy * (n.g1 - n.g2)) / dx;
+    return vec3<f32>((psx1 + psx2) * xn + n.sub * yn, (pdx1 + pdx2) * xn + pdyy * yn, (t.y - t.x) * xn + 0.5 * (n.g1 - n.g2) * yn);
 }
 
 // The unit tangent at p0 of the parabola through p0, p1, p2 (chord-length spacing), pointing
