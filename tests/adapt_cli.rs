@@ -4,17 +4,10 @@
 
 mod common;
 
-use common::airfoils_dir;
 use common::check::check_curve_report;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn bezchain(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_bezchain"))
-        .args(args)
-        .output()
-        .expect("run bezchain")
-}
+use common::cli::run;
+use common::{airfoils_dir, scratch};
+use std::path::Path;
 
 fn naca4413() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -23,22 +16,15 @@ fn naca4413() -> String {
         .to_string()
 }
 
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bezchain-adapt-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
 #[test]
 fn one_tolerance_writes_the_table_the_report_and_the_plot() {
-    let dir = scratch("one");
+    let dir = scratch("adapt-one");
     let (json, svg) = (dir.join("r.json"), dir.join("r.svg"));
-    let out = bezchain(&[
+    let out = run(&[
         "adapt",
         &naca4413(),
         "--tol",
@@ -74,9 +60,9 @@ fn one_tolerance_writes_the_table_the_report_and_the_plot() {
 
 #[test]
 fn a_sweep_prints_scalars_against_tolerance() {
-    let dir = scratch("sweep");
+    let dir = scratch("adapt-sweep");
     let json = dir.join("s.json");
-    let out = bezchain(&[
+    let out = run(&[
         "adapt",
         &naca4413(),
         "--sweep",
@@ -106,7 +92,7 @@ fn a_sweep_prints_scalars_against_tolerance() {
 
 #[test]
 fn json_to_standard_output_moves_the_table_to_standard_error() {
-    let out = bezchain(&["adapt", &naca4413(), "--tol", "1e-3", "--json", "-"]);
+    let out = run(&["adapt", &naca4413(), "--tol", "1e-3", "--json", "-"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(v["adapt"]["met"], true);
@@ -115,7 +101,7 @@ fn json_to_standard_output_moves_the_table_to_standard_error() {
 
 #[test]
 fn a_relative_tolerance_scales_with_the_chord() {
-    let dir = scratch("relative");
+    let dir = scratch("adapt-relative");
     let scaled = dir.join("big.dat");
     let src = std::fs::read_to_string(naca4413()).unwrap();
     let mut lines = src.lines();
@@ -126,7 +112,7 @@ fn a_relative_tolerance_scales_with_the_chord() {
     }
     std::fs::write(&scaled, body).unwrap();
     let count = |args: &[&str]| -> u64 {
-        let out = bezchain(args);
+        let out = run(args);
         assert!(out.status.success(), "{}", text(&out.stderr));
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["adapt"]["stored_scalars"].as_u64().unwrap()
@@ -146,10 +132,10 @@ fn a_relative_tolerance_scales_with_the_chord() {
 
 #[test]
 fn an_unmeetable_tolerance_exits_1_with_the_reports_written() {
-    let dir = scratch("unmet");
+    let dir = scratch("adapt-unmet");
     let json = dir.join("u.json");
     let file = airfoils_dir().join("naca4412.dat");
-    let out = bezchain(&[
+    let out = run(&[
         "adapt",
         file.to_str().unwrap(),
         "--tol",
@@ -180,7 +166,7 @@ fn bad_arguments_exit_2() {
         &["adapt", &naca4413()],
     ];
     for args in cases {
-        let out = bezchain(args);
+        let out = run(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", text(&out.stderr));
         assert!(text(&out.stderr).contains("error"), "{args:?}");
     }
