@@ -374,6 +374,8 @@ fn run_fingerprint(
                 g.mutation_eta,
                 g.elite_fraction,
                 g.line_rate,
+                g.covariance_rate,
+                g.covariance_pool,
             ]);
         }
         Algorithm::Cmaes => {
