@@ -76,18 +76,22 @@ fn default_covariance_pool() -> f64 {
     GaOptions::default().covariance_pool
 }
 
-/// The defaults were measured on the paper's case 1 (24 variables, P = 1024, G = 500, CPU):
-/// the textbook settings (binary tournaments, crossover rate 0.9, `η_m` = 20) ended at
-/// sum_sq 6.5e-6 for seed 1; tournaments of 8, `η_c` = 2, 30 % of the pairs recombined along
-/// the parents' line, 3 % elites and polynomial mutation alone (`η_m` = 200) at 1.3e-6 to
-/// 3.4e-6 over seeds 1–6 (median 2.0e-6): most mutated children land far outside the
-/// valley. With 80 % of the children given the covariance step of the best 10 %, seeds 1–6
-/// end at 2.2e-7 to 4.7e-7 (median 2.6e-7 for a pool of 9 %); pools of 6 % to 12 % and
-/// rates of 0.7 to 0.9 gave medians of 2.6e-7 to 5.8e-7; steps scaled by 0.85 or 1.2 did no
-/// better, and without polynomial mutation (rate 1) the first generations, whose best
-/// individuals spread over the whole initial population, hardly progress (4e-3 at G = 500
-/// with a pool of 25 %). Differential steps between two of the pool (`x + F (x_b − x_c)`)
-/// reached a similar median with more outliers (1.4e-6 on case 1, 5.2e-6 on case 3).
+/// The defaults were measured on the paper's case 1 (24 variables, P = 1024, G = 500, CPU,
+/// sum_sq re-measured in f64): the textbook settings (binary tournaments, crossover rate 0.9,
+/// `η_m` = 20) ended at 6.5e-6 for seed 1; tournaments of 8, `η_c` = 2, 30 % of the pairs
+/// recombined along the parents' line, 3 % elites and polynomial mutation alone (`η_m` =
+/// 200) at 1.3e-6 to 3.4e-6 over seeds 1–6, median 2.0e-6: most mutated children land far
+/// outside the valley. With 80 % of the children given the covariance step of the best 10 %
+/// instead, seeds 1–6 end at 3.0e-7 to 5.2e-7, median 3.8e-7 (cases 2 and 3: medians 2.7e-7
+/// and 2.5e-7 against 2.4e-6 and 1.1e-6). In a trial build (the same operators, another draw
+/// order; medians over seeds 1–6) pools of 6 % to 12 % and rates of 0.7 to 0.9 gave 2.6e-7 to
+/// 5.8e-7; with a pool of 6 %, steps scaled by 0.85 or 1.2 did no better than unscaled ones
+/// (7.0e-7, 4.7e-7 against 4.4e-7); half the children given the step of the best 25 % and
+/// polynomial mutation on every child gave 1.3e-6 (seeds 1–3); without polynomial mutation (rate
+/// 1) the first generations, whose best individuals spread over the whole initial
+/// population, hardly progress (4e-3 at G = 500, pool 25 %); differential steps between two
+/// of the pool (`x + F (x_b − x_c)`, `F` = 0.85) reached a similar median, 3.1e-7, with more
+/// outliers (1.4e-6 on case 1, 5.2e-6 on case 3).
 impl Default for GaOptions {
     fn default() -> Self {
         GaOptions {
