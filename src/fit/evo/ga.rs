@@ -87,11 +87,12 @@ fn default_covariance_pool() -> f64 {
 /// order; medians over seeds 1–6) pools of 6 % to 12 % and rates of 0.7 to 0.9 gave 2.6e-7 to
 /// 5.8e-7; with a pool of 6 %, steps scaled by 0.85 or 1.2 did no better than unscaled ones
 /// (7.0e-7, 4.7e-7 against 4.4e-7); half the children given the step of the best 25 % and
-/// polynomial mutation on every child gave 1.3e-6 (seeds 1–3); without polynomial mutation (rate
-/// 1) the first generations, whose best individuals spread over the whole initial
-/// population, hardly progress (4e-3 at G = 500, pool 25 %); differential steps between two
-/// of the pool (`x + F (x_b − x_c)`, `F` = 0.85) reached a similar median, 3.1e-7, with more
-/// outliers (1.4e-6 on case 1, 5.2e-6 on case 3).
+/// polynomial mutation on every child gave 1.3e-6 (seeds 1–3); every child given the step of
+/// the best 25 % and none a polynomial one stalled at 4e-3 (that pool spreads over the
+/// whole initial population, and its steps stay as wide), of the best 6 % ended at 5.2e-7 and
+/// 3.8e-7 (seeds 1, 2); differential
+/// steps between two of the pool (`x + F (x_b − x_c)`, `F` = 0.85, pool 6 %) reached a
+/// similar median, 3.1e-7, with more outliers (1.4e-6 on case 1, 5.2e-6 on case 3).
 impl Default for GaOptions {
     fn default() -> Self {
         GaOptions {
