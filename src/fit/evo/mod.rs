@@ -1158,4 +1158,125 @@ mod tests {
         let best: Vec<f64> = run.best().0.iter().map(|&x| f64::from(x)).collect();
         assert_ne!(run.strategy().unwrap().mean, best);
     }
+
+    /// A badly conditioned quadratic in rotated coordinates: `Σ_i 10^(4i/(n-1)) (q_iᵀ x)²`
+    /// over the rows `q_i` of a rotation (a Householder reflection), minimum 0 at the origin.
+    struct Valley {
+        start: Vec<f64>,
+        bounds: Vec<[f64; 2]>,
+        info: BackendInfo,
+    }
+
+    impl Valley {
+        fn value(x: &[f64]) -> f64 {
+            let n = x.len();
+            // Reflection about the unit vector v ∝ (1, 2, …, n): q_i = e_i - 2 v_i v.
+            let norm = (1..=n).map(|k| (k * k) as f64).sum::<f64>().sqrt();
+            let v: Vec<f64> = (1..=n).map(|k| k as f64 / norm).collect();
+            let vx: f64 = v.iter().zip(x).map(|(a, b)| a * b).sum();
+            (0..n)
+                .map(|i| {
+                    let qx = x[i] - 2.0 * v[i] * vx;
+                    10f64.powf(4.0 * i as f64 / (n - 1) as f64) * qx * qx
+                })
+                .sum()
+        }
+    }
+
+    impl Scorer for Valley {
+        fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
+            let n = population.len() / scores.len();
+            for (row, s) in population.chunks_exact(n).zip(scores.iter_mut()) {
+                let x: Vec<f64> = row.iter().map(|&v| f64::from(v)).collect();
+                *s = Score {
+                    sum_sq: Valley::value(&x),
+                    max: 0.0,
+                };
+            }
+            Ok(())
+        }
+        fn recentre(&mut self, _generation: u64, _centre: &[f64]) -> Result<()> {
+            Ok(())
+        }
+        fn state(&self) -> Vec<[f64; 2]> {
+            Vec::new()
+        }
+        fn info(&self) -> &BackendInfo {
+            &self.info
+        }
+        fn work(&self) -> usize {
+            1
+        }
+    }
+
+    impl PopulationObjective for Valley {
+        fn dim(&self) -> usize {
+            self.start.len()
+        }
+        fn start(&self) -> &[f64] {
+            &self.start
+        }
+        fn bounds(&self) -> &[[f64; 2]] {
+            &self.bounds
+        }
+        fn extent(&self) -> f64 {
+            1.0
+        }
+        fn fingerprint(&self) -> u64 {
+            1
+        }
+        fn scorer<'s>(
+            &'s self,
+            _state: Option<Vec<[f64; 2]>>,
+            _options: &EvoOptions,
+        ) -> Result<Box<dyn Scorer + 's>> {
+            Ok(Box::new(Valley {
+                start: self.start.clone(),
+                bounds: self.bounds.clone(),
+                info: self.info.clone(),
+            }))
+        }
+        fn measure(&self, design: &[f64], _options: &EvoOptions) -> Result<f64> {
+            Ok(Valley::value(design))
+        }
+    }
+
+    /// The GA's covariance mutation follows a rotated valley of condition 1e4 that steps along
+    /// the axes crawl in: with it the GA ends far lower than with polynomial mutation alone
+    /// (P 256, G 150, seed 1: 6.2e-9 against 0.59, from 4.1e3 at the start), and the same seed
+    /// gives the same run.
+    #[test]
+    fn the_covariance_mutation_follows_a_rotated_valley() {
+        let n = 10;
+        let valley = Valley {
+            start: vec![0.3; n],
+            bounds: vec![[-1.0, 1.0]; n],
+            info: BackendInfo {
+                backend: Backend::Cpu,
+                adapter: "test".into(),
+                fallback: None,
+            },
+        };
+        let run = |covariance_rate: f64| {
+            let options = EvoOptions {
+                population: Some(256),
+                generations: Some(150),
+                spread: 0.1,
+                ga: GaOptions {
+                    covariance_rate,
+                    ..GaOptions::default()
+                },
+                ..EvoOptions::default()
+            };
+            evolve(&valley, Algorithm::Ga, &options, &mut EvoHooks::default())
+                .unwrap()
+                .sum_sq
+        };
+        let (with, without) = (run(GaOptions::default().covariance_rate), run(0.0));
+        assert!(with < 1e-3 * without, "{with:e} against {without:e}");
+        assert_eq!(
+            with.to_bits(),
+            run(GaOptions::default().covariance_rate).to_bits()
+        );
+    }
 }
