@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 #[derive(clap::Args, Debug, Default, Clone)]
 pub struct EvoArgs {
     /// Where populations are evaluated: auto (the GPU when one is found), gpu or cpu.
-    #[arg(long, value_parser = super::parse_backend)]
+    #[arg(long, value_parser = super::parse_word::<Backend>)]
     pub backend: Option<Backend>,
     /// Seed of the random streams [default: 1].
     #[arg(long)]

@@ -41,7 +41,7 @@ pub struct Args {
     pub alpha: f64,
     /// Method: ga, cmaes or ga+cmaes (the GA for half the generations, then CMA-ES from its
     /// best).
-    #[arg(long, default_value = "cmaes", value_parser = parse_method)]
+    #[arg(long, default_value = "cmaes", value_parser = super::parse_word::<Method>)]
     pub method: Method,
     /// Individuals per generation [default: 256 for ga, 4 + 3 ln n for cmaes].
     #[arg(long)]
@@ -75,7 +75,7 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub cm_min: Option<f64>,
     /// Where populations are evaluated: auto, gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = super::parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<Backend>)]
     pub backend: Backend,
     /// Write the curve report (with an `optimise` block) here (`-` for standard output).
     #[arg(long)]
@@ -98,10 +98,6 @@ pub struct Args {
     /// No progress bar or progress lines.
     #[arg(long)]
     pub quiet: bool,
-}
-
-fn parse_method(s: &str) -> std::result::Result<Method, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 /// The objective as given: `max-cl` or `inverse:TARGET`.

@@ -36,11 +36,11 @@ pub use kernel::{Config, Gene, MapEntry, Partial, RefJet, Sample, Target, Vertex
 
 use crate::chain::{ChainLayout, GridLayout};
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec2, DVec3};
 use serde::Serialize;
 use std::fmt;
-use std::str::FromStr;
 
 /// Where populations are evaluated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
@@ -55,29 +55,7 @@ pub enum Backend {
     Cpu,
 }
 
-impl fmt::Display for Backend {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Backend::Auto => "auto",
-            Backend::Gpu => "gpu",
-            Backend::Cpu => "cpu",
-        })
-    }
-}
-
-impl FromStr for Backend {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "auto" => Ok(Backend::Auto),
-            "gpu" => Ok(Backend::Gpu),
-            "cpu" => Ok(Backend::Cpu),
-            _ => Err(Error::invalid(format!(
-                "unknown backend '{s}' (expected auto, gpu or cpu)"
-            ))),
-        }
-    }
-}
+keywords!(Backend, "backend", { Auto => "auto", Gpu => "gpu", Cpu => "cpu" });
 
 /// Which backend ran, on which adapter, and why Auto chose it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
