@@ -125,17 +125,9 @@ pub fn run(args: Args) -> Result<()> {
         evo,
         ..FitOptions::default()
     };
-    let quiet = args.evo.quiet;
-    let mut started = false;
     let outs_in_run = &mut outs;
     let monitor_in_run = &mut monitor;
-    let mut on_generation = |run: &Evolution<'_>| {
-        if !started {
-            monitor_in_run.start_bar(run, quiet);
-            started = true;
-        }
-        monitor_in_run.generation(run, outs_in_run)
-    };
+    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
     let resume_path = args.evo.resume.clone();
     let mut hooks = EvoHooks {
         on_generation: if evolutionary.is_some() {

@@ -459,17 +459,9 @@ fn fit_with_progress(
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let quiet = args.evo.quiet;
-    let mut started = false;
     let monitor_in_run = &mut *monitor;
     let outs_in_run = &mut *outs;
-    let mut on_generation = |run: &Evolution<'_>| {
-        if !started {
-            monitor_in_run.start_bar(run, quiet);
-            started = true;
-        }
-        monitor_in_run.generation(run, outs_in_run)
-    };
+    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
     let mut hooks = EvoHooks {
         on_generation: if evolutionary {
             Some(&mut on_generation)

@@ -15,6 +15,7 @@ pub mod fit_surface;
 pub mod naca;
 pub mod optimise;
 pub mod output;
+pub mod progress;
 pub mod sample;
 
 use anyhow::Result;
