@@ -4,7 +4,7 @@
 //! device limits into chunks.
 
 use super::kernel::{point_groups, Gene, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
 use crate::error::{Error, Result};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -709,6 +709,20 @@ impl GpuEvaluator {
     }
 }
 
+impl HoldsProblem for GpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+
+    fn problem_changed(&mut self) {
+        self.upload_targets();
+    }
+}
+
 impl PopulationEvaluator for GpuEvaluator {
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
         self.run(population, out)
@@ -718,38 +732,8 @@ impl PopulationEvaluator for GpuEvaluator {
         self.run(population, out)
     }
 
-    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
-        self.problem.set_params(params)?;
-        self.upload_targets();
-        Ok(())
-    }
-
-    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
-        self.problem.set_reference(design)?;
-        self.upload_targets();
-        Ok(())
-    }
-
-    fn set_newton(&mut self, newton: u32) {
-        // The kernel keeps the individuals per invocation chosen for the steps it was built
-        // with: they change its speed, not its results.
-        self.problem.newton = newton;
-    }
-
-    fn resolution(&self, sum_sq: f64) -> f64 {
-        self.problem.resolution(sum_sq)
-    }
-
     fn info(&self) -> &BackendInfo {
         &self.info
-    }
-
-    fn design_variables(&self) -> usize {
-        self.problem.n_vars
-    }
-
-    fn points(&self) -> usize {
-        self.problem.n_points()
     }
 }
 
