@@ -381,16 +381,22 @@ pub struct Sampled<P> {
     boxes: Vec<([f64; 3], [f64; 3], u32)>,
 }
 
-/// Distance from `q` to the box `[lo, hi]` (first `DIM` coordinates).
+/// Squared distance from `q` to the box `[lo, hi]` (first `DIM` coordinates).
 #[inline]
-fn box_distance<P: Vector>(lo: &[f64; 3], hi: &[f64; 3], q: P) -> f64 {
+fn box_distance_sq<P: Vector>(lo: &[f64; 3], hi: &[f64; 3], q: P) -> f64 {
     let mut d2 = 0.0;
     for c in 0..P::DIM {
         let x = q.coord(c);
         let e = (lo[c] - x).max(x - hi[c]).max(0.0);
         d2 += e * e;
     }
-    d2.sqrt()
+    d2
+}
+
+/// Distance from `q` to the box `[lo, hi]` (first `DIM` coordinates).
+#[inline]
+fn box_distance<P: Vector>(lo: &[f64; 3], hi: &[f64; 3], q: P) -> f64 {
+    box_distance_sq(lo, hi, q).sqrt()
 }
 
 impl<P: Vector> Sampled<P> {
@@ -612,16 +618,34 @@ impl<const K: usize> SampleGrid<K> {
         opts: &FootOptions,
         scratch: &mut FootScratch<K>,
     ) -> Foot<K> {
-        if !sampled.dev.is_empty() {
-            return self.closest_bounded(shape, sampled, design, q, warm, opts, scratch);
-        }
-        let mut best = Foot {
-            t: [0.0; K],
-            dist_sq: f64::INFINITY,
+        let query = Query {
+            shape,
+            sampled,
+            design,
+            q,
+            warm,
+            opts,
         };
-        if let Some(w) = warm {
-            best = refine(shape, design, q, w, opts, &mut scratch.basis);
+        let best = if sampled.dev.is_empty() {
+            self.closest_spaced(&query, scratch)
+        } else {
+            self.closest_bounded(&query, scratch)
+        };
+        if best.dist_sq.is_finite() {
+            best
+        } else {
+            // A non-finite design: the first sample, never a parameter outside [0, 1].
+            Foot {
+                t: self.params.first().copied().unwrap_or([0.0; K]),
+                ..best
+            }
         }
+    }
+
+    /// [`SampleGrid::closest`] by sample spacing.
+    fn closest_spaced<S: Shape<K>>(&self, query: &Query<S, K>, scratch: &mut FootScratch<K>) -> Foot<K> {
+        let (shape, sampled, q, warm) = (query.shape, query.sampled, query.q, query.warm);
+        let mut best = query.start(scratch);
         let cells = self.len() / self.per_cell;
         scratch.order.clear();
         scratch
@@ -630,7 +654,6 @@ impl<const K: usize> SampleGrid<K> {
         scratch.order.sort_by(|a, b| a.0.total_cmp(&b.0));
         scratch.d2.resize(self.len(), f64::INFINITY);
         scratch.cands.clear();
-        let steps = 1.0 / (self.side - 1) as f64;
         // The best sampled distance is an upper bound on the shape's distance as well.
         let mut bound = best.dist_sq.sqrt();
         for oi in 0..scratch.order.len() {
@@ -655,13 +678,8 @@ impl<const K: usize> SampleGrid<K> {
                 if ds > limit || !self.is_local_min(s, &scratch.d2) {
                     continue;
                 }
-                if let Some(w) = warm {
-                    let (lo, hi) = shape.cell_box(cell);
-                    let near = (0..K)
-                        .all(|k| (self.params[s][k] - w[k]).abs() <= steps * (hi[k] - lo[k]) * 1.000001);
-                    if near {
-                        continue;
-                    }
+                if self.next_to_warm(shape, cell, s, warm) {
+                    continue;
                 }
                 scratch.cands.push((ds, s));
             }
@@ -673,14 +691,10 @@ impl<const K: usize> SampleGrid<K> {
             if best.dist_sq.is_finite() && ds.sqrt() - 1.5 * sampled.spacing[cell] > best.dist_sq.sqrt() {
                 continue;
             }
-            let f = refine(shape, design, q, self.params[s], opts, &mut scratch.basis);
+            let f = query.refine(self.params[s], scratch);
             if f.dist_sq < best.dist_sq {
                 best = f;
             }
-        }
-        if !best.dist_sq.is_finite() {
-            // Non-finite design: report the first sample, never a parameter outside [0, 1].
-            best.t = self.params.first().copied().unwrap_or([0.0; K]);
         }
         best
     }
@@ -692,24 +706,9 @@ impl<const K: usize> SampleGrid<K> {
     /// method starts from the closest sample of every box that passes (best boxes first, at
     /// most 16, boxes next to the warm start skipped). On patch grids whose patches are long
     /// in one direction this bound is far tighter than 1.5 sample spacings.
-    #[allow(clippy::too_many_arguments)]
-    fn closest_bounded<S: Shape<K>>(
-        &self,
-        shape: &S,
-        sampled: &Sampled<S::Point>,
-        design: &S::Prepared<'_>,
-        q: S::Point,
-        warm: Option<[f64; K]>,
-        opts: &FootOptions,
-        scratch: &mut FootScratch<K>,
-    ) -> Foot<K> {
-        let mut best = Foot {
-            t: [0.0; K],
-            dist_sq: f64::INFINITY,
-        };
-        if let Some(w) = warm {
-            best = refine(shape, design, q, w, opts, &mut scratch.basis);
-        }
+    fn closest_bounded<S: Shape<K>>(&self, query: &Query<S, K>, scratch: &mut FootScratch<K>) -> Foot<K> {
+        let (shape, sampled, q, warm) = (query.shape, query.sampled, query.q, query.warm);
+        let mut best = query.start(scratch);
         let cells = self.len() / self.per_cell;
         scratch.order.clear();
         // Only cells that may beat the warm start are visited (usually one to four).
@@ -718,12 +717,7 @@ impl<const K: usize> SampleGrid<K> {
             // lb = |q - box| - dev < bound  <=>  |q - box|² < (bound + dev)², no root needed.
             let (lo, hi) = &sampled.bbox[c];
             let reach = bound + sampled.dev[c];
-            let mut d2 = 0.0;
-            for k in 0..S::Point::DIM {
-                let x = q.coord(k);
-                let e = (lo[k] - x).max(x - hi[k]).max(0.0);
-                d2 += e * e;
-            }
+            let d2 = box_distance_sq(lo, hi, q);
             if d2 < reach * reach {
                 scratch.order.push((d2.sqrt() - sampled.dev[c], c));
             }
@@ -735,7 +729,6 @@ impl<const K: usize> SampleGrid<K> {
             stride[k] = stride[k - 1] * self.side;
         }
         let per_box = (self.side - 1).pow(K as u32);
-        let steps = 1.0 / (self.side - 1) as f64;
         for oi in 0..scratch.order.len() {
             let (lb, cell) = scratch.order[oi];
             if lb >= bound {
@@ -745,12 +738,7 @@ impl<const K: usize> SampleGrid<K> {
             for &(lo, hi, corner) in &sampled.boxes[cell * per_box..(cell + 1) * per_box] {
                 // sqrt(d2) - dev < bound  <=>  d2 < (bound + dev)²
                 let reach = bound + dev;
-                let mut d2 = 0.0;
-                for c in 0..S::Point::DIM {
-                    let x = q.coord(c);
-                    let e = (lo[c] - x).max(x - hi[c]).max(0.0);
-                    d2 += e * e;
-                }
+                let d2 = box_distance_sq(&lo, &hi, q);
                 if d2 >= reach * reach {
                     continue;
                 }
@@ -764,14 +752,8 @@ impl<const K: usize> SampleGrid<K> {
                     }
                 }
                 bound = bound.min(near_d.sqrt());
-                if let Some(w) = warm {
-                    let (clo, chi) = shape.cell_box(cell);
-                    let near = (0..K).all(|k| {
-                        (self.params[near_s][k] - w[k]).abs() <= steps * (chi[k] - clo[k]) * 1.000001
-                    });
-                    if near {
-                        continue;
-                    }
+                if self.next_to_warm(shape, cell, near_s, warm) {
+                    continue;
                 }
                 scratch.cands.push((d2.sqrt() - dev, near_s));
             }
@@ -787,15 +769,50 @@ impl<const K: usize> SampleGrid<K> {
                 continue;
             }
             tried += 1;
-            let f = refine(shape, design, q, self.params[s], opts, &mut scratch.basis);
+            let f = query.refine(self.params[s], scratch);
             if f.dist_sq < best.dist_sq {
                 best = f;
             }
         }
-        if !best.dist_sq.is_finite() {
-            best.t = self.params.first().copied().unwrap_or([0.0; K]);
-        }
         best
+    }
+
+    /// Whether sample `s` of `cell` lies within one sample step of the warm start (Newton's
+    /// method from there has already been run).
+    fn next_to_warm<S: Shape<K>>(&self, shape: &S, cell: usize, s: usize, warm: Option<[f64; K]>) -> bool {
+        let Some(w) = warm else { return false };
+        let steps = 1.0 / (self.side - 1) as f64;
+        let (lo, hi) = shape.cell_box(cell);
+        (0..K).all(|k| (self.params[s][k] - w[k]).abs() <= steps * (hi[k] - lo[k]) * 1.000001)
+    }
+}
+
+/// One closest-point question: the shape, its samples and prepared design, the point, the
+/// warm start and the options.
+struct Query<'a, 'd, S: Shape<K> + 'd, const K: usize> {
+    shape: &'a S,
+    sampled: &'a Sampled<S::Point>,
+    design: &'a S::Prepared<'d>,
+    q: S::Point,
+    warm: Option<[f64; K]>,
+    opts: &'a FootOptions,
+}
+
+impl<'d, S: Shape<K> + 'd, const K: usize> Query<'_, 'd, S, K> {
+    /// Newton's method from the warm start, or no foot (an infinite distance) without one.
+    fn start(&self, scratch: &mut FootScratch<K>) -> Foot<K> {
+        match self.warm {
+            Some(w) => self.refine(w, scratch),
+            None => Foot {
+                t: [0.0; K],
+                dist_sq: f64::INFINITY,
+            },
+        }
+    }
+
+    /// Newton's method from `t0`.
+    fn refine(&self, t0: [f64; K], scratch: &mut FootScratch<K>) -> Foot<K> {
+        refine(self.shape, self.design, self.q, t0, self.opts, &mut scratch.basis)
     }
 }
 

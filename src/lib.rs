@@ -29,5 +29,6 @@ pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod geometry;
+mod keyword;
 
 pub use error::{Error, Result};

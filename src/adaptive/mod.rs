@@ -47,10 +47,9 @@ pub use surface::{
 use crate::chain::CurveChain;
 use crate::error::{Error, Result};
 use crate::fit::{chord_length_params, offset_stats, OffsetStats};
+use crate::keyword::keywords;
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
 use std::time::Instant;
 
 /// Which offsets the tolerance bounds.
@@ -64,27 +63,7 @@ pub enum Norm {
     Rms,
 }
 
-impl fmt::Display for Norm {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Norm::Max => "max",
-            Norm::Rms => "rms",
-        })
-    }
-}
-
-impl FromStr for Norm {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "max" => Ok(Norm::Max),
-            "rms" => Ok(Norm::Rms),
-            _ => Err(Error::invalid(format!(
-                "unknown norm '{s}' (expected max or rms)"
-            ))),
-        }
-    }
-}
+keywords!(Norm, "norm", { Max => "max", Rms => "rms" });
 
 /// Which ways of storing x the search may use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -99,19 +78,7 @@ pub enum Mode {
     Free,
 }
 
-impl FromStr for Mode {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "auto" => Ok(Mode::Auto),
-            "aerofoil" | "airfoil" => Ok(Mode::Aerofoil),
-            "free" => Ok(Mode::Free),
-            _ => Err(Error::invalid(format!(
-                "unknown mode '{s}' (expected auto, aerofoil or free)"
-            ))),
-        }
-    }
-}
+keywords!(Mode, "mode", { Auto => "auto", Aerofoil => "aerofoil" | "airfoil", Free => "free" });
 
 /// Options of [`adapt_curve`].
 #[derive(Clone, Copy, Debug, PartialEq)]

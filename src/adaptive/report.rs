@@ -66,16 +66,8 @@ impl AdaptReport {
     #[must_use]
     pub fn new(result: &AdaptedCurve, opts: &AdaptOptions, input: InputInfo) -> Self {
         let offset = OffsetReport::from(&result.offset);
-        let fit = FitInfo {
-            method: "adapt".into(),
-            iterations: result.trace.iter().map(|t| t.steps as u64).sum(),
-            evaluations: result.fits as u64,
-            seconds: result.seconds,
-            backend: "cpu".into(),
-            stages: vec![],
-            evals_per_second: None,
-            stopped: None,
-        };
+        let steps = result.trace.iter().map(|t| t.steps as u64).sum();
+        let fit = FitInfo::of_search(steps, result.fits as u64, result.seconds);
         AdaptReport {
             curve: CurveReport::new(&result.chain, offset, fit, input),
             adapt: AdaptBlock {
@@ -160,16 +152,7 @@ impl SurfaceAdaptReport {
     #[must_use]
     pub fn new(result: &AdaptedSurface, opts: &SurfaceAdaptOptions, input: InputInfo) -> Self {
         let offset = OffsetReport::from(&result.offset);
-        let fit = FitInfo {
-            method: "adapt".into(),
-            iterations: result.trace.len() as u64,
-            evaluations: result.fits as u64,
-            seconds: result.seconds,
-            backend: "cpu".into(),
-            stages: vec![],
-            evals_per_second: None,
-            stopped: None,
-        };
+        let fit = FitInfo::of_search(result.trace.len() as u64, result.fits as u64, result.seconds);
         SurfaceAdaptReport {
             surface: SurfaceReport::new(&result.grid, offset, fit, input),
             adapt: SurfaceAdaptBlock {

@@ -24,9 +24,8 @@ use crate::fit::evo::{
     default_lambda, Algorithm, Checkpoint, CmaesOptions, EvoOptions, EvoStop, Evolution, Fnv, GaOptions,
     PopulationObjective, Progress, Score, Scorer,
 };
+use crate::keyword::keywords;
 use serde::Serialize;
-use std::fmt;
-use std::str::FromStr;
 
 /// An optimisation method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,37 +38,7 @@ pub enum Method {
     GaCmaes,
 }
 
-impl Method {
-    /// The name on the command line and in reports.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Ga => "ga",
-            Method::Cmaes => "cmaes",
-            Method::GaCmaes => "ga+cmaes",
-        }
-    }
-}
-
-impl fmt::Display for Method {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Method {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "ga" => Ok(Method::Ga),
-            "cmaes" | "cma-es" => Ok(Method::Cmaes),
-            "ga+cmaes" => Ok(Method::GaCmaes),
-            _ => Err(Error::invalid(format!(
-                "unknown method '{s}' (expected ga, cmaes or ga+cmaes)"
-            ))),
-        }
-    }
-}
+keywords!(Method, "method", { Ga => "ga", Cmaes => "cmaes" | "cma-es", GaCmaes => "ga+cmaes" });
 
 /// Options of an optimisation.
 #[derive(Clone, Debug, PartialEq)]

@@ -2,7 +2,7 @@
 //! it) above the shapes that carry them, drawn to equal scales.
 
 use crate::error::Result;
-use crate::export::plot_err;
+use crate::export::{draw_xy_mesh, plot_err};
 use glam::DVec2;
 use plotters::prelude::*;
 
@@ -121,13 +121,7 @@ impl CpPlot {
                 .y_label_area_size(60)
                 .build_cartesian_2d(x0..x0 + span * plot_w, y0..y1)
                 .map_err(plot_err)?;
-            shape
-                .configure_mesh()
-                .x_desc("x")
-                .y_desc("y")
-                .light_line_style(WHITE)
-                .draw()
-                .map_err(plot_err)?;
+            draw_xy_mesh(&mut shape)?;
             for (k, o) in self.outlines.iter().enumerate() {
                 let colour = PALETTE[k % PALETTE.len()];
                 let mut pts: Vec<(f64, f64)> = o.nodes.iter().map(|p| (p.x, p.y)).collect();

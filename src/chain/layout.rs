@@ -21,9 +21,8 @@
 use super::map::{insert_knot, ExtractionMap};
 use crate::bezier::Vector;
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
 
 /// The highest degree of a chain, in each direction of a grid.
 ///
@@ -79,25 +78,7 @@ impl Continuity {
     }
 }
 
-impl fmt::Display for Continuity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "C{}", self.order())
-    }
-}
-
-impl FromStr for Continuity {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "c0" => Ok(Continuity::C0),
-            "c1" => Ok(Continuity::C1),
-            "c2" => Ok(Continuity::C2),
-            _ => Err(Error::invalid(format!(
-                "unknown continuity '{s}' (expected c0, c1 or c2)"
-            ))),
-        }
-    }
-}
+keywords!(Continuity, "continuity", { C0 => "C0", C1 => "C1", C2 => "C2" });
 
 /// The shape of a chain: degree `d`, `s` segments over breaks `0 = t0 < ... < ts = 1`, the
 /// continuity order of every join, the clamped knot vector, the extraction map and the

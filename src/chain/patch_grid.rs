@@ -276,23 +276,20 @@ impl<P: Vector> PatchGrid<P> {
                 .max(f64::MIN_POSITIVE);
             worst = worst.max((left - right).length() / scale);
         };
-        let (du, dv) = (self.layout.u.degree(), self.layout.v.degree());
-        for b in 1..self.layout.u.segments() {
-            let (hl, hr) = (
-                self.layout.u.segment_length(b - 1),
-                self.layout.u.segment_length(b),
-            );
-            for c in 0..mv {
-                check(du, hl, hr, b * du, &|r| at(r, c));
-            }
-        }
-        for b in 1..self.layout.v.segments() {
-            let (hl, hr) = (
-                self.layout.v.segment_length(b - 1),
-                self.layout.v.segment_length(b),
-            );
-            for r in 0..mu {
-                check(dv, hl, hr, b * dv, &|c| at(r, c));
+        // Joins across u (every column of the net), then across v (every row).
+        for (along_u, dir, lines) in [(true, &self.layout.u, mv), (false, &self.layout.v, mu)] {
+            let d = dir.degree();
+            for b in 1..dir.segments() {
+                let (hl, hr) = (dir.segment_length(b - 1), dir.segment_length(b));
+                for line in 0..lines {
+                    check(d, hl, hr, b * d, &|k| {
+                        if along_u {
+                            at(k, line)
+                        } else {
+                            at(line, k)
+                        }
+                    });
+                }
             }
         }
         worst

@@ -3,7 +3,7 @@
 //! populations of aerofoils.
 
 use super::output::Outputs;
-use super::{bounded, parse_backend};
+use super::{bounded, parse_word};
 use anyhow::Result;
 use bezchain::eval::bench::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     pub newton: u32,
     /// Where to run: auto, gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = parse_word::<Backend>)]
     pub backend: Backend,
     /// CPU kernels: avx512, avx2 or portable [default: the best this CPU runs].
     #[arg(long, value_parser = parse_simd)]

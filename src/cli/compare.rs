@@ -18,7 +18,7 @@ pub struct Args {
     /// The contour (the paper used NACA 4413 with 82 points: `data/naca4413.dat`).
     pub input: PathBuf,
     /// Methods to compare, in table order (also ga+lsq, cmaes+lsq).
-    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = parse_method)]
+    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = super::parse_word::<Method>)]
     pub methods: Vec<Method>,
     /// Individuals per generation of the GA and CMA-ES.
     #[arg(long, default_value_t = GA_POPULATION as i64, allow_negative_numbers = true)]
@@ -30,15 +30,11 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Where the GA and CMA-ES evaluate their populations: auto, gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = super::parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<Backend>)]
     pub backend: Backend,
     /// Also write the rows as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
-}
-
-fn parse_method(s: &str) -> Result<Method, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 /// One line of the table.

@@ -2,7 +2,7 @@
 //! optimisers outside bezchain.
 
 use super::output::Outputs;
-use super::{parse_backend, usage};
+use super::{parse_word, usage};
 use anyhow::Result;
 use bezchain::bezier::Vector;
 use bezchain::eval::Backend;
@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(long)]
     pub points: PathBuf,
     /// Where to evaluate: auto, gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = parse_word::<Backend>)]
     pub backend: Backend,
     /// Newton steps per point and individual from the first individual's foot points (0:
     /// offsets at those parameters).

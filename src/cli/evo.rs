@@ -3,21 +3,19 @@
 //! a run's progress and writes its history file and checkpoints.
 
 use super::output::{Output, Outputs};
+use super::progress::{Checkpoints, Generations};
 use super::usage;
 use anyhow::Result;
 use bezchain::eval::Backend;
 use bezchain::fit::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
 use bezchain::fit::SolveReport;
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 /// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).
 #[derive(clap::Args, Debug, Default, Clone)]
 pub struct EvoArgs {
     /// Where populations are evaluated: auto (the GPU when one is found), gpu or cpu.
-    #[arg(long, value_parser = super::parse_backend)]
+    #[arg(long, value_parser = super::parse_word::<Backend>)]
     pub backend: Option<Backend>,
     /// Seed of the random streams [default: 1].
     #[arg(long)]
@@ -205,16 +203,13 @@ impl EvoArgs {
 
 /// Progress display, history file and checkpoints of an evolutionary run.
 pub struct Monitor {
-    bar: Option<ProgressBar>,
-    plain: bool,
-    last_line: Instant,
+    progress: Generations,
+    started: bool,
     /// The history file, written to its temporary file as the run goes and put in place with
     /// the run's other outputs.
     history: Option<Output>,
     written: usize,
-    /// The checkpoint, replaced during the run (and put back as it was if the run fails).
-    checkpoint: Option<Output>,
-    every: u64,
+    checkpoints: Checkpoints,
 }
 
 impl Monitor {
@@ -222,39 +217,29 @@ impl Monitor {
     /// are checked now and join the run's outputs.
     pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
         Ok(Monitor {
-            bar: None,
-            plain: !args.quiet && !std::io::stderr().is_terminal(),
-            last_line: Instant::now(),
+            progress: Generations::new(args.quiet),
+            started: false,
             history: outs.add_opt("--history", args.history.as_deref())?,
             written: 0,
-            checkpoint: args
-                .checkpoint
-                .as_deref()
-                .map(|p| outs.add_interim("--checkpoint", p))
-                .transpose()?,
-            every: args.checkpoint_every.unwrap_or(10) as u64,
+            checkpoints: Checkpoints::new(
+                args.checkpoint
+                    .as_deref()
+                    .map(|p| outs.add_interim("--checkpoint", p))
+                    .transpose()?,
+                args.checkpoint_every.unwrap_or(10) as u64,
+            ),
         })
     }
 
-    /// Start the progress bar (unless quiet or not on a terminal).
-    pub fn start_bar(&mut self, run: &Evolution<'_>, quiet: bool) {
-        if quiet || self.plain {
-            return;
-        }
-        let bar = ProgressBar::new(run.generations() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} gen {pos}/{len} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_prefix(run.algorithm().to_string());
-        bar.set_position(run.generation());
-        bar.enable_steady_tick(Duration::from_millis(250));
-        self.bar = Some(bar);
-    }
-
-    /// After a generation: the bar (or an occasional line), new history lines, a checkpoint
-    /// when due.
+    /// After a generation: the progress (a bar from the first generation on), new history
+    /// lines, a checkpoint when due.
     pub fn generation(&mut self, run: &Evolution<'_>, outs: &mut Outputs) -> bezchain::Result<()> {
+        let name = run.algorithm().to_string();
+        if !self.started {
+            self.progress
+                .start(&name, run.generation(), run.generations() as u64);
+            self.started = true;
+        }
         let h = run.history();
         let Some(last) = h.last() else { return Ok(()) };
         let ips = last.evaluations as f64 / last.seconds.max(1e-9);
@@ -265,21 +250,8 @@ impl Monitor {
             ips,
             run.evals_per_second()
         );
-        if let Some(bar) = &self.bar {
-            if bar.length() != Some(run.generations() as u64) {
-                bar.set_length(run.generations() as u64);
-            }
-            bar.set_position(last.generation);
-            bar.set_message(msg);
-        } else if self.plain && (self.last_line.elapsed() >= Duration::from_secs(5) || last.generation == 1) {
-            eprintln!(
-                "{} generation {}/{}: {msg}",
-                run.algorithm(),
-                last.generation,
-                run.generations()
-            );
-            self.last_line = Instant::now();
-        }
+        self.progress
+            .show(&name, last.generation, run.generations() as u64, msg);
         if let Some(o) = self.history {
             let path = outs.path(o).to_path_buf();
             let io = |source| bezchain::Error::Io {
@@ -300,19 +272,15 @@ impl Monitor {
             }
             self.written = h.len();
         }
-        if let Some(o) = self.checkpoint {
-            if run.generation() % self.every == 0 || run.stop().is_some() {
-                outs.interim(o, &run.checkpoint().to_bytes())?;
-            }
-        }
-        Ok(())
+        self.checkpoints
+            .after(outs, run.generation(), run.stop().is_some(), || {
+                run.checkpoint().to_bytes()
+            })
     }
 
     /// Clear the progress bar.
     pub fn finish(&mut self) {
-        if let Some(bar) = self.bar.take() {
-            bar.finish_and_clear();
-        }
+        self.progress.finish();
     }
 
     /// After a finished run: a history file with no generation in it still gets its header.

@@ -18,12 +18,8 @@ pub struct CadArgs {
     pub iges: Option<PathBuf>,
     /// The length unit the STEP/IGES files declare: m or mm (coordinates are written as they
     /// are, never scaled).
-    #[arg(long, default_value = "m", value_parser = parse_unit)]
+    #[arg(long, default_value = "m", value_parser = super::parse_word::<CadUnit>)]
     pub cad_unit: CadUnit,
-}
-
-fn parse_unit(s: &str) -> std::result::Result<CadUnit, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 impl CadArgs {

@@ -26,13 +26,13 @@ pub struct Args {
     #[arg(long)]
     pub segments: usize,
     /// Continuity at the joins: c0, c1 or c2.
-    #[arg(long, default_value = "c1", value_parser = parse_continuity)]
+    #[arg(long, default_value = "c1", value_parser = super::parse_word::<Continuity>)]
     pub continuity: Continuity,
     /// Method: lsq, nelder-mead, bfgs, ga, cmaes, ga+lsq or cmaes+lsq.
-    #[arg(long, default_value = "lsq", value_parser = parse_method)]
+    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<Method>)]
     pub method: Method,
     /// Offset metric minimised and reported: closest or corresponding.
-    #[arg(long, default_value = "closest", value_parser = parse_metric)]
+    #[arg(long, default_value = "closest", value_parser = super::parse_word::<Metric>)]
     pub metric: Metric,
     /// Write the JSON report here (`-` for standard output).
     #[arg(long)]
@@ -44,18 +44,6 @@ pub struct Args {
     pub cad: super::export::CadArgs,
     #[command(flatten)]
     pub evo: EvoArgs,
-}
-
-fn parse_continuity(s: &str) -> Result<Continuity, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
-}
-
-fn parse_method(s: &str) -> Result<Method, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
-}
-
-fn parse_metric(s: &str) -> Result<Metric, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 /// Read a contour, printing the reader's warnings.
@@ -137,17 +125,9 @@ pub fn run(args: Args) -> Result<()> {
         evo,
         ..FitOptions::default()
     };
-    let quiet = args.evo.quiet;
-    let mut started = false;
     let outs_in_run = &mut outs;
     let monitor_in_run = &mut monitor;
-    let mut on_generation = |run: &Evolution<'_>| {
-        if !started {
-            monitor_in_run.start_bar(run, quiet);
-            started = true;
-        }
-        monitor_in_run.generation(run, outs_in_run)
-    };
+    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
     let resume_path = args.evo.resume.clone();
     let mut hooks = EvoHooks {
         on_generation: if evolutionary.is_some() {

@@ -49,11 +49,11 @@ pub struct Args {
     pub breaks_v: String,
     /// Method: lsq, ga, cmaes, ga+lsq or cmaes+lsq (the evolutionary ones on the population
     /// evaluator, from the linear least-squares start, on the subsample of a large cloud).
-    #[arg(long, default_value = "lsq", value_parser = parse_method)]
+    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<SurfaceMethod>)]
     pub method: SurfaceMethod,
     /// Initial parameters: auto (sections when the cloud has them, else blade-aware), sections
     /// or blade.
-    #[arg(long, default_value = "auto", value_parser = parse_params)]
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<ParamSource>)]
     pub params: ParamSource,
     /// Span axis: x, y, z, or auto (the cloud's principal axis).
     #[arg(long, default_value = "z", value_parser = parse_span)]
@@ -113,14 +113,6 @@ fn parse_continuity(s: &str) -> std::result::Result<[Continuity; 2], String> {
         Some((a, b)) => Ok([one(a)?, one(b)?]),
         None => one(s).map(|c| [c, c]),
     }
-}
-
-fn parse_method(s: &str) -> std::result::Result<SurfaceMethod, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
-}
-
-fn parse_params(s: &str) -> std::result::Result<ParamSource, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 fn parse_span(s: &str) -> std::result::Result<SpanArg, String> {
@@ -467,17 +459,9 @@ fn fit_with_progress(
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let quiet = args.evo.quiet;
-    let mut started = false;
     let monitor_in_run = &mut *monitor;
     let outs_in_run = &mut *outs;
-    let mut on_generation = |run: &Evolution<'_>| {
-        if !started {
-            monitor_in_run.start_bar(run, quiet);
-            started = true;
-        }
-        monitor_in_run.generation(run, outs_in_run)
-    };
+    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
     let mut hooks = EvoHooks {
         on_generation: if evolutionary {
             Some(&mut on_generation)

@@ -15,6 +15,7 @@ pub mod fit_surface;
 pub mod naca;
 pub mod optimise;
 pub mod output;
+pub mod progress;
 pub mod sample;
 
 use anyhow::Result;
@@ -68,8 +69,9 @@ pub fn one_line(e: &anyhow::Error) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// clap parser for `auto|gpu|cpu`.
-pub fn parse_backend(s: &str) -> std::result::Result<bezchain::eval::Backend, String> {
+/// clap parser for the library's keyword enums (methods, metrics, backends, units): their
+/// own `FromStr`, whose error lists the accepted words.
+pub fn parse_word<T: std::str::FromStr<Err = bezchain::Error>>(s: &str) -> std::result::Result<T, String> {
     s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 

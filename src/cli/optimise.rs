@@ -3,6 +3,7 @@
 //! evaluator; a curve report, a Selig file and a picture of the result.
 
 use super::output::{Output, Outputs};
+use super::progress::{Checkpoints, Generations};
 use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Encoding};
@@ -19,12 +20,10 @@ use bezchain::fit::evo::Checkpoint;
 use bezchain::fit::offset_stats;
 use bezchain::geometry::{read_curve, write_selig_to};
 use glam::DVec2;
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Arguments of `bezchain optimise`.
 #[derive(clap::Args, Debug)]
@@ -41,7 +40,7 @@ pub struct Args {
     pub alpha: f64,
     /// Method: ga, cmaes or ga+cmaes (the GA for half the generations, then CMA-ES from its
     /// best).
-    #[arg(long, default_value = "cmaes", value_parser = parse_method)]
+    #[arg(long, default_value = "cmaes", value_parser = super::parse_word::<Method>)]
     pub method: Method,
     /// Individuals per generation [default: 256 for ga, 4 + 3 ln n for cmaes].
     #[arg(long)]
@@ -75,7 +74,7 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub cm_min: Option<f64>,
     /// Where populations are evaluated: auto, gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = super::parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<Backend>)]
     pub backend: Backend,
     /// Write the curve report (with an `optimise` block) here (`-` for standard output).
     #[arg(long)]
@@ -98,10 +97,6 @@ pub struct Args {
     /// No progress bar or progress lines.
     #[arg(long)]
     pub quiet: bool,
-}
-
-fn parse_method(s: &str) -> std::result::Result<Method, String> {
-    s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
 /// The objective as given: `max-cl` or `inverse:TARGET`.
@@ -204,34 +199,21 @@ fn target(path: &Path, paneling: &Paneling) -> Result<(Vec<DVec2>, Analysis)> {
 
 /// Progress bar or lines, and checkpoints.
 struct Monitor {
-    bar: Option<ProgressBar>,
-    plain: bool,
-    last_line: Instant,
-    /// The checkpoint, replaced during the run (and put back as it was if the run fails).
-    checkpoint: Option<Output>,
-    every: u64,
+    progress: Generations,
+    checkpoints: Checkpoints,
 }
 
 impl Monitor {
     fn new(args: &Args, run: &Optimisation<'_>, checkpoint: Option<Output>) -> Monitor {
-        let terminal = std::io::stderr().is_terminal();
-        let bar = (!args.quiet && terminal).then(|| {
-            let bar = ProgressBar::new(run.generations() as u64);
-            bar.set_style(
-                ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} gen {pos}/{len} {msg}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
-            bar.set_prefix(run.method().to_string());
-            bar.set_position(run.generation());
-            bar.enable_steady_tick(Duration::from_millis(250));
-            bar
-        });
+        let mut progress = Generations::new(args.quiet);
+        progress.start(
+            &run.method().to_string(),
+            run.generation(),
+            run.generations() as u64,
+        );
         Monitor {
-            bar,
-            plain: !args.quiet && !terminal,
-            last_line: Instant::now(),
-            checkpoint,
-            every: args.checkpoint_every.max(1),
+            progress,
+            checkpoints: Checkpoints::new(checkpoint, args.checkpoint_every),
         }
     }
 
@@ -251,30 +233,20 @@ impl Monitor {
             last.evaluations as f64 / last.seconds.max(1e-9),
             r.non_finite + r.fold + r.crossing + r.singular + r.thin + r.cm
         );
-        if let Some(bar) = &self.bar {
-            bar.set_position(last.generation);
-            bar.set_message(msg);
-        } else if self.plain && (self.last_line.elapsed() >= Duration::from_secs(5) || last.generation == 1) {
-            eprintln!(
-                "{} generation {}/{}: {msg}",
-                run.method(),
-                last.generation,
-                run.generations()
-            );
-            self.last_line = Instant::now();
-        }
-        if let Some(o) = self.checkpoint {
-            if run.generation().is_multiple_of(self.every) || run.stop().is_some() {
-                outs.interim(o, &run.checkpoint().to_bytes())?;
-            }
-        }
-        Ok(())
+        self.progress.show(
+            &run.method().to_string(),
+            last.generation,
+            run.generations() as u64,
+            msg,
+        );
+        self.checkpoints
+            .after(outs, run.generation(), run.stop().is_some(), || {
+                run.checkpoint().to_bytes()
+            })
     }
 
     fn finish(&mut self) {
-        if let Some(bar) = self.bar.take() {
-            bar.finish_and_clear();
-        }
+        self.progress.finish();
     }
 }
 

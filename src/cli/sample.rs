@@ -2,7 +2,7 @@
 //! present) and written as a point cloud.
 
 use super::output::Outputs;
-use super::{parse_backend, usage};
+use super::{parse_word, usage};
 use anyhow::Result;
 use bezchain::eval::dense::{dense_grid, uniform};
 use bezchain::eval::Backend;
@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long, default_value_t = 101)]
     pub v: usize,
     /// Where to evaluate: auto (the GPU when one is found), gpu or cpu.
-    #[arg(long, default_value = "auto", value_parser = parse_backend)]
+    #[arg(long, default_value = "auto", value_parser = parse_word::<Backend>)]
     pub backend: Backend,
     /// The cloud: CSV `x,y,z,section,index`, one section per v sample (`-` for standard
     /// output). Points are within about 2.4e-7 of the grid's extent of the f64 surface.

@@ -10,7 +10,7 @@
 //! [`NORMAL_FLOOR`] of their squared length: below that its f32 rounding noise could turn it.
 
 use super::cpu::{dense_grid as mirror, expand, Lanes, Scratch, Unfused, LANES};
-use super::gpu::{prepare, source, GpuContext};
+use super::gpu::{prepare, source, Expand, GpuContext};
 use super::kernel::{Config, Problem, Sample, Vertex};
 use super::{Backend, BackendInfo, EvalLayout, Targets};
 use crate::chain::{ChainLayout, GridLayout, PatchGrid};
@@ -54,12 +54,10 @@ enum Engine {
 #[derive(Debug)]
 struct DenseGpu {
     ctx: GpuContext,
-    expand: wgpu::ComputePipeline,
+    expand: Expand,
     dense: wgpu::ComputePipeline,
     config: wgpu::Buffer,
     samples: wgpu::Buffer,
-    map_start: wgpu::Buffer,
-    map_entries: wgpu::Buffer,
 }
 
 /// Samples patch grids of one layout at fixed parameters, design after design.
@@ -273,7 +271,7 @@ impl DenseGpu {
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         Ok(DenseGpu {
             ctx: ctx.clone(),
-            expand: ctx.pipeline("expand", &prepare(source::EXPAND, &consts[..1])?)?,
+            expand: Expand::new(ctx, problem)?,
             dense: ctx.pipeline("dense_grid", &prepare(source::DENSE_GRID, &consts)?)?,
             config: ctx.buffer(
                 "config",
@@ -281,8 +279,6 @@ impl DenseGpu {
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             samples: ctx.buffer_init("samples", bytemuck::cast_slice(samples), storage),
-            map_start: ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), storage),
-            map_entries: ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), storage),
         })
     }
 
@@ -309,25 +305,14 @@ impl DenseGpu {
         let population = ctx.buffer_init("designs", bytemuck::cast_slice(designs), storage);
         let net = ctx.buffer("net", net_bytes, wgpu::BufferUsages::STORAGE);
         let (out, staging) = ctx.read_back("vertices", bytes);
-        let bind_expand = ctx.bind(
-            &self.expand,
-            &[
-                &self.config,
-                &self.map_start,
-                &self.map_entries,
-                &population,
-                &net,
-            ],
-        );
+        let bind_expand = self.expand.bind(ctx, &self.config, &population, &net);
         let bind_dense = ctx.bind(&self.dense, &[&self.config, &self.samples, &net, &out]);
         ctx.queue
             .write_buffer(&self.config, 0, bytemuck::bytes_of(config));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.expand);
-            pass.set_bind_group(0, &bind_expand, &[]);
-            pass.dispatch_workgroups(count.div_ceil(64) as u32, 1, 1);
+            self.expand.dispatch(&mut pass, &bind_expand, count);
             pass.set_pipeline(&self.dense);
             pass.set_bind_group(0, &bind_dense, &[]);
             pass.dispatch_workgroups(config.grid_u.div_ceil(8), config.grid_v.div_ceil(8), count as u32);

@@ -36,11 +36,12 @@ pub use kernel::{Config, Gene, MapEntry, Partial, RefJet, Sample, Target, Vertex
 
 use crate::chain::{ChainLayout, GridLayout};
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec2, DVec3};
+use kernel::Problem;
 use serde::Serialize;
 use std::fmt;
-use std::str::FromStr;
 
 /// Where populations are evaluated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
@@ -55,29 +56,7 @@ pub enum Backend {
     Cpu,
 }
 
-impl fmt::Display for Backend {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Backend::Auto => "auto",
-            Backend::Gpu => "gpu",
-            Backend::Cpu => "cpu",
-        })
-    }
-}
-
-impl FromStr for Backend {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "auto" => Ok(Backend::Auto),
-            "gpu" => Ok(Backend::Gpu),
-            "cpu" => Ok(Backend::Cpu),
-            _ => Err(Error::invalid(format!(
-                "unknown backend '{s}' (expected auto, gpu or cpu)"
-            ))),
-        }
-    }
-}
+keywords!(Backend, "backend", { Auto => "auto", Gpu => "gpu", Cpu => "cpu" });
 
 /// Which backend ran, on which adapter, and why Auto chose it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -221,9 +200,26 @@ impl Default for EvalOptions {
     }
 }
 
+/// The kernel problem behind an evaluator, which the provided methods of
+/// [`PopulationEvaluator`] read and change. Crate-private, so that trait is sealed: the CPU
+/// and GPU evaluators are its only implementations.
+pub(crate) trait HoldsProblem {
+    /// The kernel problem: layout, targets, reference and parameters.
+    fn problem(&self) -> &Problem;
+
+    /// The same, to change; [`HoldsProblem::problem_changed`] follows a change of its
+    /// per-target data.
+    fn problem_mut(&mut self) -> &mut Problem;
+
+    /// The problem's per-target data changed (parameters or reference): a backend that keeps
+    /// a copy of them (the GPU's buffers) refreshes it.
+    fn problem_changed(&mut self) {}
+}
+
 /// Evaluates whole populations of one layout against fixed targets, generation after
 /// generation.
-pub trait PopulationEvaluator: Send {
+#[allow(private_bounds)]
+pub trait PopulationEvaluator: Send + HoldsProblem {
     /// Evaluate `population` (rows of [`design_variables`](Self::design_variables) values)
     /// into `out`, one [`Fitness`] per row, in row order.
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()>;
@@ -234,31 +230,49 @@ pub trait PopulationEvaluator: Send {
 
     /// Replace the start parameters: global `(u, v)` per target point in input order (`v` is
     /// ignored for a curve), clamped to `[0, 1]`.
-    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()>;
+    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
+        self.problem_mut().set_params(params)?;
+        self.problem_changed();
+        Ok(())
+    }
 
     /// Re-anchor the reference design (`design_variables` finite values): the kernels then
     /// compute only each individual's difference from it in f32. Results are accurate to f32
     /// relative to the offsets when the population lies near the reference (see
     /// [`kernel`](self::kernel)); population methods set it to their best design every
     /// generation.
-    fn set_reference(&mut self, design: &[f64]) -> Result<()>;
+    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
+        self.problem_mut().set_reference(design)?;
+        self.problem_changed();
+        Ok(())
+    }
 
-    /// Set the number of foot-point Newton steps (0: parameters held fixed).
-    fn set_newton(&mut self, newton: u32);
+    /// Set the number of foot-point Newton steps (0: parameters held fixed). A GPU kernel
+    /// keeps the individuals per invocation chosen for the steps it was built with: they
+    /// change its speed, not its results.
+    fn set_newton(&mut self, newton: u32) {
+        self.problem_mut().newton = newton;
+    }
 
     /// The rounding error a sum of squares near `sum_sq` from this evaluator may carry (model
     /// units squared, first order, for individuals near the reference): differences below it
     /// are not resolved.
-    fn resolution(&self, sum_sq: f64) -> f64;
+    fn resolution(&self, sum_sq: f64) -> f64 {
+        self.problem().resolution(sum_sq)
+    }
 
     /// The backend and adapter that run the evaluations.
     fn info(&self) -> &BackendInfo;
 
     /// Design variables per individual.
-    fn design_variables(&self) -> usize;
+    fn design_variables(&self) -> usize {
+        self.problem().n_vars
+    }
 
     /// Number of target points.
-    fn points(&self) -> usize;
+    fn points(&self) -> usize {
+        self.problem().n_points()
+    }
 }
 
 /// Build an evaluator on the backend `options` asks for. With [`Backend::Auto`] any failure

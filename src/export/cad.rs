@@ -14,6 +14,7 @@ use crate::chain::{CurveChain, PatchGrid};
 use crate::error::{Error, Result};
 use crate::export::{CurveReport, SurfaceReport};
 use crate::geometry::from_json_value;
+use crate::keyword::keywords;
 use glam::{DVec2, DVec3};
 use std::path::Path;
 
@@ -62,18 +63,7 @@ pub enum CadUnit {
     Millimetre,
 }
 
-impl std::str::FromStr for CadUnit {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "m" => Ok(CadUnit::Metre),
-            "mm" => Ok(CadUnit::Millimetre),
-            _ => Err(Error::invalid(format!(
-                "unknown CAD unit '{s}' (expected m or mm)"
-            ))),
-        }
-    }
-}
+keywords!(CadUnit, "CAD unit", { Metre => "m", Millimetre => "mm" });
 
 /// The knots that differ and how often each occurs (STEP's form).
 #[must_use]

@@ -17,5 +17,5 @@ pub use render::{
 };
 pub use report::{backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
-pub(crate) use svg::plot_err;
 pub use svg::CurvePlot;
+pub(crate) use svg::{draw_xy_mesh, plot_err};

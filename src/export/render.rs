@@ -394,17 +394,25 @@ fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, width: i6
     draw_text(canvas, x, top - 12 * scale, "offset", scale, NET);
 }
 
+impl RenderOptions {
+    /// A picture of 16 to 16384 pixels each way with at least one view.
+    fn check(&self) -> Result<()> {
+        if self.width < 16 || self.height < 16 || self.width > 16384 || self.height > 16384 {
+            return Err(Error::invalid(format!(
+                "picture size {} x {} is outside 16 to 16384 pixels each way",
+                self.width, self.height
+            )));
+        }
+        if self.views.is_empty() {
+            return Err(Error::invalid("a picture needs at least one view"));
+        }
+        Ok(())
+    }
+}
+
 /// Draw `grid` (with its control net) in every view of `opts`.
 pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
-    if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
-        return Err(Error::invalid(format!(
-            "picture size {} x {} is outside 16 to 16384 pixels each way",
-            opts.width, opts.height
-        )));
-    }
-    if opts.views.is_empty() {
-        return Err(Error::invalid("a picture needs at least one view"));
-    }
+    opts.check()?;
     let ss = opts.supersample.clamp(1, 4) as usize;
     let (w, h) = (opts.width as usize * ss, opts.height as usize * ss);
     let mesh = SurfaceMesh::from_grid(grid, opts.per_patch.max(1))?;
@@ -612,15 +620,7 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
 /// control net, generated and design points, and up to 3,000 of `opts.cloud` as dots.
 pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<String> {
     use std::fmt::Write as _;
-    if opts.width < 16 || opts.height < 16 || opts.width > 16384 || opts.height > 16384 {
-        return Err(Error::invalid(format!(
-            "picture size {} x {} is outside 16 to 16384 pixels each way",
-            opts.width, opts.height
-        )));
-    }
-    if opts.views.is_empty() {
-        return Err(Error::invalid("a picture needs at least one view"));
-    }
+    opts.check()?;
     let (w, h) = (f64::from(opts.width), f64::from(opts.height));
     let l = grid.layout();
     let (mu, mv) = l.net_shape();

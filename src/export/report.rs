@@ -76,6 +76,22 @@ pub fn backend_label(info: &BackendInfo) -> String {
 }
 
 impl FitInfo {
+    /// The `fit` block of an adaptive search on the CPU: `iterations` (steps or families),
+    /// `evaluations` (candidate fits) and the seconds it took.
+    #[must_use]
+    pub fn of_search(iterations: u64, evaluations: u64, seconds: f64) -> Self {
+        FitInfo {
+            method: "adapt".into(),
+            iterations,
+            evaluations,
+            seconds,
+            backend: "cpu".into(),
+            stages: vec![],
+            evals_per_second: None,
+            stopped: None,
+        }
+    }
+
     /// The `fit` block of a curve fit: the method's effort, and for the evolutionary methods
     /// the backend, the evaluator's throughput and the stages (of a hybrid).
     #[must_use]

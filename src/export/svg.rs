@@ -30,6 +30,23 @@ pub(crate) fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Output(format!("svg plot: {e:?}"))
 }
 
+/// The axes and grid of a shape plot: x and y labelled, the minor lines white.
+pub(crate) fn draw_xy_mesh<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+) -> Result<()> {
+    chart
+        .configure_mesh()
+        .x_desc("x")
+        .y_desc("y")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(plot_err)
+}
+
 impl CurvePlot<'_> {
     /// Render the plot as an SVG document.
     ///
@@ -118,13 +135,7 @@ impl CurvePlot<'_> {
             .y_label_area_size(55)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(plot_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("x")
-            .y_desc("y")
-            .light_line_style(WHITE)
-            .draw()
-            .map_err(plot_err)?;
+        draw_xy_mesh(&mut chart)?;
         let grey = RGBColor(150, 150, 150);
         chart
             .draw_series(DashedLineSeries::new(

@@ -12,10 +12,9 @@ use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
 use crate::closest::FootOptions;
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
 use std::time::Instant;
 
 /// A fitting method.
@@ -41,20 +40,6 @@ pub enum Method {
 }
 
 impl Method {
-    /// The name used on the command line and in reports.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Lsq => "lsq",
-            Method::NelderMead => "nelder-mead",
-            Method::Bfgs => "bfgs",
-            Method::Ga => "ga",
-            Method::Cmaes => "cmaes",
-            Method::GaLsq => "ga+lsq",
-            Method::CmaesLsq => "cmaes+lsq",
-        }
-    }
-
     /// Every method, in the order of the paper's comparison table.
     pub const ALL: [Method; 7] = [
         Method::NelderMead,
@@ -79,29 +64,15 @@ impl Method {
     }
 }
 
-impl fmt::Display for Method {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Method {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "lsq" => Ok(Method::Lsq),
-            "nelder-mead" | "neldermead" | "nm" => Ok(Method::NelderMead),
-            "bfgs" => Ok(Method::Bfgs),
-            "ga" => Ok(Method::Ga),
-            "cmaes" | "cma-es" => Ok(Method::Cmaes),
-            "ga+lsq" => Ok(Method::GaLsq),
-            "cmaes+lsq" | "cma-es+lsq" => Ok(Method::CmaesLsq),
-            _ => Err(Error::invalid(format!(
-                "unknown method '{s}' (expected lsq, nelder-mead, bfgs, ga, cmaes, ga+lsq or cmaes+lsq)"
-            ))),
-        }
-    }
-}
+keywords!(Method, "method", {
+    Lsq => "lsq",
+    NelderMead => "nelder-mead" | "neldermead" | "nm",
+    Bfgs => "bfgs",
+    Ga => "ga",
+    Cmaes => "cmaes" | "cma-es",
+    GaLsq => "ga+lsq",
+    CmaesLsq => "cmaes+lsq" | "cma-es+lsq",
+});
 
 /// Everything `fit_curve` needs besides the data and the layout.
 #[derive(Clone, Debug, PartialEq)]

@@ -6,9 +6,8 @@ use crate::bezier::Vector;
 use crate::chain::{CurveChain, PatchGrid};
 use crate::closest::{Foot, FootOptions};
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
 
 /// How the offset of a data point from the shape is measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -23,27 +22,7 @@ pub enum Metric {
     Corresponding,
 }
 
-impl fmt::Display for Metric {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Metric::Closest => "closest",
-            Metric::Corresponding => "corresponding",
-        })
-    }
-}
-
-impl FromStr for Metric {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "closest" => Ok(Metric::Closest),
-            "corresponding" => Ok(Metric::Corresponding),
-            _ => Err(Error::invalid(format!(
-                "unknown metric '{s}' (expected closest or corresponding)"
-            ))),
-        }
-    }
-}
+keywords!(Metric, "metric", { Closest => "closest", Corresponding => "corresponding" });
 
 /// Summary of the offsets `e_j` of `n` data points from a shape.
 #[derive(Clone, Copy, Debug, PartialEq)]

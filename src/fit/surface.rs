@@ -20,10 +20,10 @@ use super::problem::GridProblem;
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
+use crate::keyword::keywords;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::fmt;
 use std::str::FromStr;
 use std::time::Instant;
 
@@ -46,18 +46,6 @@ pub enum SurfaceMethod {
 }
 
 impl SurfaceMethod {
-    /// The name used on the command line and in reports.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            SurfaceMethod::Lsq => "lsq",
-            SurfaceMethod::Ga => "ga",
-            SurfaceMethod::Cmaes => "cmaes",
-            SurfaceMethod::GaLsq => "ga+lsq",
-            SurfaceMethod::CmaesLsq => "cmaes+lsq",
-        }
-    }
-
     /// The evolutionary algorithm and whether least squares polishes its result; `None` for
     /// least squares.
     #[must_use]
@@ -72,28 +60,26 @@ impl SurfaceMethod {
     }
 }
 
-impl fmt::Display for SurfaceMethod {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+keywords!(SurfaceMethod, "method", {
+    Lsq => "lsq",
+    Ga => "ga",
+    Cmaes => "cmaes" | "cma-es",
+    GaLsq => "ga+lsq",
+    CmaesLsq => "cmaes+lsq" | "cma-es+lsq",
+}, parse = manual);
 
 impl FromStr for SurfaceMethod {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "lsq" => Ok(SurfaceMethod::Lsq),
-            "ga" => Ok(SurfaceMethod::Ga),
-            "cmaes" => Ok(SurfaceMethod::Cmaes),
-            "ga+lsq" => Ok(SurfaceMethod::GaLsq),
-            "cmaes+lsq" => Ok(SurfaceMethod::CmaesLsq),
-            "nelder-mead" | "bfgs" => Err(Error::invalid(format!(
+        if matches!(
+            s.parse::<super::Method>(),
+            Ok(super::Method::NelderMead | super::Method::Bfgs)
+        ) {
+            return Err(Error::invalid(format!(
                 "method '{s}' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
-            ))),
-            _ => Err(Error::invalid(format!(
-                "unknown method '{s}' (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
-            ))),
+            )));
         }
+        crate::keyword::parse(s, "method", Self::KEYWORDS)
     }
 }
 
@@ -227,31 +213,7 @@ pub enum ParamSource {
     Blade,
 }
 
-impl ParamSource {
-    /// The name used on the command line and in reports.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            ParamSource::Auto => "auto",
-            ParamSource::Sections => "sections",
-            ParamSource::Blade => "blade",
-        }
-    }
-}
-
-impl FromStr for ParamSource {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "auto" => Ok(ParamSource::Auto),
-            "sections" => Ok(ParamSource::Sections),
-            "blade" => Ok(ParamSource::Blade),
-            _ => Err(Error::invalid(format!(
-                "unknown parameterisation '{s}' (expected auto, sections or blade)"
-            ))),
-        }
-    }
-}
+keywords!(ParamSource, "parameterisation", { Auto => "auto", Sections => "sections", Blade => "blade" });
 
 /// Everything [`fit_surface`] needs besides the data and the layout.
 #[derive(Clone, Debug, PartialEq)]

@@ -591,17 +591,25 @@ fn edge(work: &[Lanes], n: usize, l: usize) -> std::result::Result<Edge, AeroRes
     })
 }
 
-/// The kernel on block `block`: `out` holds its results (up to [`LANES`]), `work` the block's
+/// One block's task: the kernel and its configuration, the population, and which block of
+/// [`LANES`] individuals.
+struct Block<'a> {
+    kernel: &'a AeroKernel,
+    config: &'a AeroConfig,
+    population: &'a [f32],
+    index: usize,
+}
+
+/// The kernel on one block: `out` holds its results (up to [`LANES`]), `work` the block's
 /// working set (`kernel.work_words()` elements).
 #[inline(always)]
-fn aero_block(
-    kernel: &AeroKernel,
-    config: &AeroConfig,
-    population: &[f32],
-    block: usize,
-    work: &mut [Lanes],
-    out: &mut [AeroResult],
-) {
+fn aero_block(task: &Block<'_>, work: &mut [Lanes], out: &mut [AeroResult]) {
+    let Block {
+        kernel,
+        config,
+        population,
+        index: block,
+    } = *task;
     let n = config.n_nodes as usize;
     let nv = config.n_vars as usize;
     let lay = Layout { n };
@@ -946,34 +954,19 @@ fn finish_lane(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn aero_avx2(
-    kernel: &AeroKernel,
-    config: &AeroConfig,
-    population: &[f32],
-    block: usize,
-    work: &mut [Lanes],
-    out: &mut [AeroResult],
-) {
-    aero_block(kernel, config, population, block, work, out);
+fn aero_avx2(task: &Block<'_>, work: &mut [Lanes], out: &mut [AeroResult]) {
+    aero_block(task, work, out);
 }
 
-/// Run block `block` on the kernels `simd` names.
-fn run_block(
-    simd: Simd,
-    kernel: &AeroKernel,
-    config: &AeroConfig,
-    population: &[f32],
-    block: usize,
-    work: &mut [Lanes],
-    out: &mut [AeroResult],
-) {
+/// Run one block on the kernels `simd` names.
+fn run_block(simd: Simd, task: &Block<'_>, work: &mut [Lanes], out: &mut [AeroResult]) {
     match simd {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `Simd::Avx2` and `Simd::Avx512` are only produced by `Simd::detect` after it
         // has seen AVX2 and FMA on this CPU, which is all this function requires (the panel
         // kernel has no AVX-512 form of its own; it runs its AVX2 form there).
-        Simd::Avx2 | Simd::Avx512 => unsafe { aero_avx2(kernel, config, population, block, work, out) },
-        _ => aero_block(kernel, config, population, block, work, out),
+        Simd::Avx2 | Simd::Avx512 => unsafe { aero_avx2(task, work, out) },
+        _ => aero_block(task, work, out),
     }
 }
 
@@ -1039,7 +1032,15 @@ impl AeroEvaluator for CpuAero {
         let (kernel, simd) = (&self.kernel, self.simd);
         out.par_chunks_mut(LANES).enumerate().for_each_init(
             || vec![[0.0f32; LANES]; words],
-            |work, (block, chunk)| run_block(simd, kernel, &config, population, block, work, chunk),
+            |work, (index, chunk)| {
+                let task = Block {
+                    kernel,
+                    config: &config,
+                    population,
+                    index,
+                };
+                run_block(simd, &task, work, chunk)
+            },
         );
         Ok(())
     }

@@ -12,15 +12,22 @@ pub(crate) fn bernstein<A: Arith>(n: usize, t: f32) -> [f32; NB] {
     out[0] = 1.0;
     let s = 1.0 - t;
     for j in 1..n + 1 {
-        let mut saved = 0.0f32;
-        for k in 0..j {
-            let tmp = out[k];
-            out[k] = A::fma(s, tmp, saved);
-            saved = t * tmp;
-        }
-        out[j] = saved;
+        raise::<A>(&mut out, j, t, s);
     }
     out
+}
+
+/// One step of the Bernstein recurrence: the degree `j - 1` values in `level[..j]` become the
+/// degree `j` values in `level[..=j]` (`s = 1 - t`).
+#[inline(always)]
+fn raise<A: Arith>(level: &mut [f32; NB], j: usize, t: f32, s: f32) {
+    let mut saved = 0.0f32;
+    for k in 0..j {
+        let tmp = level[k];
+        level[k] = A::fma(s, tmp, saved);
+        saved = t * tmp;
+    }
+    level[j] = saved;
 }
 
 /// `Basis`: Bernstein values with first and second derivatives at one parameter.
@@ -49,13 +56,7 @@ pub(crate) fn basis<A: Arith>(n: usize, t: f32) -> Basis {
         if j == n {
             low1 = lvl;
         }
-        let mut saved = 0.0f32;
-        for k in 0..j {
-            let tmp = lvl[k];
-            lvl[k] = A::fma(s, tmp, saved);
-            saved = t * tmp;
-        }
-        lvl[j] = saved;
+        raise::<A>(&mut lvl, j, t, s);
     }
     let mut out = Basis {
         b: lvl,
@@ -83,21 +84,28 @@ pub(crate) fn bernstein_lanes<A: Arith>(n: usize, t: &Lanes) -> [Lanes; NB] {
     out[0] = [1.0; LANES];
     let s = t.map(|x| 1.0 - x);
     for j in 1..n + 1 {
-        let mut saved = [0.0f32; LANES];
-        for k in 0..j {
-            for l in 0..LANES {
-                let tmp = out[k][l];
-                out[k][l] = A::fma(s[l], tmp, saved[l]);
-                saved[l] = t[l] * tmp;
-            }
-        }
-        out[j] = saved;
+        raise_lanes::<A>(&mut out, j, t, &s);
     }
     out
 }
 
+/// One step of the Bernstein recurrence per lane: the degree `j - 1` values in `level[..j]`
+/// become the degree `j` values in `level[..=j]` (`s = 1 - t`).
+#[inline(always)]
+fn raise_lanes<A: Arith>(level: &mut [Lanes; NB], j: usize, t: &Lanes, s: &Lanes) {
+    let mut saved = [0.0f32; LANES];
+    for k in 0..j {
+        for l in 0..LANES {
+            let tmp = level[k][l];
+            level[k][l] = A::fma(s[l], tmp, saved[l]);
+            saved[l] = t[l] * tmp;
+        }
+    }
+    level[j] = saved;
+}
+
 /// `Basis` per lane.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub(crate) struct LaneBasis {
     /// Values.
     pub b: [Lanes; NB],
@@ -107,34 +115,14 @@ pub(crate) struct LaneBasis {
     pub d2: [Lanes; NB],
 }
 
-impl Default for LaneBasis {
-    fn default() -> Self {
-        LaneBasis {
-            b: [[0.0; LANES]; NB],
-            d1: [[0.0; LANES]; NB],
-            d2: [[0.0; LANES]; NB],
-        }
-    }
-}
-
 /// The function-scope arrays of `basis` (`lvl`, `low1`, `low2`), kept by the caller so that
 /// a call neither clears nor copies them whole: only the entries `0..=n` a degree-n basis
 /// uses are written, and read after being written.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub(crate) struct BasisWork {
     lvl: [Lanes; NB],
     low1: [Lanes; NB],
     low2: [Lanes; NB],
-}
-
-impl Default for BasisWork {
-    fn default() -> Self {
-        BasisWork {
-            lvl: [[0.0; LANES]; NB],
-            low1: [[0.0; LANES]; NB],
-            low2: [[0.0; LANES]; NB],
-        }
-    }
 }
 
 /// `basis` with per-lane t, into `out[..=n]`.
@@ -156,15 +144,7 @@ pub(crate) fn basis_lanes<A: Arith>(n: usize, t: &Lanes, work: &mut BasisWork, o
         if j == n {
             low1[..=n].copy_from_slice(&lvl[..=n]);
         }
-        let mut saved = [0.0f32; LANES];
-        for k in 0..j {
-            for l in 0..LANES {
-                let tmp = lvl[k][l];
-                lvl[k][l] = A::fma(s[l], tmp, saved[l]);
-                saved[l] = t[l] * tmp;
-            }
-        }
-        lvl[j] = saved;
+        raise_lanes::<A>(lvl, j, t, &s);
     }
     out.b[..=n].copy_from_slice(&lvl[..=n]);
     let nf = n as f32;

@@ -71,37 +71,32 @@ pub(crate) struct Bindings<'a> {
     pub jets: &'a [RefJet],
 }
 
+/// The control points of patch `patch`: `(slot in the patch, row of the net)` for each, in
+/// the shader's `load_patch` order.
+#[inline(always)]
+fn patch_rows(config: &Config, patch: u32) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let (du, dv) = (config.degree_u as usize, config.degree_v as usize);
+    (0..du + 1)
+        .flat_map(move |a| (0..dv + 1).map(move |b| (a * (dv + 1) + b, net_index(config, patch, a, b))))
+}
+
 /// `load_patch` for every lane at once (the start of a run, where all lanes agree).
 #[inline(always)]
 fn load_patch(config: &Config, net: &[Lanes], patch: u32, cp: &mut [Point], held: &mut [u32; LANES]) {
     *held = [patch; LANES];
-    let (du, dv, dim) = (
-        config.degree_u as usize,
-        config.degree_v as usize,
-        config.dim as usize,
-    );
-    for a in 0..du + 1 {
-        for b in 0..dv + 1 {
-            let r = net_index(config, patch, a, b);
-            cp[a * (dv + 1) + b][..dim].copy_from_slice(&net[r * dim..(r + 1) * dim]);
-        }
+    let dim = config.dim as usize;
+    for (slot, r) in patch_rows(config, patch) {
+        cp[slot][..dim].copy_from_slice(&net[r * dim..(r + 1) * dim]);
     }
 }
 
 /// `load_patch` for one lane (Newton steps crossing borders, where lanes part ways).
 #[inline(always)]
 fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: &mut [Point]) {
-    let (du, dv, dim) = (
-        config.degree_u as usize,
-        config.degree_v as usize,
-        config.dim as usize,
-    );
-    for a in 0..du + 1 {
-        for b in 0..dv + 1 {
-            let r = net_index(config, patch, a, b);
-            for c in 0..dim {
-                cp[a * (dv + 1) + b][c][lane] = net[r * dim + c][lane];
-            }
+    let dim = config.dim as usize;
+    for (slot, r) in patch_rows(config, patch) {
+        for c in 0..dim {
+            cp[slot][c][lane] = net[r * dim + c][lane];
         }
     }
 }

@@ -29,7 +29,7 @@ pub(crate) mod reduce;
 
 use self::eval_patch::{Bindings, NewtonWork};
 use super::kernel::{point_groups, Config, Gene, Partial, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -377,6 +377,16 @@ impl CpuEvaluator {
     }
 }
 
+impl HoldsProblem for CpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+}
+
 impl PopulationEvaluator for CpuEvaluator {
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
         self.run(population, out)
@@ -386,31 +396,7 @@ impl PopulationEvaluator for CpuEvaluator {
         self.run(population, out)
     }
 
-    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
-        self.problem.set_params(params)
-    }
-
-    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
-        self.problem.set_reference(design)
-    }
-
-    fn set_newton(&mut self, newton: u32) {
-        self.problem.newton = newton;
-    }
-
-    fn resolution(&self, sum_sq: f64) -> f64 {
-        self.problem.resolution(sum_sq)
-    }
-
     fn info(&self) -> &BackendInfo {
         &self.info
-    }
-
-    fn design_variables(&self) -> usize {
-        self.problem.n_vars
-    }
-
-    fn points(&self) -> usize {
-        self.problem.n_points()
     }
 }

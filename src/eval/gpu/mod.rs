@@ -4,7 +4,7 @@
 //! device limits into chunks.
 
 use super::kernel::{point_groups, Gene, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
 use crate::error::{Error, Result};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -442,6 +442,54 @@ impl GpuContext {
     }
 }
 
+/// The `expand` stage on the GPU (design rows to control nets through the extraction map):
+/// its pipeline and the map's buffers, built once per layout. Population evaluation and dense
+/// sampling both start with it.
+#[derive(Debug)]
+pub(crate) struct Expand {
+    pipeline: wgpu::ComputePipeline,
+    map_start: wgpu::Buffer,
+    map_entries: wgpu::Buffer,
+}
+
+impl Expand {
+    /// The stage for `problem`'s layout.
+    pub(crate) fn new(ctx: &GpuContext, problem: &Problem) -> Result<Self> {
+        let dim = [("DIM", problem.dim as u32)];
+        Ok(Expand {
+            pipeline: ctx.pipeline("expand", &prepare(source::EXPAND, &dim)?)?,
+            map_start: ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), STORAGE),
+            map_entries: ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), STORAGE),
+        })
+    }
+
+    /// Its bind group: the shared `config`, the design rows in, the nets out.
+    pub(crate) fn bind(
+        &self,
+        ctx: &GpuContext,
+        config: &wgpu::Buffer,
+        rows: &wgpu::Buffer,
+        nets: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        ctx.bind(
+            &self.pipeline,
+            &[config, &self.map_start, &self.map_entries, rows, nets],
+        )
+    }
+
+    /// Record the stage for `individuals` rows into `pass`.
+    pub(crate) fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        bind: &wgpu::BindGroup,
+        individuals: usize,
+    ) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(individuals.div_ceil(WORKGROUP) as u32, 1, 1);
+    }
+}
+
 /// Buffers sized for a number of individuals per chunk and of point groups, with their bind
 /// groups; rebuilt only when a larger population arrives.
 #[derive(Debug)]
@@ -463,15 +511,13 @@ pub struct GpuEvaluator {
     ctx: GpuContext,
     problem: Problem,
     options: GpuOptions,
-    expand: wgpu::ComputePipeline,
+    expand: Expand,
     eval: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
     config: wgpu::Buffer,
     /// The targets and the reference's partials there, interleaved (see [`point_data`]).
     points: wgpu::Buffer,
     breaks: wgpu::Buffer,
-    map_start: wgpu::Buffer,
-    map_entries: wgpu::Buffer,
     work: Option<Work>,
     /// One chunk's rows as differences from the reference, for upload.
     rows: Vec<f32>,
@@ -531,7 +577,7 @@ impl GpuEvaluator {
             ("CROSS", u32::from(problem.cross)),
             ("PER", per),
         ];
-        let expand = ctx.pipeline("expand", &prepare(source::EXPAND, &consts[..1])?)?;
+        let expand = Expand::new(ctx, &problem)?;
         let eval_src = prepare_with(source::EVAL_PATCH, &consts, &includes)?;
         let eval = ctx.pipeline("eval_patch", &eval_src)?;
         let reduce = ctx.pipeline("reduce", &prepare(source::REDUCE, &[])?)?;
@@ -543,8 +589,6 @@ impl GpuEvaluator {
         let data = point_data(&problem);
         let points = ctx.buffer_init("points", bytemuck::cast_slice(&data), STORAGE);
         let breaks = ctx.buffer_init("breaks", bytemuck::cast_slice(&problem.breaks), STORAGE);
-        let map_start = ctx.buffer_init("map_start", bytemuck::cast_slice(&problem.map_start), STORAGE);
-        let map_entries = ctx.buffer_init("map_entries", bytemuck::cast_slice(&problem.map_entries), STORAGE);
         let limit = ctx.limits().max_storage_buffer_binding_size;
         if std::mem::size_of_val(&data[..]) as u64 > limit {
             return Err(Error::invalid(format!(
@@ -568,8 +612,6 @@ impl GpuEvaluator {
             config,
             points,
             breaks,
-            map_start,
-            map_entries,
             work: None,
             rows: Vec::new(),
             info,
@@ -627,16 +669,7 @@ impl GpuEvaluator {
             wgpu::BufferUsages::STORAGE,
         );
         let (fitness, staging) = ctx.read_back("fitness", (individuals * 8) as u64);
-        let bind_expand = ctx.bind(
-            &self.expand,
-            &[
-                &self.config,
-                &self.map_start,
-                &self.map_entries,
-                &population,
-                &net,
-            ],
-        );
+        let bind_expand = self.expand.bind(ctx, &self.config, &population, &net);
         let bind_eval = ctx.bind(
             &self.eval,
             &[&self.config, &self.points, &self.breaks, &net, &partials],
@@ -683,9 +716,7 @@ impl GpuEvaluator {
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 let workgroups = len.div_ceil(WORKGROUP) as u32;
-                pass.set_pipeline(&self.expand);
-                pass.set_bind_group(0, &work.bind_expand, &[]);
-                pass.dispatch_workgroups(workgroups, 1, 1);
+                self.expand.dispatch(&mut pass, &work.bind_expand, len);
                 pass.set_pipeline(&self.eval);
                 pass.set_bind_group(0, &work.bind_eval, &[]);
                 pass.dispatch_workgroups(workgroups, groups.1 as u32, 1);
@@ -709,6 +740,20 @@ impl GpuEvaluator {
     }
 }
 
+impl HoldsProblem for GpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+
+    fn problem_changed(&mut self) {
+        self.upload_targets();
+    }
+}
+
 impl PopulationEvaluator for GpuEvaluator {
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
         self.run(population, out)
@@ -718,38 +763,8 @@ impl PopulationEvaluator for GpuEvaluator {
         self.run(population, out)
     }
 
-    fn set_params(&mut self, params: &[[f64; 2]]) -> Result<()> {
-        self.problem.set_params(params)?;
-        self.upload_targets();
-        Ok(())
-    }
-
-    fn set_reference(&mut self, design: &[f64]) -> Result<()> {
-        self.problem.set_reference(design)?;
-        self.upload_targets();
-        Ok(())
-    }
-
-    fn set_newton(&mut self, newton: u32) {
-        // The kernel keeps the individuals per invocation chosen for the steps it was built
-        // with: they change its speed, not its results.
-        self.problem.newton = newton;
-    }
-
-    fn resolution(&self, sum_sq: f64) -> f64 {
-        self.problem.resolution(sum_sq)
-    }
-
     fn info(&self) -> &BackendInfo {
         &self.info
-    }
-
-    fn design_variables(&self) -> usize {
-        self.problem.n_vars
-    }
-
-    fn points(&self) -> usize {
-        self.problem.n_points()
     }
 }
 

@@ -38,10 +38,10 @@ use super::shape::Shape;
 use crate::chain::{GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo, GpuOptions};
+use crate::keyword::keywords;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::fmt;
-use std::str::FromStr;
 use std::time::Instant;
 
 /// An evolutionary method.
@@ -53,35 +53,7 @@ pub enum Algorithm {
     Cmaes,
 }
 
-impl Algorithm {
-    /// The name used on the command line and in reports.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Algorithm::Ga => "ga",
-            Algorithm::Cmaes => "cmaes",
-        }
-    }
-}
-
-impl fmt::Display for Algorithm {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Algorithm {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "ga" => Ok(Algorithm::Ga),
-            "cmaes" | "cma-es" => Ok(Algorithm::Cmaes),
-            _ => Err(Error::invalid(format!(
-                "unknown evolutionary method '{s}' (expected ga or cmaes)"
-            ))),
-        }
-    }
-}
+keywords!(Algorithm, "evolutionary method", { Ga => "ga", Cmaes => "cmaes" | "cma-es" });
 
 /// Options of the evolutionary methods.
 #[derive(Clone, Debug, PartialEq)]

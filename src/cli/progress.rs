@@ -1,0 +1,101 @@
+//! Progress of a run that counts generations (`fit`, `fit-surface` and `compare` with an
+//! evolutionary method, `optimise`): a bar on a terminal, a line every few seconds when the
+//! standard error is a file or a pipe (CI logs), nothing with `--quiet`.
+
+use super::output::{Output, Outputs};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+/// Seconds between plain progress lines.
+const LINE_EVERY: Duration = Duration::from_secs(5);
+
+/// The generation counter on the terminal.
+pub struct Generations {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+    plain: bool,
+    last_line: Instant,
+}
+
+impl Generations {
+    /// Quiet: shows nothing. Otherwise plain lines when standard error is not a terminal,
+    /// and a bar (once [`Generations::start`] is called) when it is.
+    pub fn new(quiet: bool) -> Self {
+        Generations {
+            bar: None,
+            quiet,
+            plain: !quiet && !std::io::stderr().is_terminal(),
+            last_line: Instant::now(),
+        }
+    }
+
+    /// Show the bar of a run called `name`, at generation `at` of `total` (a terminal only).
+    pub fn start(&mut self, name: &str, at: u64, total: u64) {
+        if self.quiet || self.plain {
+            return;
+        }
+        let bar = ProgressBar::new(total);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} gen {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(name.to_string());
+        bar.set_position(at);
+        bar.enable_steady_tick(Duration::from_millis(250));
+        self.bar = Some(bar);
+    }
+
+    /// Generation `generation` of `total` of the run `name` is done; `msg` says how it stands.
+    pub fn show(&mut self, name: &str, generation: u64, total: u64, msg: String) {
+        if let Some(bar) = &self.bar {
+            if bar.length() != Some(total) {
+                bar.set_length(total);
+            }
+            bar.set_position(generation);
+            bar.set_message(msg);
+        } else if self.plain && (self.last_line.elapsed() >= LINE_EVERY || generation == 1) {
+            eprintln!("{name} generation {generation}/{total}: {msg}");
+            self.last_line = Instant::now();
+        }
+    }
+
+    /// Clear the bar.
+    pub fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// A run's checkpoint file: replaced every `every` generations and when the run stops (and put
+/// back as it was if the run fails, as every interim output is).
+pub struct Checkpoints {
+    output: Option<Output>,
+    every: u64,
+}
+
+impl Checkpoints {
+    /// `output` (none: no checkpoints), every `every` generations (at least 1).
+    pub fn new(output: Option<Output>, every: u64) -> Self {
+        Checkpoints {
+            output,
+            every: every.max(1),
+        }
+    }
+
+    /// After generation `generation`: write `bytes()` when a checkpoint is due or the run
+    /// `stopped`.
+    pub fn after(
+        &self,
+        outs: &mut Outputs,
+        generation: u64,
+        stopped: bool,
+        bytes: impl FnOnce() -> Vec<u8>,
+    ) -> bezchain::Result<()> {
+        match self.output {
+            Some(o) if stopped || generation.is_multiple_of(self.every) => outs.interim(o, &bytes()),
+            _ => Ok(()),
+        }
+    }
+}
