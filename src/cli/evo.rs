@@ -50,6 +50,13 @@ pub struct EvoArgs {
     /// GA: individuals per tournament [default: 8].
     #[arg(long)]
     pub tournament: Option<usize>,
+    /// GA: probability that a child takes the covariance step (a normal step with the
+    /// covariance of the population's best) instead of polynomial mutation [default: 0.8].
+    #[arg(long, allow_negative_numbers = true)]
+    pub covariance_rate: Option<f64>,
+    /// GA: fraction of the population, its best, whose covariance that step has [default: 0.1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub covariance_pool: Option<f64>,
     /// Write one line per generation here: generation,best,mean,evaluations,seconds.
     #[arg(long)]
     pub history: Option<PathBuf>,
@@ -129,6 +136,8 @@ impl EvoArgs {
         add(self.crossover_rate.is_some(), "--crossover-rate");
         add(self.mutation_rate.is_some(), "--mutation-rate");
         add(self.tournament.is_some(), "--tournament");
+        add(self.covariance_rate.is_some(), "--covariance-rate");
+        add(self.covariance_pool.is_some(), "--covariance-pool");
         add(self.history.is_some(), "--history");
         add(self.checkpoint.is_some(), "--checkpoint");
         add(self.checkpoint_every.is_some(), "--checkpoint-every");
@@ -192,6 +201,12 @@ impl EvoArgs {
         }
         if let Some(t) = self.tournament {
             o.ga.tournament = t;
+        }
+        if let Some(r) = self.covariance_rate {
+            o.ga.covariance_rate = r;
+        }
+        if let Some(p) = self.covariance_pool {
+            o.ga.covariance_pool = p;
         }
         if self.checkpoint_every == Some(0) {
             return Err(usage("--checkpoint-every must be at least 1"));
