@@ -1022,24 +1022,42 @@ mod tests {
     use super::*;
     use std::sync::{Arc, Mutex};
 
-    /// A sum of squares about `(0.3, …)` whose scorer records the designs it is centred on.
-    struct Bowl {
+    /// A test objective: `value` of the design in f64, between `bounds`, from `start`; its
+    /// scorer records the designs it is centred on.
+    struct Quadratic {
         start: Vec<f64>,
         bounds: Vec<[f64; 2]>,
+        value: fn(&[f64]) -> f64,
         centres: Arc<Mutex<Vec<Vec<f64>>>>,
     }
 
-    struct BowlScorer {
+    impl Quadratic {
+        fn new(value: fn(&[f64]) -> f64, start: Vec<f64>) -> Self {
+            let n = start.len();
+            Quadratic {
+                start,
+                bounds: vec![[-1.0, 1.0]; n],
+                value,
+                centres: Arc::default(),
+            }
+        }
+    }
+
+    struct QuadraticScorer {
+        value: fn(&[f64]) -> f64,
         centres: Arc<Mutex<Vec<Vec<f64>>>>,
         info: BackendInfo,
     }
 
-    impl Scorer for BowlScorer {
+    impl Scorer for QuadraticScorer {
         fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
             let n = population.len() / scores.len();
             for (row, s) in population.chunks_exact(n).zip(scores.iter_mut()) {
-                let sum_sq = row.iter().map(|&x| (f64::from(x) - 0.3).powi(2)).sum();
-                *s = Score { sum_sq, max: 0.0 };
+                let x: Vec<f64> = row.iter().map(|&v| f64::from(v)).collect();
+                *s = Score {
+                    sum_sq: (self.value)(&x),
+                    max: 0.0,
+                };
             }
             Ok(())
         }
@@ -1058,7 +1076,7 @@ mod tests {
         }
     }
 
-    impl PopulationObjective for Bowl {
+    impl PopulationObjective for Quadratic {
         fn dim(&self) -> usize {
             self.start.len()
         }
@@ -1067,9 +1085,6 @@ mod tests {
         }
         fn bounds(&self) -> &[[f64; 2]] {
             &self.bounds
-        }
-        fn absolute(&self, x: &[f64]) -> Vec<f64> {
-            x.to_vec()
         }
         fn extent(&self) -> f64 {
             1.0
@@ -1082,7 +1097,8 @@ mod tests {
             _state: Option<Vec<[f64; 2]>>,
             _options: &EvoOptions,
         ) -> Result<Box<dyn Scorer + 's>> {
-            Ok(Box::new(BowlScorer {
+            Ok(Box::new(QuadraticScorer {
+                value: self.value,
                 centres: Arc::clone(&self.centres),
                 info: BackendInfo {
                     backend: Backend::Cpu,
@@ -1092,8 +1108,13 @@ mod tests {
             }))
         }
         fn measure(&self, design: &[f64], _options: &EvoOptions) -> Result<f64> {
-            Ok(design.iter().map(|x| (x - 0.3).powi(2)).sum())
+            Ok((self.value)(design))
         }
+    }
+
+    /// A sum of squares about `(0.3, …)`.
+    fn bowl(x: &[f64]) -> f64 {
+        x.iter().map(|x| (x - 0.3).powi(2)).sum()
     }
 
     /// Issue 11: CMA-ES re-anchors its scorer at its mean, around which each generation is
@@ -1101,11 +1122,7 @@ mod tests {
     /// at its best design, an elite of the population.
     #[test]
     fn the_scorer_is_centred_where_the_generation_lies() {
-        let bowl = Bowl {
-            start: vec![0.0; 4],
-            bounds: vec![[-1.0, 1.0]; 4],
-            centres: Arc::default(),
-        };
+        let bowl = Quadratic::new(bowl, vec![0.0; 4]);
         let options = EvoOptions {
             population: Some(16),
             generations: Some(5),
@@ -1133,84 +1150,18 @@ mod tests {
 
     /// A badly conditioned quadratic in rotated coordinates: `Σ_i 10^(4i/(n-1)) (q_iᵀ x)²`
     /// over the rows `q_i` of a rotation (a Householder reflection), minimum 0 at the origin.
-    struct Valley {
-        start: Vec<f64>,
-        bounds: Vec<[f64; 2]>,
-        info: BackendInfo,
-    }
-
-    impl Valley {
-        fn value(x: &[f64]) -> f64 {
-            let n = x.len();
-            // Reflection about the unit vector v ∝ (1, 2, …, n): q_i = e_i - 2 v_i v.
-            let norm = (1..=n).map(|k| (k * k) as f64).sum::<f64>().sqrt();
-            let v: Vec<f64> = (1..=n).map(|k| k as f64 / norm).collect();
-            let vx: f64 = v.iter().zip(x).map(|(a, b)| a * b).sum();
-            (0..n)
-                .map(|i| {
-                    let qx = x[i] - 2.0 * v[i] * vx;
-                    10f64.powf(4.0 * i as f64 / (n - 1) as f64) * qx * qx
-                })
-                .sum()
-        }
-    }
-
-    impl Scorer for Valley {
-        fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
-            let n = population.len() / scores.len();
-            for (row, s) in population.chunks_exact(n).zip(scores.iter_mut()) {
-                let x: Vec<f64> = row.iter().map(|&v| f64::from(v)).collect();
-                *s = Score {
-                    sum_sq: Valley::value(&x),
-                    max: 0.0,
-                };
-            }
-            Ok(())
-        }
-        fn recentre(&mut self, _generation: u64, _centre: &[f64]) -> Result<()> {
-            Ok(())
-        }
-        fn state(&self) -> Vec<[f64; 2]> {
-            Vec::new()
-        }
-        fn info(&self) -> &BackendInfo {
-            &self.info
-        }
-        fn work(&self) -> usize {
-            1
-        }
-    }
-
-    impl PopulationObjective for Valley {
-        fn dim(&self) -> usize {
-            self.start.len()
-        }
-        fn start(&self) -> &[f64] {
-            &self.start
-        }
-        fn bounds(&self) -> &[[f64; 2]] {
-            &self.bounds
-        }
-        fn extent(&self) -> f64 {
-            1.0
-        }
-        fn fingerprint(&self) -> u64 {
-            1
-        }
-        fn scorer<'s>(
-            &'s self,
-            _state: Option<Vec<[f64; 2]>>,
-            _options: &EvoOptions,
-        ) -> Result<Box<dyn Scorer + 's>> {
-            Ok(Box::new(Valley {
-                start: self.start.clone(),
-                bounds: self.bounds.clone(),
-                info: self.info.clone(),
-            }))
-        }
-        fn measure(&self, design: &[f64], _options: &EvoOptions) -> Result<f64> {
-            Ok(Valley::value(design))
-        }
+    fn valley(x: &[f64]) -> f64 {
+        let n = x.len();
+        // Reflection about the unit vector v ∝ (1, 2, …, n): q_i = e_i - 2 v_i v.
+        let norm = (1..=n).map(|k| (k * k) as f64).sum::<f64>().sqrt();
+        let v: Vec<f64> = (1..=n).map(|k| k as f64 / norm).collect();
+        let vx: f64 = v.iter().zip(x).map(|(a, b)| a * b).sum();
+        (0..n)
+            .map(|i| {
+                let qx = x[i] - 2.0 * v[i] * vx;
+                10f64.powf(4.0 * i as f64 / (n - 1) as f64) * qx * qx
+            })
+            .sum()
     }
 
     /// The GA's covariance mutation follows a rotated valley of condition 1e4 that steps along
@@ -1219,16 +1170,7 @@ mod tests {
     /// gives the same run.
     #[test]
     fn the_covariance_mutation_follows_a_rotated_valley() {
-        let n = 10;
-        let valley = Valley {
-            start: vec![0.3; n],
-            bounds: vec![[-1.0, 1.0]; n],
-            info: BackendInfo {
-                backend: Backend::Cpu,
-                adapter: "test".into(),
-                fallback: None,
-            },
-        };
+        let valley = Quadratic::new(valley, vec![0.3; 10]);
         let run = |covariance_rate: f64| {
             let options = EvoOptions {
                 population: Some(256),
