@@ -558,12 +558,8 @@ impl<'a> Search<'a> {
         let Some(model) = fam.model(fam.degree, fam.initial_breaks()) else {
             return out;
         };
-        if self.over_limit(fam, &model) {
-            out.stop = Stop::Limit;
-            return out;
-        }
-        if fam.count(&model.layout) >= self.bound.load(Ordering::Relaxed) {
-            out.stop = Stop::Pruned;
+        if let Some(stop) = self.refused(fam, &model) {
+            out.stop = stop;
             return out;
         }
         let Some(cand) = self.initial(fam, model) else {
@@ -572,9 +568,18 @@ impl<'a> Search<'a> {
         self.grow_from(cand, out, usize::MAX)
     }
 
-    /// True when `model` has more design points or stored scalars than the data allow.
-    fn over_limit(&self, fam: Family, model: &Model) -> bool {
-        model.layout.design_count() > self.limit || fam.count(&model.layout) > self.scalar_limit
+    /// Why `model` is not fitted, if it is not: more design points or stored scalars than the
+    /// data allow ([`Stop::Limit`]), or no fewer stored scalars than the best layout found so
+    /// far ([`Stop::Pruned`]).
+    fn refused(&self, fam: Family, model: &Model) -> Option<Stop> {
+        let count = fam.count(&model.layout);
+        if model.layout.design_count() > self.limit || count > self.scalar_limit {
+            Some(Stop::Limit)
+        } else if count >= self.bound.load(Ordering::Relaxed) {
+            Some(Stop::Pruned)
+        } else {
+            None
+        }
     }
 
     /// The first fit of a family. Its layout (one segment, or one per aerofoil surface) has no
@@ -638,12 +643,8 @@ impl<'a> Search<'a> {
                 out.stop = Stop::Limit;
                 return out;
             };
-            if self.over_limit(fam, &model) {
-                out.stop = Stop::Limit;
-                return out;
-            }
-            if fam.count(&model.layout) >= self.bound.load(Ordering::Relaxed) {
-                out.stop = Stop::Pruned;
+            if let Some(stop) = self.refused(fam, &model) {
+                out.stop = stop;
                 return out;
             }
             match self.fit(fam, model, z, cand.state.params.clone(), &GROW) {
