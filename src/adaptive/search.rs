@@ -514,16 +514,7 @@ impl<'a> Search<'a> {
             params,
             &GROW,
         )?;
-        let out = Outcome {
-            fam: cand.fam,
-            steps: 0,
-            fits: 0,
-            seconds: 0.0,
-            met: None,
-            closest: None,
-            stop: Stop::Failed,
-        };
-        let out = self.grow_from(c, out, max_steps);
+        let out = self.grow_from(c, Outcome::failed(cand.fam), max_steps);
         match (out.met, out.closest) {
             (Some(m), _) => Some((m, true)),
             (None, Some(c)) => Some((c, false)),
@@ -546,15 +537,7 @@ impl<'a> Search<'a> {
     /// Grow one family until it meets the tolerance, cannot beat the bound, reaches the
     /// limit or stalls; then reduce.
     fn run_family(&self, fam: Family) -> Outcome {
-        let mut out = Outcome {
-            fam,
-            steps: 0,
-            fits: 0,
-            seconds: 0.0,
-            met: None,
-            closest: None,
-            stop: Stop::Failed,
-        };
+        let mut out = Outcome::failed(fam);
         let Some(model) = fam.model(fam.degree, fam.initial_breaks()) else {
             return out;
         };
@@ -927,4 +910,19 @@ struct Outcome {
     met: Option<Cand>,
     closest: Option<Cand>,
     stop: Stop,
+}
+
+impl Outcome {
+    /// A family's outcome before its first fit: no steps, no fits, failed.
+    fn failed(fam: Family) -> Self {
+        Outcome {
+            fam,
+            steps: 0,
+            fits: 0,
+            seconds: 0.0,
+            met: None,
+            closest: None,
+            stop: Stop::Failed,
+        }
+    }
 }
