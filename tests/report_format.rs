@@ -390,17 +390,22 @@ fn surface_and_adapt_surface_reports_regenerate() {
     assert_common_blocks(&rep, 3);
     check_net_shape(&rep);
 
-    let plain = run(&[
-        "adapt-surface",
-        c,
-        "--tol",
-        "2e-3",
-        "--relative",
-        "--degrees-u",
-        "3-4",
-        "--degrees-v",
-        "2",
-    ]);
+    let adapt = |cloud: &str, chord_rule: &str| {
+        run(&[
+            "adapt-surface",
+            cloud,
+            "--tol",
+            "2e-3",
+            "--relative",
+            "--degrees-u",
+            "3-4",
+            "--degrees-v",
+            "2",
+            "--chord-rule",
+            chord_rule,
+        ])
+    };
+    let plain = adapt(c, "auto");
     // The chord rule on the blade without its tip section (collapsed to a point, where the
     // chord-rule families of this small cloud do not meet the tolerance).
     let text = std::fs::read_to_string(&cloud).unwrap();
@@ -411,19 +416,7 @@ fn surface_and_adapt_surface_reports_regenerate() {
         .collect();
     let tipless_cloud = dir.join("tipless.csv");
     std::fs::write(&tipless_cloud, tipless).unwrap();
-    let chord = run(&[
-        "adapt-surface",
-        tipless_cloud.to_str().unwrap(),
-        "--tol",
-        "2e-3",
-        "--relative",
-        "--degrees-u",
-        "3-4",
-        "--degrees-v",
-        "2",
-        "--chord-rule",
-        "on",
-    ]);
+    let chord = adapt(tipless_cloud.to_str().unwrap(), "on");
     assert_eq!(chord["adapt"]["encoding"]["chord_rule"], true);
     for rep in [plain, chord] {
         check_adapt_surface(&rep);
