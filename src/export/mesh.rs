@@ -29,8 +29,9 @@ pub struct SurfaceMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
-/// The sample parameters of one direction: `per` steps in every segment between `breaks`.
-fn samples(breaks: &[f64], per: usize) -> Vec<f64> {
+/// The sample parameters of one direction: `per` steps in every segment between `breaks`
+/// (the breaks themselves exact).
+pub(crate) fn samples(breaks: &[f64], per: usize) -> Vec<f64> {
     let mut t = Vec::with_capacity((breaks.len() - 1) * per + 1);
     for w in breaks.windows(2) {
         for k in 0..per {

@@ -10,6 +10,7 @@ mod svg;
 
 pub use cad::{distinct_knots, utc_now, write_cad, BsplineCurve, BsplineSurface, CadShape, CadUnit};
 pub use iges::iges_text;
+pub(crate) use mesh::samples;
 pub use mesh::SurfaceMesh;
 pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,

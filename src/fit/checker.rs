@@ -11,6 +11,7 @@
 //! offsets this search confirms.
 
 use crate::chain::PatchGrid;
+use crate::export::samples;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -253,14 +254,7 @@ pub struct FoldCheck {
 pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
     let l = grid.layout();
     let per = per_patch.max(1);
-    let params = |b: &[f64]| -> Vec<f64> {
-        let mut t = vec![b[0]];
-        for w in b.windows(2) {
-            t.extend((1..=per).map(|k| w[0] + (w[1] - w[0]) * k as f64 / per as f64));
-        }
-        t
-    };
-    let (us, vs) = (params(l.u.breaks()), params(l.v.breaks()));
+    let (us, vs) = (samples(l.u.breaks(), per), samples(l.v.breaks(), per));
     let normals: Vec<Vec<DVec3>> = us
         .par_iter()
         .map(|&u| {
