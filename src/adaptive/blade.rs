@@ -107,16 +107,6 @@ pub(crate) fn chord_x(lu: &ChainLayout) -> Vec<f64> {
     rule_rows(lu).iter().map(|r| r[1] + r[2]).collect()
 }
 
-/// The in-plane perpendicular `(-a_1, a_0)`.
-pub(crate) fn perp(a: DVec2) -> DVec2 {
-    DVec2::new(-a.y, a.x)
-}
-
-/// The unit chord direction of angle `theta`.
-fn direction(theta: f64) -> DVec2 {
-    DVec2::new(theta.cos(), theta.sin())
-}
-
 /// The fixed part of each design column's frame: the reference leading edge `O⁰_j` and the
 /// unit chord direction `d_j`, from the sections' frames interpolated linearly (the chord
 /// angle unwrapped) at the column's Greville abscissa.
@@ -170,7 +160,7 @@ impl ColumnFrames {
             origin.push(le[i - 1] * (1.0 - w) + le[i] * w);
             let a = angle[i - 1] * (1.0 - w) + angle[i] * w;
             th.push(a);
-            dir.push(direction(a));
+            dir.push(DVec2::from_angle(a));
         }
         ColumnFrames {
             origin,
@@ -189,7 +179,7 @@ impl ColumnFrames {
         for i in 0..nu {
             for j in 0..nv {
                 let base = j * (nu + 2);
-                let (d, n, o) = (self.dir[j], perp(self.dir[j]), self.origin[j]);
+                let (d, n, o) = (self.dir[j], self.dir[j].perp(), self.origin[j]);
                 for (c, &ax) in axes.iter().enumerate() {
                     let r = (i * nv + j) * 3 + ax;
                     rows[r] = vec![(base, d[c]), (base + 1, x[i] * d[c]), (base + 2 + i, n[c])];
@@ -234,7 +224,7 @@ impl ColumnFrames {
         let mut y = Vec::with_capacity(nu * nv);
         for i in 0..nu {
             for j in 0..nv {
-                y.push((flat(design[i * nv + j]) - chords[j]).dot(perp(self.dir[j])));
+                y.push((flat(design[i * nv + j]) - chords[j]).dot(self.dir[j].perp()));
             }
         }
         frames.extend(y);
@@ -246,8 +236,8 @@ impl ColumnFrames {
 /// numbers: `O_j + c_j x_i d_j + y_ij n_j`.
 pub(crate) fn regenerate(x: &[f64], coords: &[f64], nv: usize, i: usize, j: usize) -> DVec2 {
     let f = &coords[4 * j..4 * j + 4];
-    let (o, d) = (DVec2::new(f[0], f[1]), direction(f[2]));
-    o + f[3] * x[i] * d + coords[4 * nv + i * nv + j] * perp(d)
+    let (o, d) = (DVec2::new(f[0], f[1]), DVec2::from_angle(f[2]));
+    o + f[3] * x[i] * d + coords[4 * nv + i * nv + j] * d.perp()
 }
 
 #[cfg(test)]
