@@ -1097,7 +1097,8 @@ impl<'d, 'a> Search<'d, 'a> {
 }
 
 /// The stored numbers of a fitted design net on `bu` x `bv` ([`SurfaceEncoding::coords`]);
-/// `None` when a chord-rule column's chord vanishes.
+/// `None` when the layout cannot be built or a chord-rule column's frame is not determined
+/// (constant chordwise rows, or a non-finite result).
 fn store(data: &Data<'_>, fam: &Family, bu: &[f64], bv: &[f64], design: &[DVec3]) -> Option<Vec<f64>> {
     match &data.blade {
         Some(sections) => {
@@ -1293,13 +1294,9 @@ fn run_families(
     let [u_lo, u_hi] = opts.degrees_u;
     let [v_lo, v_hi] = opts.degrees_v;
     let mut families = Vec::new();
-    // The chord rule's parabola needs degree 2 or more around.
-    let u_lo = if data.blade.is_some() {
-        u_lo.max(super::blade::MIN_DEGREE)
-    } else {
-        u_lo
-    };
-    for du in u_lo..=u_hi.max(u_lo) {
+    // `adapt_surface` checked 2 <= u_lo <= u_hi: degree 2 is also the least the chord rule's
+    // parabola needs around (`blade::MIN_DEGREE`).
+    for du in u_lo..=u_hi {
         for dv in v_lo..=v_hi.min(data.sections - 1).max(v_lo) {
             // Under the chord rule only the smoothest joins at data-driven breaks: on the
             // paper's blade the C1 and equal-break families never won there.
