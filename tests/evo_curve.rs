@@ -419,10 +419,11 @@ fn case_3_cmaes_reaches_the_minimum() {
 }
 
 /// Issue 14: case 1 (degree 3, 5 segments) by the GA, P 1024, 500 generations, on the CPU.
-/// The bar is 1e-6 on seed 1; the operators of this build do not reach it (seed 1: 2.1e-6 on
-/// the CPU, 1.9e-6 on lavapipe). What they do: over seeds 1-12 the median falls from 2.3e-6
-/// (tournaments of 4, SBX with η 15 variable by variable, 1 % elites) to 1.8e-6. Release,
-/// about 40 s.
+/// The bar is 1e-6 on seed 1, which the covariance mutation meets (seed 1: 3.0e-7 on the CPU
+/// and on lavapipe; seeds 1-6 median 3.8e-7). This test keeps the earlier, looser guard on the
+/// median over seeds 1-12 (tournaments of 4, SBX with η 15 variable by variable and 1 %
+/// elites gave 2.3e-6; tournaments of 8, line recombination and 3 % elites without the
+/// covariance mutation 1.8e-6). Release, about 40 s.
 #[test]
 #[ignore = "release: case 1 by the GA, 12 seeds of P 1024 x 500"]
 fn case_1_ga_median_over_seeds() {

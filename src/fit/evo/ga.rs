@@ -35,7 +35,8 @@ use serde::{Deserialize, Serialize};
 pub struct GaOptions {
     /// Individuals drawn (with replacement) per tournament; the best wins. Default 8.
     pub tournament: usize,
-    /// Probability that a pair of parents is recombined by SBX (else copied). Default 1.
+    /// Probability that a pair of parents is recombined (by SBX, or along their line: see
+    /// `line_rate`), else copied. Default 1.
     pub crossover_rate: f64,
     /// SBX distribution index `η_c`: larger keeps children closer to their parents.
     /// Default 2.

@@ -1141,8 +1141,7 @@ mod tests {
             assert_eq!(bowl.centres.lock().unwrap().last(), Some(&best));
         }
         // The mean has moved off the best sample (the test is not vacuous).
-        let run = Evolution::new(&bowl, Algorithm::Cmaes, &options).unwrap();
-        let mut run = run;
+        let mut run = Evolution::new(&bowl, Algorithm::Cmaes, &options).unwrap();
         run.step().unwrap();
         let best: Vec<f64> = run.best().0.iter().map(|&x| f64::from(x)).collect();
         assert_ne!(run.strategy().unwrap().mean, best);
