@@ -812,6 +812,8 @@ struct Cand {
     bv: Vec<f64>,
     fit: Fitted,
     scalars: usize,
+    /// The stored numbers of the fitted net ([`store`]), computed once per fit.
+    coords: Vec<f64>,
 }
 
 struct Search<'d, 'a> {
@@ -862,12 +864,13 @@ impl<'d, 'a> Search<'d, 'a> {
         *count += 1;
         let mut f = Fitter::new(self.data, lu, lv, self.data.points, self.data.point_v())?;
         let fit = f.fit(u0, self.opts)?;
-        store(self.data, fam, bu, bv, &fit.design)?;
+        let coords = store(self.data, fam, bu, bv, &fit.design)?;
         Some(Cand {
             bu: bu.to_vec(),
             bv: bv.to_vec(),
             fit,
             scalars,
+            coords,
         })
     }
 
@@ -1126,7 +1129,7 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
             Breaks::Stored(b[1..b.len() - 1].to_vec())
         }
     };
-    let coords = store(data, fam, &c.bu, &c.bv, &c.fit.design).unwrap_or_default();
+    let coords = c.coords.clone();
     SurfaceEncoding {
         degree: [fam.du, fam.dv],
         joins_u: vec![fam.ou; c.bu.len() - 2],
