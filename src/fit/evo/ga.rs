@@ -275,9 +275,12 @@ impl Ga {
             self.next[slot * n..(slot + 1) * n].copy_from_slice(&self.population[k * n..(k + 1) * n]);
         }
         // The pool in index order, so that its sums do not depend on the selection's order.
-        let mut members: Vec<usize> = self.order[..pool].iter().map(|&k| k as usize).collect();
-        members.sort_unstable();
-        covariance_factor(&self.population, n, &members, &mut self.factor);
+        // Without covariance steps (rate 0) no child reads the factor.
+        if opts.covariance_rate > 0.0 {
+            let mut members: Vec<usize> = self.order[..pool].iter().map(|&k| k as usize).collect();
+            members.sort_unstable();
+            covariance_factor(&self.population, n, &members, &mut self.factor);
+        }
         let factor = &self.factor;
         let pm = opts.mutation_rate.unwrap_or(1.0 / n as f64);
         let spread = Sbx::new(opts.crossover_eta);
