@@ -9,6 +9,10 @@
 //! overhangs or folds trap that search reports offsets such a tool cannot reproduce; the
 //! projection check says so, and the adaptive surface search accepts only layouts whose
 //! offsets this search confirms.
+//!
+//! Beside it, the other check such a tool would run on a fitted grid: [`fold_check`], how far
+//! the surface normal turns between neighbouring samples (an exact evaluation through
+//! [`PatchGrid::partials`], not an emulation).
 
 use crate::chain::PatchGrid;
 use crate::export::samples;
@@ -175,6 +179,77 @@ pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
         .collect()
 }
 
+/// The fold check of a patch grid: how far the unit normal turns between neighbouring
+/// samples of a dense sample, in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FoldCheck {
+    /// Samples a patch in each direction (the global sample is uniform within each patch).
+    pub per_patch: usize,
+    /// The largest turn of the normal between two neighbouring samples (along u or along v),
+    /// degrees.
+    pub max_turn_deg: f64,
+    /// Where: the global `(u, v)` of the first sample of that pair.
+    pub at: [f64; 2],
+    /// True when it is at most 90°: the surface neither folds back nor overhangs between
+    /// samples.
+    pub passes: bool,
+}
+
+/// The fold check of `grid` on `per_patch` × `per_patch` samples a patch (borders shared):
+/// the normal `S_u × S_v` at every sample, and the largest angle between the normals of
+/// neighbouring samples along u and along v. Samples where the normal vanishes (a collapsed
+/// edge such as a blade tip: `|S_u × S_v|` below `1e-10` of the grid's largest) have no
+/// direction and are skipped.
+#[must_use]
+pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
+    let l = grid.layout();
+    let per = per_patch.max(1);
+    let (us, vs) = (samples(l.u.breaks(), per), samples(l.v.breaks(), per));
+    let normals: Vec<Vec<DVec3>> = us
+        .par_iter()
+        .map(|&u| {
+            vs.iter()
+                .map(|&v| {
+                    let (_, pu, pv) = grid.partials(u, v);
+                    pu.cross(pv)
+                })
+                .collect()
+        })
+        .collect();
+    let big = normals.iter().flatten().fold(0.0_f64, |m, n| m.max(n.length()));
+    let units: Vec<Vec<Option<DVec3>>> = normals
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|&n| (n.length() > 1e-10 * big).then(|| n.normalize()))
+                .collect()
+        })
+        .collect();
+    let mut worst = (0.0_f64, [0.0, 0.0]);
+    for i in 0..us.len() {
+        for j in 0..vs.len() {
+            let Some(a) = units[i][j] else { continue };
+            for (ni, nj) in [(i + 1, j), (i, j + 1)] {
+                if ni >= us.len() || nj >= vs.len() {
+                    continue;
+                }
+                if let Some(b) = units[ni][nj] {
+                    let turn = a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
+                    if turn > worst.0 {
+                        worst = (turn, [us[i], vs[j]]);
+                    }
+                }
+            }
+        }
+    }
+    FoldCheck {
+        per_patch: per,
+        max_turn_deg: worst.0,
+        at: worst.1,
+        passes: worst.0 <= 90.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -226,69 +301,5 @@ mod tests {
         let check = projection_check(&g, &points, 0.0, 0.0);
         assert!(!check.agrees, "{check:?}");
         assert!(check.max > 0.005, "{check:?}");
-    }
-}
-
-/// The fold check of a patch grid: how far the unit normal turns between neighbouring
-/// samples of a dense sample, in degrees.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct FoldCheck {
-    /// Samples a patch in each direction (the global sample is uniform within each patch).
-    pub per_patch: usize,
-    /// The largest turn of the normal between two neighbouring samples (along u or along v),
-    /// degrees.
-    pub max_turn_deg: f64,
-    /// Where: the global `(u, v)` of the first sample of that pair.
-    pub at: [f64; 2],
-    /// True when it is at most 90°: the surface neither folds back nor overhangs between
-    /// samples.
-    pub passes: bool,
-}
-
-/// The fold check of `grid` on `per_patch` × `per_patch` samples a patch (borders shared):
-/// the normal `S_u × S_v` at every sample, and the largest angle between the normals of
-/// neighbouring samples along u and along v. Samples where the normal vanishes (a collapsed
-/// edge such as a blade tip: `|S_u × S_v|` below `1e-10` of the grid's largest) have no
-/// direction and are skipped.
-#[must_use]
-pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
-    let l = grid.layout();
-    let per = per_patch.max(1);
-    let (us, vs) = (samples(l.u.breaks(), per), samples(l.v.breaks(), per));
-    let normals: Vec<Vec<DVec3>> = us
-        .par_iter()
-        .map(|&u| {
-            vs.iter()
-                .map(|&v| {
-                    let (_, pu, pv) = grid.partials(u, v);
-                    pu.cross(pv)
-                })
-                .collect()
-        })
-        .collect();
-    let big = normals.iter().flatten().fold(0.0_f64, |m, n| m.max(n.length()));
-    let unit = |n: DVec3| (n.length() > 1e-10 * big).then(|| n.normalize());
-    let mut worst = (0.0_f64, [0.0, 0.0]);
-    for i in 0..us.len() {
-        for j in 0..vs.len() {
-            let Some(a) = unit(normals[i][j]) else { continue };
-            for (ni, nj) in [(i + 1, j), (i, j + 1)] {
-                if ni >= us.len() || nj >= vs.len() {
-                    continue;
-                }
-                if let Some(b) = unit(normals[ni][nj]) {
-                    let turn = a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
-                    if turn > worst.0 {
-                        worst = (turn, [us[i], vs[j]]);
-                    }
-                }
-            }
-        }
-    }
-    FoldCheck {
-        per_patch: per,
-        max_turn_deg: worst.0,
-        at: worst.1,
-        passes: worst.0 <= 90.0,
     }
 }
