@@ -8,7 +8,7 @@ mod eval_support;
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::eval::Backend;
 use bezchain::fit::evo::{
-    evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoResult, Evolution, PopulationObjective,
+    evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoResult, EvoStop, Evolution, PopulationObjective,
 };
 use bezchain::fit::{fit_curve, offset_stats, CurveProblem, FitOptions, Method, Metric};
 use bezchain::Error;
@@ -173,6 +173,63 @@ fn a_resumed_run_ends_identical_to_an_uninterrupted_one() {
         };
         assert_eq!(h(&back), h(&end));
     }
+}
+
+/// CMA-ES with restarts: each converged run (here a coarse step-size tolerance makes them
+/// short) starts again from the origin; the count reaches the result, a restart's stall
+/// window starts afresh, and a run resumed from a checkpoint taken after a restart ends
+/// bit-identical to the uninterrupted one (the restart count and the kept mean are in it).
+#[test]
+fn cmaes_restarts_converged_runs_and_resumes_across_them() {
+    let (points, layout, _) = exact_case();
+    let problem = evo_problem(&points, layout);
+    let mut opts = options(16, 150);
+    opts.cmaes.tol_x = 2e-3;
+    opts.cmaes.restarts = 3;
+    let mut straight = Evolution::new(&problem, Algorithm::Cmaes, &opts).unwrap();
+    let mut saved = Vec::new();
+    let mut first_restart = None;
+    let why = straight
+        .run(|e| {
+            if e.restarts() == 1 && first_restart.is_none() {
+                first_restart = Some(e.generation());
+            }
+            saved.push(e.checkpoint().to_bytes());
+            Ok(())
+        })
+        .unwrap();
+    let first = first_restart.expect("a run converged and restarted");
+    let end = straight.checkpoint();
+    let restarts = end.cmaes.as_ref().unwrap().restarts;
+    // Either all three restarts converged (the last one's reason ends the run) or the
+    // generation limit cut the last one.
+    assert!(
+        restarts == 3 || why == EvoStop::Generations,
+        "{restarts} restarts, {why}"
+    );
+    assert!(restarts >= 2, "{restarts} restarts in 150 generations");
+    let kept = &end.cmaes.as_ref().unwrap().kept_mean;
+    assert_eq!(kept.len(), problem.dim(), "a converged mean is kept");
+    let ck = Checkpoint::from_bytes(&saved[first as usize + 2]).unwrap();
+    assert_eq!(ck.cmaes.as_ref().unwrap().restarts, 1);
+    let mut resumed = Evolution::resume(&problem, Algorithm::Cmaes, &opts, &ck).unwrap();
+    assert_eq!(resumed.run(|_| Ok(())).unwrap(), why);
+    let back = resumed.checkpoint();
+    assert_eq!(back.cmaes, end.cmaes, "strategy, restarts and kept mean");
+    assert_eq!(back.best, end.best);
+    let result = straight.finish(why).unwrap();
+    assert_eq!(result.restarts, restarts);
+    // The result is at least as good as the kept mean, re-measured.
+    let kept_abs = problem.absolute(kept);
+    assert!(
+        result.sum_sq <= measure(&problem, &kept_abs),
+        "{:e}",
+        result.sum_sq
+    );
+    // Without restarts the same options stop at the first convergence.
+    opts.cmaes.restarts = 0;
+    let once = run(&problem, Algorithm::Cmaes, &opts);
+    assert_eq!((once.restarts, once.report.iterations as u64), (0, first - 1));
 }
 
 #[test]
@@ -415,6 +472,37 @@ fn case_3_cmaes_reaches_the_minimum() {
         let s = paper_case(5, 3, Method::Cmaes, backend);
         eprintln!("case 3 cmaes on {backend:?}: {s:.4e}");
         assert!(s <= 4.1e-8, "{backend:?}: {s:e}");
+    }
+}
+
+/// Issue 11: case 2 (degree 4, 3 segments) has two minima, 1.310e-7 and 2.511e-7 (where
+/// BFGS ends). CMA-ES with P 1024, seed 1, reaches the second on the CPU (seeds 1-8: 7 of 8
+/// reach the first; the build before the redesign 6 of 8, seed 1 among them); restarting while
+/// the 500 generations last (what `bezchain compare` does) reaches the first. Release, about
+/// 5 s a backend on the CPU.
+#[test]
+#[ignore = "release: case 2 by CMA-ES, P 1024, with and without restarts"]
+fn case_2_cmaes_restarts_reach_the_better_minimum() {
+    let points = common::naca4413();
+    let layout = ChainLayout::uniform(4, 3, Continuity::C1).unwrap();
+    let fit = |restarts, backend| {
+        let mut evo = options(1024, 500);
+        evo.backend = backend;
+        evo.cmaes.restarts = restarts;
+        let opts = FitOptions {
+            method: Method::Cmaes,
+            evo,
+            ..FitOptions::default()
+        };
+        fit_curve(&points, layout.clone(), &opts).unwrap().closest.sum_sq
+    };
+    let once = fit(0, Backend::Cpu);
+    eprintln!("case 2 cmaes, no restarts, cpu: {once:.4e}");
+    assert!(once > 2.4e-7, "seed 1 without restarts: {once:e}");
+    for backend in backends() {
+        let s = fit(usize::MAX, backend);
+        eprintln!("case 2 cmaes with restarts on {backend:?}: {s:.4e}");
+        assert!(s <= 1.32e-7, "{backend:?}: {s:e}");
     }
 }
 

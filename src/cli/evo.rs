@@ -57,6 +57,10 @@ pub struct EvoArgs {
     /// GA: fraction of the population, its best, whose covariance that step has [default: 0.1].
     #[arg(long, allow_negative_numbers = true)]
     pub covariance_pool: Option<f64>,
+    /// CMA-ES: restarts from the start (same mean and step, fresh random draws) after it
+    /// converges while generations remain; the best of all runs is the result [default: 0].
+    #[arg(long)]
+    pub restarts: Option<usize>,
     /// Write one line per generation here: generation,best,mean,evaluations,seconds.
     #[arg(long)]
     pub history: Option<PathBuf>,
@@ -138,6 +142,7 @@ impl EvoArgs {
         add(self.tournament.is_some(), "--tournament");
         add(self.covariance_rate.is_some(), "--covariance-rate");
         add(self.covariance_pool.is_some(), "--covariance-pool");
+        add(self.restarts.is_some(), "--restarts");
         add(self.history.is_some(), "--history");
         add(self.checkpoint.is_some(), "--checkpoint");
         add(self.checkpoint_every.is_some(), "--checkpoint-every");
@@ -207,6 +212,9 @@ impl EvoArgs {
         }
         if let Some(p) = self.covariance_pool {
             o.ga.covariance_pool = p;
+        }
+        if let Some(r) = self.restarts {
+            o.cmaes.restarts = r;
         }
         if self.checkpoint_every == Some(0) {
             return Err(usage("--checkpoint-every must be at least 1"));

@@ -233,11 +233,16 @@ fn summary(input: &Path, loaded: &Loaded2, fit: &CurveFit<DVec2>) -> String {
     if let Some(evo) = &fit.evolution {
         let r = &evo.run;
         s += &format!(
-            "{}: population {}, {} generations ({}), {} individuals, {:.1} s; objective {:.4e} (f64, ends tied)\n",
+            "{}: population {}, {} generations ({}{}), {} individuals, {:.1} s; objective {:.4e} (f64, ends tied)\n",
             evo.stages[0].method,
             r.size,
             r.report.iterations,
             r.stop,
+            match r.restarts {
+                0 => String::new(),
+                1 => ", after 1 restart".to_string(),
+                k => format!(", after {k} restarts"),
+            },
             r.report.evaluations,
             r.report.seconds,
             r.sum_sq

@@ -15,7 +15,7 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"BZEVOCK\0";
 /// The format version this build writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// The state of an evolutionary run after a generation.
 #[derive(Clone, Debug, PartialEq)]
@@ -200,6 +200,11 @@ impl Checkpoint {
                 w.u64(c.generation);
                 w.u64(c.decomposed_at);
                 w.f64s(&c.recent);
+                w.f64s(&c.origin);
+                w.f64(c.initial_sigma);
+                w.u64(c.restarts);
+                w.f64s(&c.kept_mean);
+                w.f64(c.kept_sum_sq);
             }
         }
         let mut h = Fnv::new();
@@ -282,6 +287,11 @@ impl Checkpoint {
                 generation: r.u64()?,
                 decomposed_at: r.u64()?,
                 recent: r.f64s()?,
+                origin: r.f64s()?,
+                initial_sigma: r.f64()?,
+                restarts: r.u64()?,
+                kept_mean: r.f64s()?,
+                kept_sum_sq: r.f64()?,
             }),
             c => return Err(format!("unknown strategy code {c}")),
         };
@@ -406,11 +416,15 @@ impl Checkpoint {
             finite("cmaes.scales", &c.scales)?;
             finite("cmaes.path_c", &c.path_c)?;
             finite("cmaes.path_sigma", &c.path_sigma)?;
-            if !(c.sigma.is_finite() && c.sigma > 0.0) {
-                return Err(format!(
-                    "cmaes.sigma is {} (a step size is finite and > 0)",
-                    c.sigma
-                ));
+            finite("cmaes.origin", &c.origin)?;
+            finite("cmaes.kept_mean", &c.kept_mean)?;
+            if !c.kept_mean.is_empty() {
+                score("cmaes.kept_sum_sq", c.kept_sum_sq)?;
+            }
+            for (name, sigma) in [("sigma", c.sigma), ("initial_sigma", c.initial_sigma)] {
+                if !(sigma.is_finite() && sigma > 0.0) {
+                    return Err(format!("cmaes.{name} is {sigma} (a step size is finite and > 0)"));
+                }
             }
             if let Some(i) = c.scales.iter().position(|&d| d < 0.0) {
                 return Err(format!(
@@ -490,7 +504,8 @@ mod tests {
 
     fn sample(algorithm: Algorithm) -> Checkpoint {
         let cmaes = (algorithm == Algorithm::Cmaes).then(|| {
-            let mut c = CmaesState::new(&[0.5, -1.0], 0.1);
+            // A restarted state: the restart count and the kept mean go through too.
+            let mut c = CmaesState::new(&[0.5, -1.0], 0.1).restarted(3e-6);
             c.path_c = vec![1e-300, f64::MIN_POSITIVE];
             c
         });
@@ -568,9 +583,10 @@ mod tests {
         assert!(Checkpoint::from_bytes(b"hello")
             .unwrap_err()
             .contains("not a bezchain"));
-        let mut v2 = bytes.clone();
-        v2[8] = 2;
-        assert!(Checkpoint::from_bytes(&v2).unwrap_err().contains("version 2"));
+        let mut other = bytes.clone();
+        other[8] = VERSION as u8 + 1;
+        let e = Checkpoint::from_bytes(&other).unwrap_err();
+        assert!(e.contains(&format!("version {}", VERSION + 1)), "{e}");
         assert!(Checkpoint::from_bytes(&[]).is_err());
     }
 
@@ -605,6 +621,14 @@ mod tests {
         c.cmaes.as_mut().unwrap().cov[3] = f64::INFINITY;
         let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
         assert!(e.contains("cmaes.cov[3]"), "{e}");
+        let mut c = sample(Algorithm::Cmaes);
+        c.cmaes.as_mut().unwrap().initial_sigma = -1.0;
+        let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
+        assert!(e.contains("cmaes.initial_sigma"), "{e}");
+        let mut c = sample(Algorithm::Cmaes);
+        c.cmaes.as_mut().unwrap().kept_sum_sq = f64::NAN;
+        let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
+        assert!(e.contains("cmaes.kept_sum_sq"), "{e}");
     }
 
     #[test]

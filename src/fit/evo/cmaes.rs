@@ -35,6 +35,12 @@ pub struct CmaesOptions {
     /// rounding at that level as the unit, see `PopulationEvaluator::resolution`): the
     /// objective no longer changes by more than the evaluator can tell. Default 1.
     pub tol_fun: f64,
+    /// Restarts: after a convergence stop (flatness, step size or condition) with generations
+    /// left, the strategy starts again from where this CMA-ES run began (its origin and initial
+    /// step), up to this many times, on fresh random streams (they follow the generation); the
+    /// best individual of all of them is the result. A run that found one of several minima
+    /// then gets further draws at the others within its generation budget. Default 0.
+    pub restarts: usize,
 }
 
 impl Default for CmaesOptions {
@@ -44,6 +50,7 @@ impl Default for CmaesOptions {
             tol_x: 1e-8,
             max_condition: 1e14,
             tol_fun: 1.0,
+            restarts: 0,
         }
     }
 }
@@ -155,6 +162,18 @@ pub struct CmaesState {
     /// The best sum of squares of each of the last generations, oldest first (at most the
     /// flatness window `10 + ⌈30 n / λ⌉`).
     pub recent: Vec<f64>,
+    /// Where this CMA-ES run began (the mean a restart starts from).
+    pub origin: Vec<f64>,
+    /// The step size it began with (the step a restart starts with).
+    pub initial_sigma: f64,
+    /// Restarts done ([`CmaesOptions::restarts`]).
+    pub restarts: u64,
+    /// The best mean an earlier run of a restarted strategy converged to (empty before the
+    /// first restart): the mean is often better than any sample the evaluator scored, so the
+    /// result's candidates keep it.
+    pub kept_mean: Vec<f64>,
+    /// Its objective re-measured in f64 (infinite while `kept_mean` is empty).
+    pub kept_sum_sq: f64,
 }
 
 impl CmaesState {
@@ -176,6 +195,29 @@ impl CmaesState {
             generation: 0,
             decomposed_at: 0,
             recent: Vec::new(),
+            origin: start.to_vec(),
+            initial_sigma: sigma,
+            restarts: 0,
+            kept_mean: Vec::new(),
+            kept_sum_sq: f64::INFINITY,
+        }
+    }
+
+    /// The state of the next restart: the start of this run again (its origin and initial
+    /// step, `C = I`), with the restart counted and the better of the kept mean and this
+    /// run's converged mean (whose objective re-measured in f64 is `sum_sq`) kept.
+    #[must_use]
+    pub fn restarted(&self, sum_sq: f64) -> Self {
+        let (kept_mean, kept_sum_sq) = if sum_sq < self.kept_sum_sq {
+            (self.mean.clone(), sum_sq)
+        } else {
+            (self.kept_mean.clone(), self.kept_sum_sq)
+        };
+        CmaesState {
+            restarts: self.restarts + 1,
+            kept_mean,
+            kept_sum_sq,
+            ..CmaesState::new(&self.origin, self.initial_sigma)
         }
     }
 
@@ -216,8 +258,12 @@ impl CmaesState {
             && self.scales.len() == n
             && self.path_c.len() == n
             && self.path_sigma.len() == n
+            && self.origin.len() == n
+            && (self.kept_mean.is_empty() || self.kept_mean.len() == n)
             && self.sigma.is_finite()
-            && self.sigma > 0.0;
+            && self.sigma > 0.0
+            && self.initial_sigma.is_finite()
+            && self.initial_sigma > 0.0;
         if ok {
             Ok(())
         } else {

@@ -463,8 +463,8 @@ impl<'p> Evolution<'p> {
 
     /// Continue a run from a checkpoint. The problem, method and the options that shape the
     /// run (population, seed, Newton steps, projection, operators) must be those it was
-    /// written with (else [`Error::Invalid`]); the generation limit, target and stall options
-    /// may differ. On the same backend the continuation is bit-identical to a run that was
+    /// written with (else [`Error::Invalid`]); the generation limit, target, stall options and
+    /// CMA-ES restarts may differ. On the same backend the continuation is bit-identical to a run that was
     /// never interrupted.
     pub fn resume(
         problem: &'p dyn PopulationObjective,
@@ -541,6 +541,15 @@ impl<'p> Evolution<'p> {
         let g = self.generation + 1;
         let problem = self.problem;
         let n = problem.dim();
+        if self.restart_due() {
+            if let Engine::Cmaes(es) = &mut self.engine {
+                let sum_sq = problem.measure(&problem.absolute(&es.state.mean), &self.options)?;
+                es.state = es.state.restarted(sum_sq);
+            }
+            // The restarted strategy gets its own stall window.
+            self.stall_reference = self.best_score.sum_sq;
+            self.stall_since = self.generation;
+        }
         // Anchor the evaluator where this generation will lie: at the GA's best (an elite, kept
         // in the population) and at CMA-ES's mean, around which it samples. CMA-ES's best so far
         // is a sample of some past generation that the mean may have left far behind, and the
@@ -605,20 +614,48 @@ impl<'p> Evolution<'p> {
         if o.stall_generations > 0 && self.generation - self.stall_since >= o.stall_generations as u64 {
             return Some(EvoStop::Stall);
         }
-        if let Engine::Cmaes(es) = &self.engine {
-            if es.state.spread() < o.cmaes.tol_x * self.problem.extent() {
-                return Some(EvoStop::StepSize);
-            }
-            if es.state.condition() > o.cmaes.max_condition {
-                return Some(EvoStop::Condition);
-            }
-            let last: Vec<f64> = es.scores.iter().map(|s| s.sum_sq).collect();
-            let tol = |level: f64| o.cmaes.tol_fun * self.scorer.resolution(level);
-            if es.state.flat(self.problem.dim(), self.size, &last, tol) {
-                return Some(EvoStop::Flat);
-            }
+        // A converged CMA-ES run with restarts left goes on: the next step restarts it.
+        self.converged().filter(|_| !self.restart_due())
+    }
+
+    /// Why the CMA-ES strategy has converged, if it has (step size, condition, flatness);
+    /// `None` for the GA.
+    fn converged(&self) -> Option<EvoStop> {
+        let Engine::Cmaes(es) = &self.engine else {
+            return None;
+        };
+        let o = &self.options.cmaes;
+        if es.state.spread() < o.tol_x * self.problem.extent() {
+            return Some(EvoStop::StepSize);
         }
-        None
+        if es.state.condition() > o.max_condition {
+            return Some(EvoStop::Condition);
+        }
+        let last: Vec<f64> = es.scores.iter().map(|s| s.sum_sq).collect();
+        let tol = |level: f64| o.tol_fun * self.scorer.resolution(level);
+        es.state
+            .flat(self.problem.dim(), self.size, &last, tol)
+            .then_some(EvoStop::Flat)
+    }
+
+    /// True when the CMA-ES strategy has converged and has restarts left
+    /// ([`CmaesOptions::restarts`]): the next [`step`](Self::step) restarts it.
+    fn restart_due(&self) -> bool {
+        match &self.engine {
+            Engine::Cmaes(es) => {
+                es.state.restarts < self.options.cmaes.restarts as u64 && self.converged().is_some()
+            }
+            Engine::Ga(_) => false,
+        }
+    }
+
+    /// Restarts done by the CMA-ES strategy (0 for the GA).
+    #[must_use]
+    pub fn restarts(&self) -> u64 {
+        match &self.engine {
+            Engine::Cmaes(es) => es.state.restarts,
+            Engine::Ga(_) => 0,
+        }
     }
 
     /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step (an
@@ -758,11 +795,15 @@ impl<'p> Evolution<'p> {
     }
 
     /// End the run: re-measure the candidates in f64 (the best individual; for CMA-ES also
-    /// the mean) and return the better.
+    /// the mean, and the best mean an earlier run converged to when it restarted) and return
+    /// the best.
     pub fn finish(self, stop: EvoStop) -> Result<EvoResult> {
         let mut candidates = vec![self.best.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>()];
         if let Engine::Cmaes(es) = &self.engine {
             candidates.push(es.state.mean.clone());
+            if !es.state.kept_mean.is_empty() {
+                candidates.push(es.state.kept_mean.clone());
+            }
         }
         let mut best: Option<(Vec<f64>, f64)> = None;
         for c in candidates {
@@ -791,6 +832,7 @@ impl<'p> Evolution<'p> {
                 stop: stop.reason(),
             },
             stop,
+            restarts: self.restarts(),
             size: self.size,
             backend: self.scorer.info().clone(),
             eval_seconds: self.effort.eval_seconds,
@@ -836,6 +878,8 @@ pub struct EvoResult {
     pub report: SolveReport,
     /// The evolutionary stop reason.
     pub stop: EvoStop,
+    /// CMA-ES restarts done ([`CmaesOptions::restarts`]; 0 for the GA).
+    pub restarts: u64,
     /// Individuals per generation.
     pub size: usize,
     /// The backend and adapter that ran the evaluations.
