@@ -200,6 +200,20 @@ impl Default for EvalOptions {
     }
 }
 
+impl EvalOptions {
+    /// The options of the fitting objectives: `newton` foot-point steps that follow the foot
+    /// point across patch (segment) borders, on `backend` with the GPU settings `gpu`.
+    #[must_use]
+    pub fn crossing(backend: Backend, newton: u32, gpu: &GpuOptions) -> Self {
+        EvalOptions {
+            backend,
+            newton,
+            cross_patches: true,
+            gpu: gpu.clone(),
+        }
+    }
+}
+
 /// The kernel problem behind an evaluator, which the provided methods of
 /// [`PopulationEvaluator`] read and change. Crate-private, so that trait is sealed: the CPU
 /// and GPU evaluators are its only implementations.

@@ -302,12 +302,7 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
         let mut evaluator = build_evaluator(
             &self.shape().eval_layout(),
             &S::targets(&pts, &params)?,
-            &EvalOptions {
-                backend: options.backend,
-                newton: options.newton,
-                cross_patches: true,
-                gpu: options.gpu.clone(),
-            },
+            &EvalOptions::crossing(options.backend, options.newton, &options.gpu),
         )?;
         evaluator.set_reference(&frame.start)?;
         // The anchored points in the frame too, indexed 0.. in `anchors`.
@@ -541,12 +536,7 @@ fn run<T: Gene>(
     let mut evaluator = build_evaluator(
         &layout,
         targets,
-        &EvalOptions {
-            backend: options.backend,
-            newton: options.newton,
-            cross_patches: true,
-            gpu: options.gpu.clone(),
-        },
+        &EvalOptions::crossing(options.backend, options.newton, &options.gpu),
     )?;
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
     T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
