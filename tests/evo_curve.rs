@@ -410,11 +410,7 @@ fn case_1_far_from_the_origin_evolves_as_at_the_origin() {
     let points = common::naca4413();
     let far: Vec<DVec2> = points.iter().map(|p| *p + DVec2::splat(1000.0)).collect();
     let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
-    let mut backends = vec![Backend::Cpu];
-    if eval_support::gpu().is_some() {
-        backends.push(Backend::Gpu);
-    }
-    for backend in backends {
+    for backend in backends() {
         let opts = FitOptions {
             method: Method::Cmaes,
             evo: EvoOptions {
@@ -453,6 +449,7 @@ fn paper_case(degree: usize, segments: usize, method: Method, backend: Backend) 
     fit_curve(&points, layout, &opts).unwrap().closest.sum_sq
 }
 
+/// The CPU, and the GPU where an adapter is found (`BEZCHAIN_REQUIRE_GPU=1`: required).
 fn backends() -> Vec<Backend> {
     let mut b = vec![Backend::Cpu];
     if eval_support::gpu().is_some() {
