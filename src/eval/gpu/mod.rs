@@ -4,7 +4,7 @@
 //! device limits into chunks.
 
 use super::kernel::{point_groups, Gene, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, Targets};
 use crate::error::{Error, Result};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -689,6 +689,32 @@ impl GpuEvaluator {
 }
 
 impl GpuEvaluator {
+    /// Upload the per-target arrays after the parameters or the reference changed.
+    fn upload_targets(&self) {
+        let data = point_data(&self.problem);
+        self.ctx
+            .queue
+            .write_buffer(&self.points, 0, bytemuck::cast_slice(&data));
+    }
+}
+
+impl HoldsProblem for GpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+
+    fn problem_changed(&mut self) {
+        self.upload_targets();
+    }
+
+    fn backend_info(&self) -> &BackendInfo {
+        &self.info
+    }
+
     fn run<T: Gene>(&mut self, population: &[T], out: &mut [Fitness]) -> Result<()> {
         let rows = self.problem.rows(population.len(), out.len())?;
         if rows == 0 {
@@ -729,42 +755,6 @@ impl GpuEvaluator {
             self.ctx.read(&work.staging, &mut out[start..start + len])?;
         }
         Ok(())
-    }
-
-    /// Upload the per-target arrays after the parameters or the reference changed.
-    fn upload_targets(&self) {
-        let data = point_data(&self.problem);
-        self.ctx
-            .queue
-            .write_buffer(&self.points, 0, bytemuck::cast_slice(&data));
-    }
-}
-
-impl HoldsProblem for GpuEvaluator {
-    fn problem(&self) -> &Problem {
-        &self.problem
-    }
-
-    fn problem_mut(&mut self) -> &mut Problem {
-        &mut self.problem
-    }
-
-    fn problem_changed(&mut self) {
-        self.upload_targets();
-    }
-}
-
-impl PopulationEvaluator for GpuEvaluator {
-    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn info(&self) -> &BackendInfo {
-        &self.info
     }
 }
 
