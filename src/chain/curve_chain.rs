@@ -162,6 +162,15 @@ mod tests {
         b
     }
 
+    /// A chain of degree `d` with breaks from `gaps` and design points from `seed`.
+    fn random_chain(d: usize, gaps: &[f64], continuity: Continuity, seed: &[f64]) -> CurveChain<DVec2> {
+        let layout = ChainLayout::with_breaks(d, breaks_from(gaps), continuity).unwrap();
+        let design = (0..layout.design_count())
+            .map(|i| DVec2::new(seed[2 * i], seed[2 * i + 1]))
+            .collect();
+        CurveChain::new(layout, design).unwrap()
+    }
+
     proptest! {
         #[test]
         fn c1_chains_have_continuous_tangents(
@@ -169,9 +178,7 @@ mod tests {
             gaps in prop::collection::vec(0.05f64..1.0, 1..7),
             seed in prop::collection::vec(-1.0f64..1.0, 80),
         ) {
-            let layout = ChainLayout::with_breaks(d, breaks_from(&gaps), Continuity::C1).unwrap();
-            let design: Vec<DVec2> = (0..layout.design_count()).map(|i| DVec2::new(seed[2 * i], seed[2 * i + 1])).collect();
-            let chain = CurveChain::new(layout, design).unwrap();
+            let chain = random_chain(d, &gaps, Continuity::C1, &seed);
             prop_assert!(chain.continuity_error(1) < 1e-9, "C1 jump {}", chain.continuity_error(1));
         }
 
@@ -181,9 +188,7 @@ mod tests {
             gaps in prop::collection::vec(0.05f64..1.0, 1..7),
             seed in prop::collection::vec(-1.0f64..1.0, 80),
         ) {
-            let layout = ChainLayout::with_breaks(d, breaks_from(&gaps), Continuity::C2).unwrap();
-            let design: Vec<DVec2> = (0..layout.design_count()).map(|i| DVec2::new(seed[2 * i], seed[2 * i + 1])).collect();
-            let chain = CurveChain::new(layout, design).unwrap();
+            let chain = random_chain(d, &gaps, Continuity::C2, &seed);
             prop_assert!(chain.continuity_error(1) < 1e-9);
             prop_assert!(chain.continuity_error(2) < 1e-9, "C2 jump {}", chain.continuity_error(2));
         }
