@@ -254,6 +254,16 @@ impl GpuContext {
         &self.adapter
     }
 
+    /// What an evaluator on this context reports: the GPU backend and this adapter.
+    #[must_use]
+    pub fn backend_info(&self) -> BackendInfo {
+        BackendInfo {
+            backend: Backend::Gpu,
+            adapter: self.adapter.clone(),
+            fallback: None,
+        }
+    }
+
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl) for
     /// patches of `held` control-point coordinates and `newton` steps: 1 on GPUs; on CPU
     /// adapters [`CPU_PER_INVOCATION`]'s, halved until their patches fit [`CPU_HELD_FLOATS`].
@@ -597,11 +607,7 @@ impl GpuEvaluator {
             )));
         }
         ctx.check()?;
-        let info = BackendInfo {
-            backend: Backend::Gpu,
-            adapter: ctx.adapter().to_owned(),
-            fallback: None,
-        };
+        let info = ctx.backend_info();
         Ok(GpuEvaluator {
             ctx: ctx.clone(),
             problem,
