@@ -325,23 +325,26 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
     let o = check_surface_report(&serde_json::from_str(&text).unwrap(), &points, 1e-6);
     let rep: SurfaceAdaptReport = serde_json::from_str(&text).unwrap();
     assert!(
-        o.max <= rep.adapt.tol,
+        o.max <= rep.adapt.outcome.tol,
         "independent max {:e} above {:e}",
         o.max,
-        rep.adapt.tol
+        rep.adapt.outcome.tol
     );
     assert_eq!(rep.surface.kind, "surface");
-    assert!(rep.adapt.met);
-    assert_eq!(rep.adapt.stored_scalars, rep.adapt.encoding.count().total);
-    let grid = rep.adapt.encoding.grid().unwrap();
+    assert!(rep.adapt.outcome.met);
+    assert_eq!(
+        rep.adapt.outcome.stored_scalars,
+        rep.adapt.outcome.encoding.count().total
+    );
+    let grid = rep.adapt.outcome.encoding.grid().unwrap();
     let flat: Vec<[f64; 3]> = rep.surface.control_net.iter().flatten().copied().collect();
     assert_eq!(grid.net().iter().map(|p| p.to_array()).collect::<Vec<_>>(), flat);
     // Relative: a fraction of the largest distance between two points of one section, the
     // chord 0.177 up to the sampling of the leading edge.
     assert!(
-        (rep.adapt.tol - 2e-3 * 0.177).abs() < 1e-2 * 2e-3 * 0.177,
+        (rep.adapt.outcome.tol - 2e-3 * 0.177).abs() < 1e-2 * 2e-3 * 0.177,
         "{}",
-        rep.adapt.tol
+        rep.adapt.outcome.tol
     );
 
     // Unmeetable: exit 1, the report still written.

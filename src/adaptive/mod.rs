@@ -38,7 +38,7 @@ pub mod surface;
 
 pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
-pub use report::{AdaptBlock, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
+pub use report::{AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
 pub use surface::{
     adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule, SurfaceAdaptOptions,
     SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,

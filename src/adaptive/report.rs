@@ -20,9 +20,11 @@ every stored break (breaks fixed by the layout integers, and the leading-edge br
 aerofoil rule, are not stored); the layout integers (degree, segment counts, the continuity order \
 of each join) are not counted";
 
-/// The `adapt` block of the report.
+/// What the `adapt` block of every adapted shape, curve or patch grid, states first: the
+/// tolerance, whether it holds, the stored scalars (in all, by kind `C`, how they are counted),
+/// the stored numbers `E` and the winning family.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AdaptBlock {
+pub struct AdaptOutcome<C, E> {
     /// The tolerance, model units.
     pub tol: f64,
     /// `max` or `rms`.
@@ -35,13 +37,41 @@ pub struct AdaptBlock {
     /// The stored scalars.
     pub stored_scalars: usize,
     /// The stored scalars by kind.
-    pub scalars: ScalarCount,
+    pub scalars: C,
     /// How they are counted.
     pub counting: String,
-    /// The stored numbers and the layout integers: regenerate `control_points` from these.
-    pub encoding: Encoding,
-    /// The winning family: x storage, degree, join continuity, breaks.
+    /// The stored numbers and the layout integers: regenerate the control points (or net)
+    /// from these.
+    pub encoding: E,
+    /// The winning family: x storage (or the span and chord rules), degree(s), join
+    /// continuity, breaks.
     pub family: String,
+}
+
+/// The [`AdaptOutcome`] of `$r`, an adapted curve or patch grid (their result types name these
+/// fields alike), searched with `$opts`; `$counting` says how its scalars are counted.
+macro_rules! outcome {
+    ($opts:expr, $r:expr, $counting:expr) => {
+        AdaptOutcome {
+            tol: $opts.tol,
+            norm: $opts.norm,
+            met: $r.met,
+            message: $r.message.clone(),
+            stored_scalars: $r.count.total,
+            scalars: $r.count,
+            counting: $counting.into(),
+            encoding: $r.encoding.clone(),
+            family: $r.family.clone(),
+        }
+    };
+}
+
+/// The `adapt` block of a curve report.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AdaptBlock {
+    /// The tolerance, the stored scalars and numbers, the family.
+    #[serde(flatten)]
+    pub outcome: AdaptOutcome<ScalarCount, Encoding>,
     /// The held-out check (refit on every other point, measured on the rest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
@@ -62,27 +92,19 @@ pub struct AdaptReport {
 }
 
 impl AdaptReport {
-    /// The report of `result` for the data described by `input`.
+    /// The report of `r` for the data described by `input`.
     #[must_use]
-    pub fn new(result: &AdaptedCurve, opts: &AdaptOptions, input: InputInfo) -> Self {
-        let offset = OffsetReport::from(&result.offset);
-        let steps = result.trace.iter().map(|t| t.steps as u64).sum();
-        let fit = FitInfo::of_search(steps, result.fits as u64, result.seconds);
+    pub fn new(r: &AdaptedCurve, opts: &AdaptOptions, input: InputInfo) -> Self {
+        let offset = OffsetReport::from(&r.offset);
+        let steps = r.trace.iter().map(|t| t.steps as u64).sum();
+        let fit = FitInfo::of_search(steps, r.fits as u64, r.seconds);
         AdaptReport {
-            curve: CurveReport::new(&result.chain, offset, fit, input),
+            curve: CurveReport::new(&r.chain, offset, fit, input),
             adapt: AdaptBlock {
-                tol: opts.tol,
-                norm: opts.norm,
-                met: result.met,
-                message: result.message.clone(),
-                stored_scalars: result.count.total,
-                scalars: result.count,
-                counting: COUNTING.into(),
-                encoding: result.encoding.clone(),
-                family: result.family.clone(),
-                held_out: result.held_out,
-                fits: result.fits,
-                search: result.trace.clone(),
+                outcome: outcome!(opts, r, COUNTING),
+                held_out: r.held_out,
+                fits: r.fits,
+                search: r.trace.clone(),
             },
         }
     }
@@ -100,25 +122,9 @@ integers (degrees, patch counts, the continuity order of each join) are not coun
 /// The `adapt` block of a surface report.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SurfaceAdaptBlock {
-    /// The tolerance, model units.
-    pub tol: f64,
-    /// `max` or `rms`.
-    pub norm: Norm,
-    /// True when the tolerance holds (closest-point offsets of every data point).
-    pub met: bool,
-    /// Why not, when it does not.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub message: Option<String>,
-    /// The stored scalars.
-    pub stored_scalars: usize,
-    /// The stored scalars by kind.
-    pub scalars: SurfaceCount,
-    /// How they are counted.
-    pub counting: String,
-    /// The stored numbers and the layout integers: regenerate `control_net` from these.
-    pub encoding: SurfaceEncoding,
-    /// The winning family.
-    pub family: String,
+    /// The tolerance, the stored scalars and numbers, the family.
+    #[serde(flatten)]
+    pub outcome: AdaptOutcome<SurfaceCount, SurfaceEncoding>,
     /// The offsets the shared checker's sampled closest-point search (`verify.py`) finds.
     pub checked: CheckedOffsets,
     /// The held-out check (refit on every other point of each section, measured on the rest).
@@ -148,29 +154,21 @@ pub struct SurfaceAdaptReport {
 }
 
 impl SurfaceAdaptReport {
-    /// The report of `result` for the cloud described by `input`.
+    /// The report of `r` for the cloud described by `input`.
     #[must_use]
-    pub fn new(result: &AdaptedSurface, opts: &SurfaceAdaptOptions, input: InputInfo) -> Self {
-        let offset = OffsetReport::from(&result.offset);
-        let fit = FitInfo::of_search(result.trace.len() as u64, result.fits as u64, result.seconds);
+    pub fn new(r: &AdaptedSurface, opts: &SurfaceAdaptOptions, input: InputInfo) -> Self {
+        let offset = OffsetReport::from(&r.offset);
+        let fit = FitInfo::of_search(r.trace.len() as u64, r.fits as u64, r.seconds);
         SurfaceAdaptReport {
-            surface: SurfaceReport::new(&result.grid, offset, fit, input),
+            surface: SurfaceReport::new(&r.grid, offset, fit, input),
             adapt: SurfaceAdaptBlock {
-                tol: opts.tol,
-                norm: opts.norm,
-                met: result.met,
-                message: result.message.clone(),
-                stored_scalars: result.count.total,
-                scalars: result.count,
-                counting: SURFACE_COUNTING.into(),
-                encoding: result.encoding.clone(),
-                family: result.family.clone(),
-                checked: result.checked,
-                held_out: result.held_out,
-                fold: Some(result.fold),
-                projection_agreement: Some(result.agreement),
-                fits: result.fits,
-                search: result.trace.clone(),
+                outcome: outcome!(opts, r, SURFACE_COUNTING),
+                checked: r.checked,
+                held_out: r.held_out,
+                fold: Some(r.fold),
+                projection_agreement: Some(r.agreement),
+                fits: r.fits,
+                search: r.trace.clone(),
             },
         }
     }

@@ -1,18 +1,20 @@
 //! `bezchain adapt`: the chain with the fewest stored scalars whose offsets meet a tolerance
 //! (the paper's Figs. 7 and 8), for one tolerance or a sweep.
 
+use super::export::{CadArgs, CadOutputs};
 use super::output::{Output, Outputs};
 use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{
-    adapt_curve, AdaptOptions, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore,
+    adapt_curve, AdaptOptions, AdaptOutcome, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm,
+    SurfaceAdaptReport, XStore,
 };
-use bezchain::export::{CurvePlot, InputInfo};
+use bezchain::export::{CadShape, CurvePlot, FitInfo, InputInfo, OffsetReport};
 use bezchain::geometry::read_curve;
 use clap::ValueEnum;
 use glam::DVec2;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The norm the tolerance bounds.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -34,18 +36,43 @@ impl From<NormArg> for Norm {
 
 /// One row of a `--sweep` table.
 pub(crate) struct SweepRow<'a> {
-    pub tol: f64,
-    pub met: bool,
-    pub scalars: usize,
-    pub max: f64,
-    pub rms: f64,
-    pub held_out_max: Option<f64>,
-    pub seconds: f64,
-    pub family: &'a str,
+    tol: f64,
+    met: bool,
+    scalars: usize,
+    max: f64,
+    rms: f64,
+    held_out_max: Option<f64>,
+    seconds: f64,
+    family: &'a str,
+    /// Why the tolerance does not hold, when it does not (the error says it, not the table).
+    failure: Option<&'a str>,
+}
+
+impl<'a> SweepRow<'a> {
+    /// The row of a report whose shape report has `offset` and `fit`, with `outcome` and
+    /// `held_out` from its adapt block.
+    fn new<C, E>(
+        outcome: &'a AdaptOutcome<C, E>,
+        offset: &OffsetReport,
+        fit: &FitInfo,
+        held_out: Option<HeldOut>,
+    ) -> Self {
+        SweepRow {
+            tol: outcome.tol,
+            met: outcome.met,
+            scalars: outcome.stored_scalars,
+            max: offset.max,
+            rms: offset.rms,
+            held_out_max: held_out.map(|h| h.max),
+            seconds: fit.seconds,
+            family: &outcome.family,
+            failure: outcome.message.as_deref(),
+        }
+    }
 }
 
 /// The `--sweep` table of `adapt` and `adapt-surface`: stored scalars against tolerance.
-pub(crate) fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRow<'_>]) -> String {
+fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRow<'_>]) -> String {
     let mut s = format!("{name}: {points} points, stored scalars against tolerance ({norm})\n");
     let _ = writeln!(
         s,
@@ -70,17 +97,93 @@ pub(crate) fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRo
     s
 }
 
-/// One report as a JSON object, several (a sweep) as an array.
-pub(crate) fn put_reports<T: serde::Serialize>(
-    outs: &mut Outputs,
-    json: Option<Output>,
-    reports: &[T],
-) -> Result<()> {
-    match (json, reports) {
-        (None, _) => Ok(()),
-        (Some(o), [one]) => outs.put_json(o, one),
-        (Some(o), many) => outs.put_json(o, &many),
+/// The report of an adapted chain or patch grid, as `adapt` and `adapt-surface` write it.
+pub(crate) trait Adapted: serde::Serialize {
+    /// Its row of the `--sweep` table.
+    fn row(&self) -> SweepRow<'_>;
+    /// The shape for the STEP and IGES files.
+    fn cad_shape(&self) -> bezchain::Result<CadShape>;
+}
+
+impl Adapted for AdaptReport {
+    fn row(&self) -> SweepRow<'_> {
+        SweepRow::new(
+            &self.adapt.outcome,
+            &self.curve.offset,
+            &self.curve.fit,
+            self.adapt.held_out,
+        )
     }
+    fn cad_shape(&self) -> bezchain::Result<CadShape> {
+        CadShape::from_adapt_report(self)
+    }
+}
+
+impl Adapted for SurfaceAdaptReport {
+    fn row(&self) -> SweepRow<'_> {
+        SweepRow::new(
+            &self.adapt.outcome,
+            &self.surface.offset,
+            &self.surface.fit,
+            self.adapt.held_out,
+        )
+    }
+    fn cad_shape(&self) -> bezchain::Result<CadShape> {
+        CadShape::from_surface_adapt_report(self)
+    }
+}
+
+/// The searches of `adapt` and `adapt-surface`: `search` at each of `tols` times `scale`
+/// (model units), an error naming `input` and the tolerance.
+pub(crate) fn search_each<T>(
+    tols: &[f64],
+    scale: f64,
+    input: &Path,
+    mut search: impl FnMut(f64) -> bezchain::Result<T>,
+) -> Result<Vec<T>> {
+    tols.iter()
+        .map(|&t| {
+            let tol = t * scale;
+            search(tol).with_context(|| format!("{}: adapting to {tol:.3e}", input.display()))
+        })
+        .collect()
+}
+
+/// The end of `adapt` and `adapt-surface`, their reports one a tolerance: the `--sweep` table
+/// (for several; `norm` the tolerances bound, `points` in `input`), the JSON report (an array
+/// for several) and the STEP and IGES files (named after `input`) are written, whether or not
+/// the tolerance was met; the error says where it was not.
+pub(crate) fn finish<R: Adapted>(
+    mut outs: Outputs,
+    json: Option<Output>,
+    (cad_args, cad): (&CadArgs, &CadOutputs),
+    input: &Path,
+    points: usize,
+    norm: Norm,
+    reports: &[R],
+) -> Result<()> {
+    let rows: Vec<SweepRow<'_>> = reports.iter().map(R::row).collect();
+    if rows.len() > 1 {
+        outs.say(&sweep_table(&input.display().to_string(), points, norm, &rows));
+    }
+    match (json, reports) {
+        (None, _) => {}
+        (Some(o), [one]) => outs.put_json(o, one)?,
+        (Some(o), many) => outs.put_json(o, &many)?,
+    }
+    if cad_args.wanted() {
+        let shapes = reports
+            .iter()
+            .map(R::cad_shape)
+            .collect::<bezchain::Result<Vec<_>>>()?;
+        cad_args.put(&mut outs, cad, &shapes, &super::export::stem(input))?;
+    }
+    outs.commit()?;
+    let failures: Vec<&str> = rows.iter().filter_map(|r| r.failure).collect();
+    if !failures.is_empty() {
+        return Err(anyhow!("{}", failures.join("; ")));
+    }
+    Ok(())
 }
 
 /// How x may be stored.
@@ -309,56 +412,20 @@ pub fn run(args: Args) -> Result<()> {
         search_points: args.search_points,
         ..AdaptOptions::default()
     };
-    let to_stderr = outs.uses_stdout();
-    let out = |text: &str| super::output::say(to_stderr, text);
     let name = args.input.display().to_string();
     let input = InputInfo {
         path: name.clone(),
         points: points.len(),
     };
-    let mut reports = Vec::new();
-    let mut results = Vec::new();
-    let mut failures = Vec::new();
-    for &t in &tols {
-        let opts = AdaptOptions {
-            tol: t * scale,
-            ..base
-        };
-        let r = adapt_curve(points, &opts)
-            .with_context(|| format!("{}: adapting to {:.3e}", args.input.display(), opts.tol))?;
-        if let Some(m) = &r.message {
-            failures.push(m.clone());
-        }
-        reports.push(AdaptReport::new(&r, &opts, input.clone()));
-        results.push((opts, r));
-    }
-    if results.len() == 1 {
-        let (opts, r) = &results[0];
-        out(&summary(&name, points.len(), opts.tol, opts.norm, r));
-    } else {
-        let rows: Vec<SweepRow<'_>> = results
-            .iter()
-            .map(|(opts, r)| SweepRow {
-                tol: opts.tol,
-                met: r.met,
-                scalars: r.count.total,
-                max: r.offset.max,
-                rms: r.offset.rms,
-                held_out_max: r.held_out.map(|h| h.max),
-                seconds: r.seconds,
-                family: &r.family,
-            })
-            .collect();
-        out(&sweep_table(&name, points.len(), base.norm, &rows));
-    }
-    put_reports(&mut outs, json, &reports)?;
-    if args.cad.wanted() {
-        let shapes = reports
-            .iter()
-            .map(bezchain::export::CadShape::from_adapt_report)
-            .collect::<bezchain::Result<Vec<_>>>()?;
-        args.cad
-            .put(&mut outs, &cad, &shapes, &super::export::stem(&args.input))?;
+    let (reports, results): (Vec<_>, Vec<_>) = search_each(&tols, scale, &args.input, |tol| {
+        let opts = AdaptOptions { tol, ..base };
+        let r = adapt_curve(points, &opts)?;
+        Ok((AdaptReport::new(&r, &opts, input.clone()), (opts, r)))
+    })?
+    .into_iter()
+    .unzip();
+    if let [(opts, r)] = &results[..] {
+        outs.say(&summary(&name, points.len(), opts.tol, opts.norm, r));
     }
     if let (Some(o), Some((opts, r))) = (svg, results.last()) {
         let offsets = bezchain::fit::shape_offsets(
@@ -385,10 +452,13 @@ pub fn run(args: Args) -> Result<()> {
         };
         outs.put(o, plot.to_svg()?.as_bytes())?;
     }
-    // Written whether or not the tolerance was met (the exit status says which).
-    outs.commit()?;
-    if !failures.is_empty() {
-        return Err(anyhow!("{}", failures.join("; ")));
-    }
-    Ok(())
+    finish(
+        outs,
+        json,
+        (&args.cad, &cad),
+        &args.input,
+        points.len(),
+        base.norm,
+        &reports,
+    )
 }

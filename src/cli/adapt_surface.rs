@@ -1,10 +1,10 @@
 //! `bezchain adapt-surface`: the patch grid with the fewest stored scalars whose offsets from a
 //! sectioned 3D cloud meet a tolerance, for one tolerance or a sweep.
 
-use super::adapt::{parse_degrees, put_reports, sweep_table, SweepRow, Tolerances};
+use super::adapt::{finish, parse_degrees, search_each, Tolerances};
 use super::output::Outputs;
 use super::{usage, warn_all};
-use anyhow::{anyhow, Context, Result};
+use anyhow::Result;
 use bezchain::adaptive::{
     adapt_surface, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
 };
@@ -185,64 +185,32 @@ pub fn run(args: Args) -> Result<()> {
         max_scalars: args.tolerance.max_scalars,
         ..SurfaceAdaptOptions::default()
     };
-    let to_stderr = outs.uses_stdout();
-    let out = |text: &str| super::output::say(to_stderr, text);
+    if let Some(t) = tols
+        .iter()
+        .find(|t| !(*t * scale > 0.0 && (*t * scale).is_finite()))
+    {
+        return Err(usage(format!("--tol {t}: the tolerance must be positive")));
+    }
     let name = args.cloud.display().to_string();
     let input = InputInfo {
         path: name.clone(),
         points: points.len(),
     };
-    let mut reports = Vec::new();
-    let mut results = Vec::new();
-    let mut failures = Vec::new();
-    for &t in &tols {
-        let opts = SurfaceAdaptOptions {
-            tol: t * scale,
-            ..base
-        };
-        if opts.tol <= 0.0 || !opts.tol.is_finite() {
-            return Err(usage(format!("--tol {t}: the tolerance must be positive")));
-        }
-        let r = adapt_surface(points, grid, &opts)
-            .with_context(|| format!("{}: adapting to {:.3e}", args.cloud.display(), opts.tol))?;
-        if let Some(m) = &r.message {
-            failures.push(m.clone());
-        }
+    let reports = search_each(&tols, scale, &args.cloud, |tol| {
+        let opts = SurfaceAdaptOptions { tol, ..base };
+        let r = adapt_surface(points, grid, &opts)?;
         if tols.len() == 1 {
-            out(&summary(&name, points.len(), opts.tol, opts.norm, &r));
+            outs.say(&summary(&name, points.len(), opts.tol, opts.norm, &r));
         }
-        reports.push(SurfaceAdaptReport::new(&r, &opts, input.clone()));
-        results.push((opts.tol, r));
-    }
-    if tols.len() > 1 {
-        let rows: Vec<SweepRow<'_>> = results
-            .iter()
-            .map(|(tol, r)| SweepRow {
-                tol: *tol,
-                met: r.met,
-                scalars: r.count.total,
-                max: r.offset.max,
-                rms: r.offset.rms,
-                held_out_max: r.held_out.map(|h| h.max),
-                seconds: r.seconds,
-                family: &r.family,
-            })
-            .collect();
-        out(&sweep_table(&name, points.len(), base.norm, &rows));
-    }
-    put_reports(&mut outs, json, &reports)?;
-    if args.cad.wanted() {
-        let shapes = reports
-            .iter()
-            .map(bezchain::export::CadShape::from_surface_adapt_report)
-            .collect::<bezchain::Result<Vec<_>>>()?;
-        args.cad
-            .put(&mut outs, &cad, &shapes, &super::export::stem(&args.cloud))?;
-    }
-    // Written whether or not the tolerance was met (the exit status says which).
-    outs.commit()?;
-    if !failures.is_empty() {
-        return Err(anyhow!("{}", failures.join("; ")));
-    }
-    Ok(())
+        Ok(SurfaceAdaptReport::new(&r, &opts, input.clone()))
+    })?;
+    finish(
+        outs,
+        json,
+        (&args.cad, &cad),
+        &args.cloud,
+        points.len(),
+        base.norm,
+        &reports,
+    )
 }

@@ -8,7 +8,7 @@ use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
 use bezchain::export::Report;
 use bezchain::geometry::read_curve;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `bezchain aero`.
 #[derive(clap::Args, Debug)]
@@ -41,15 +41,6 @@ pub struct Args {
 /// Most panel nodes accepted: the dense system grows as the square.
 const MAX_PANELS: usize = 4000;
 
-/// Whether `path` holds a JSON report rather than coordinates (its first character is `{`).
-fn is_report(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
-}
-
 /// Analyse and write the outputs.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
@@ -66,7 +57,7 @@ pub fn run(args: Args) -> Result<()> {
         te_ratio: args.te_ratio,
     };
     let path_text = args.input.display().to_string();
-    let (analysis, input, what) = if is_report(&args.input)? {
+    let (analysis, input, what) = if super::is_report(&args.input)? {
         let chain = match Report::read(&args.input)? {
             Report::Curve(rep) => rep.chain()?,
             Report::Surface(_) => {

@@ -101,3 +101,13 @@ pub fn bounded(flag: &str, value: u64, max: u64, suggestion: &str) -> Result<()>
     }
     Ok(())
 }
+
+/// Whether `path` holds a JSON report rather than coordinates (its first character, after
+/// white space, is `{`).
+pub fn is_report(path: &Path) -> Result<bool> {
+    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
+}

@@ -119,18 +119,9 @@ fn parse_goal(s: &str) -> Result<Goal> {
     }
 }
 
-/// Whether `path` holds JSON (a report) rather than coordinates.
-fn is_json(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
-}
-
 /// The start's points (for the report's offsets) and encoding.
 fn start_encoding(path: &Path, tol: f64) -> Result<(Vec<DVec2>, Encoding, String)> {
-    if is_json(path)? {
+    if super::is_report(path)? {
         let text = std::fs::read_to_string(path).map_err(|source| bezchain::Error::Io {
             path: path.to_path_buf(),
             source,
@@ -178,7 +169,7 @@ fn start_encoding(path: &Path, tol: f64) -> Result<(Vec<DVec2>, Encoding, String
 
 /// The target's points and its paneled solution.
 fn target(path: &Path, paneling: &Paneling) -> Result<(Vec<DVec2>, Analysis)> {
-    if is_json(path)? {
+    if super::is_report(path)? {
         let chain = match Report::read(path)? {
             Report::Curve(rep) => rep.chain()?,
             Report::Surface(_) => {

@@ -120,11 +120,7 @@ impl DenseEvaluator {
         let gpu = || -> Result<(Engine, BackendInfo)> {
             let ctx = GpuContext::shared()?;
             let gpu = DenseGpu::new(&ctx, &problem, &samples)?;
-            let info = BackendInfo {
-                backend: Backend::Gpu,
-                adapter: ctx.adapter().to_owned(),
-                fallback: None,
-            };
+            let info = ctx.backend_info();
             Ok((Engine::Gpu(Box::new(gpu)), info))
         };
         let (engine, info) = match backend {

@@ -228,6 +228,30 @@ pub(crate) trait HoldsProblem {
     /// The problem's per-target data changed (parameters or reference): a backend that keeps
     /// a copy of them (the GPU's buffers) refreshes it.
     fn problem_changed(&mut self) {}
+
+    /// The backend and adapter that run the evaluations.
+    fn backend_info(&self) -> &BackendInfo;
+
+    /// Evaluate `population`, rows of f32 or f64 design variables, into `out` (the
+    /// [`PopulationEvaluator`] methods of both precisions).
+    fn run<T: Gene>(&mut self, population: &[T], out: &mut [Fitness]) -> Result<()>
+    where
+        Self: Sized;
+}
+
+/// Every backend evaluates both precisions through its one generic [`HoldsProblem::run`].
+impl<E: HoldsProblem + Send> PopulationEvaluator for E {
+    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
+
+    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
+        self.run(population, out)
+    }
+
+    fn info(&self) -> &BackendInfo {
+        self.backend_info()
+    }
 }
 
 /// Evaluates whole populations of one layout against fixed targets, generation after

@@ -252,7 +252,7 @@ impl CadShape {
     /// The curve of an adapt report: its encoding's B-spline, each join with its own
     /// multiplicity (checked against the stored control points).
     pub fn from_adapt_report(r: &AdaptReport) -> Result<Self> {
-        Self::from_encoded_curve(&r.curve, &r.adapt.encoding)
+        Self::from_encoded_curve(&r.curve, &r.adapt.outcome.encoding)
     }
 
     /// The curve `enc` stores, checked against the report `r` it came with.
@@ -269,7 +269,7 @@ impl CadShape {
     /// The surface of an adapted-surface report: its encoding's B-spline (checked against the
     /// stored control net).
     pub fn from_surface_adapt_report(r: &SurfaceAdaptReport) -> Result<Self> {
-        Self::from_encoded_surface(&r.surface, &r.adapt.encoding)
+        Self::from_encoded_surface(&r.surface, &r.adapt.outcome.encoding)
     }
 
     /// The surface `enc` stores, checked against the report `r` it came with.

@@ -29,7 +29,7 @@ pub(crate) mod reduce;
 
 use self::eval_patch::{Bindings, NewtonWork};
 use super::kernel::{point_groups, Config, Gene, Partial, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, Targets};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -345,8 +345,22 @@ impl CpuEvaluator {
         self.info.fallback = Some(why);
         self
     }
+}
 
-    fn run<T: Gene>(&self, population: &[T], out: &mut [Fitness]) -> Result<()> {
+impl HoldsProblem for CpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+
+    fn backend_info(&self) -> &BackendInfo {
+        &self.info
+    }
+
+    fn run<T: Gene>(&mut self, population: &[T], out: &mut [Fitness]) -> Result<()> {
         let problem = &self.problem;
         let rows = problem.rows(population.len(), out.len())?;
         if rows == 0 {
@@ -374,29 +388,5 @@ impl CpuEvaluator {
             .enumerate()
             .for_each(|(block, fitness)| reduce::reduce(&config, &partials, blocks, block, fitness));
         Ok(())
-    }
-}
-
-impl HoldsProblem for CpuEvaluator {
-    fn problem(&self) -> &Problem {
-        &self.problem
-    }
-
-    fn problem_mut(&mut self) -> &mut Problem {
-        &mut self.problem
-    }
-}
-
-impl PopulationEvaluator for CpuEvaluator {
-    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn info(&self) -> &BackendInfo {
-        &self.info
     }
 }

@@ -7,7 +7,7 @@
 use super::{GpuContext, GpuOptions, WORKGROUP};
 use crate::aero::batch::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, MAX_GPU_NODES};
 use crate::error::{Error, Result};
-use crate::eval::{Backend, BackendInfo};
+use crate::eval::BackendInfo;
 
 /// `shaders/aero.wgsl`.
 pub const SOURCE: &str = include_str!("../../../shaders/aero.wgsl");
@@ -73,11 +73,7 @@ impl GpuAero {
         let node_base = ctx.buffer_init("node_base", bytemuck::cast_slice(&kernel.node_base), STORAGE);
         let target = ctx.buffer_init("target_cp", bytemuck::cast_slice(&kernel.target), STORAGE);
         ctx.check()?;
-        let info = BackendInfo {
-            backend: Backend::Gpu,
-            adapter: ctx.adapter().to_owned(),
-            fallback: None,
-        };
+        let info = ctx.backend_info();
         Ok(GpuAero {
             ctx: ctx.clone(),
             kernel,

@@ -4,7 +4,7 @@
 //! device limits into chunks.
 
 use super::kernel::{point_groups, Gene, Problem};
-use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, PopulationEvaluator, Targets};
+use super::{Backend, BackendInfo, EvalLayout, Fitness, HoldsProblem, Targets};
 use crate::error::{Error, Result};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -252,6 +252,16 @@ impl GpuContext {
     #[must_use]
     pub fn adapter(&self) -> &str {
         &self.adapter
+    }
+
+    /// What an evaluator on this context reports: the GPU backend and this adapter.
+    #[must_use]
+    pub fn backend_info(&self) -> BackendInfo {
+        BackendInfo {
+            backend: Backend::Gpu,
+            adapter: self.adapter.clone(),
+            fallback: None,
+        }
     }
 
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl) for
@@ -597,11 +607,7 @@ impl GpuEvaluator {
             )));
         }
         ctx.check()?;
-        let info = BackendInfo {
-            backend: Backend::Gpu,
-            adapter: ctx.adapter().to_owned(),
-            fallback: None,
-        };
+        let info = ctx.backend_info();
         Ok(GpuEvaluator {
             ctx: ctx.clone(),
             problem,
@@ -689,6 +695,32 @@ impl GpuEvaluator {
 }
 
 impl GpuEvaluator {
+    /// Upload the per-target arrays after the parameters or the reference changed.
+    fn upload_targets(&self) {
+        let data = point_data(&self.problem);
+        self.ctx
+            .queue
+            .write_buffer(&self.points, 0, bytemuck::cast_slice(&data));
+    }
+}
+
+impl HoldsProblem for GpuEvaluator {
+    fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut Problem {
+        &mut self.problem
+    }
+
+    fn problem_changed(&mut self) {
+        self.upload_targets();
+    }
+
+    fn backend_info(&self) -> &BackendInfo {
+        &self.info
+    }
+
     fn run<T: Gene>(&mut self, population: &[T], out: &mut [Fitness]) -> Result<()> {
         let rows = self.problem.rows(population.len(), out.len())?;
         if rows == 0 {
@@ -729,42 +761,6 @@ impl GpuEvaluator {
             self.ctx.read(&work.staging, &mut out[start..start + len])?;
         }
         Ok(())
-    }
-
-    /// Upload the per-target arrays after the parameters or the reference changed.
-    fn upload_targets(&self) {
-        let data = point_data(&self.problem);
-        self.ctx
-            .queue
-            .write_buffer(&self.points, 0, bytemuck::cast_slice(&data));
-    }
-}
-
-impl HoldsProblem for GpuEvaluator {
-    fn problem(&self) -> &Problem {
-        &self.problem
-    }
-
-    fn problem_mut(&mut self) -> &mut Problem {
-        &mut self.problem
-    }
-
-    fn problem_changed(&mut self) {
-        self.upload_targets();
-    }
-}
-
-impl PopulationEvaluator for GpuEvaluator {
-    fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn evaluate_f64(&mut self, population: &[f64], out: &mut [Fitness]) -> Result<()> {
-        self.run(population, out)
-    }
-
-    fn info(&self) -> &BackendInfo {
-        &self.info
     }
 }
 
