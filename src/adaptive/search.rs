@@ -1,7 +1,8 @@
 //! The search of Figs. 7 and 8: per family (degree, join continuity, how x and the breaks
 //! are stored) grow from a coarse layout by splitting where the error is largest until the
-//! tolerance holds, then reduce (remove breaks, lower the degree) while it still holds; all
-//! families run in parallel, each stopping once it cannot beat the best count found so far;
+//! tolerance holds, then reduce (remove breaks, lower the degree) while it still holds; the
+//! families run in parallel batches, each stopping once it cannot beat the best count the
+//! batches before it found;
 //! the winner's breaks are then moved to let more of them go.
 
 use super::encoding::{per_side_breaks, Breaks, Encoding, XStore};
@@ -9,6 +10,7 @@ use super::engine::{self, Data, Effort, Model, State, XRule, LE_BREAK};
 use super::{AdaptOptions, FamilyTrace, Norm};
 use crate::chain::ChainLayout;
 use glam::DVec2;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -17,6 +19,10 @@ thread_local! {
     /// Fits run on this thread, to attribute them to the family it runs.
     static FAMILY_FITS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
+
+/// Families run at once ([`Search::run`]): a fixed number, so that results do not depend on
+/// the machine's thread count.
+const BATCH: usize = 4;
 
 /// Fits while growing and reducing.
 const GROW: Effort = Effort {
@@ -226,8 +232,8 @@ pub(crate) struct Search<'a> {
     /// before one is found).
     bound: AtomicUsize,
     fits: AtomicUsize,
-    /// First fits shared between families, by x storage and degree.
-    starts: Mutex<HashMap<(bool, usize), State>>,
+    /// First fits shared between families, by x storage and degree (`None`: it failed).
+    starts: Mutex<HashMap<(bool, usize), Option<State>>>,
 }
 
 /// What the search found.
@@ -415,37 +421,36 @@ impl<'a> Search<'a> {
         out
     }
 
-    /// Run the whole search.
+    /// Run the whole search: the families in batches of [`BATCH`], each batch in parallel.
+    /// A family prunes by the bound the batches before it set, fixed while its batch runs, so
+    /// the result (and every count in the trace) does not depend on the thread count or on
+    /// which family finishes first.
     pub fn run(&self) -> Option<Found> {
         let families = self.families();
-        let next = AtomicUsize::new(0);
-        let results: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
-        let workers = rayon::current_num_threads().clamp(1, families.len().max(1));
-        // Workers take families in order, so the promising ones set the bound early.
-        rayon::scope(|scope| {
-            for _ in 0..workers {
-                scope.spawn(|_| loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&fam) = families.get(i) else {
-                        break;
-                    };
+        let mut results: Vec<Outcome> = Vec::with_capacity(families.len());
+        for batch in families.chunks(BATCH) {
+            let bound = self.bound.load(Ordering::Relaxed);
+            self.first_fits(batch, bound);
+            let outcomes: Vec<Outcome> = batch
+                .par_iter()
+                .map(|&fam| {
                     let clock = std::time::Instant::now();
                     let before = FAMILY_FITS.with(|f| f.get());
-                    let mut outcome = self.run_family(fam);
+                    let mut outcome = self.run_family(fam, bound);
                     outcome.fits = FAMILY_FITS.with(|f| f.get()) - before;
                     outcome.seconds = clock.elapsed().as_secs_f64();
-                    if let Ok(mut r) = results.lock() {
-                        r.push((i, outcome));
-                    }
-                });
+                    outcome
+                })
+                .collect();
+            for m in outcomes.iter().filter_map(|o| o.met.as_ref()) {
+                self.bound.fetch_min(m.count, Ordering::Relaxed);
             }
-        });
-        let mut results = results.into_inner().unwrap_or_default();
-        results.sort_by_key(|r| r.0);
+            results.extend(outcomes);
+        }
         let mut trace = Vec::new();
         let mut best_met: Option<Cand> = None;
         let mut closest: Option<Cand> = None;
-        for (_, o) in results {
+        for o in results {
             trace.push(FamilyTrace {
                 family: o.fam.name(),
                 steps: o.steps,
@@ -514,7 +519,15 @@ impl<'a> Search<'a> {
             params,
             &GROW,
         )?;
-        let out = self.grow_from(c, Outcome::failed(cand.fam), max_steps);
+        let out = self.grow_from(
+            c,
+            Outcome::failed(cand.fam),
+            max_steps,
+            self.bound.load(Ordering::Relaxed),
+        );
+        if let Some(m) = &out.met {
+            self.bound.fetch_min(m.count, Ordering::Relaxed);
+        }
         match (out.met, out.closest) {
             (Some(m), _) => Some((m, true)),
             (None, Some(c)) => Some((c, false)),
@@ -534,68 +547,90 @@ impl<'a> Search<'a> {
         }
     }
 
-    /// Grow one family until it meets the tolerance, cannot beat the bound, reaches the
-    /// limit or stalls; then reduce.
-    fn run_family(&self, fam: Family) -> Outcome {
+    /// Grow one family until it meets the tolerance, cannot beat `bound` (the fewest stored
+    /// scalars met before), reaches the limit or stalls; then reduce.
+    fn run_family(&self, fam: Family, bound: usize) -> Outcome {
         let mut out = Outcome::failed(fam);
         let Some(model) = fam.model(fam.degree, fam.initial_breaks()) else {
             return out;
         };
-        if let Some(stop) = self.refused(fam, &model) {
+        if let Some(stop) = self.refused(fam, &model, bound) {
             out.stop = stop;
             return out;
         }
         let Some(cand) = self.initial(fam, model) else {
             return out;
         };
-        self.grow_from(cand, out, usize::MAX)
+        self.grow_from(cand, out, usize::MAX, bound)
     }
 
     /// Why `model` is not fitted, if it is not: more design points or stored scalars than the
-    /// data allow ([`Stop::Limit`]), or no fewer stored scalars than the best layout found so
-    /// far ([`Stop::Pruned`]).
-    fn refused(&self, fam: Family, model: &Model) -> Option<Stop> {
+    /// data allow ([`Stop::Limit`]), or no fewer stored scalars than `bound`, the best layout
+    /// found before ([`Stop::Pruned`]).
+    fn refused(&self, fam: Family, model: &Model, bound: usize) -> Option<Stop> {
         let count = fam.count(&model.layout);
         if model.layout.design_count() > self.limit || count > self.scalar_limit {
             Some(Stop::Limit)
-        } else if count >= self.bound.load(Ordering::Relaxed) {
+        } else if count >= bound {
             Some(Stop::Pruned)
         } else {
             None
         }
     }
 
-    /// The first fit of a family. Its layout (one segment, or one per aerofoil surface) has no
-    /// join of the family's continuity, so families differing only in their joins and breaks
-    /// share it: it is fitted once per x storage and degree.
+    /// The first fits the families of `batch` that `bound` does not refuse will start from,
+    /// those not made yet, in parallel (counted in the search's fits, not a family's). A
+    /// family's first layout (one segment, or one per aerofoil surface) has no join of its
+    /// continuity, so families differing only in their joins and breaks share it: it is
+    /// fitted once per x storage and degree. A first fit that fails is stored as `None`.
+    fn first_fits(&self, batch: &[Family], bound: usize) {
+        let Ok(mut starts) = self.starts.lock() else {
+            return;
+        };
+        let mut todo: Vec<(Family, Model)> = Vec::new();
+        for &fam in batch {
+            let Some(model) = fam.model(fam.degree, fam.initial_breaks()) else {
+                continue;
+            };
+            let key = (fam.aerofoil, fam.degree);
+            let fresh =
+                !starts.contains_key(&key) && !todo.iter().any(|(f, _)| (f.aerofoil, f.degree) == key);
+            if fresh && self.refused(fam, &model, bound).is_none() {
+                todo.push((fam, model));
+            }
+        }
+        let made: Vec<((bool, usize), Option<State>)> = todo
+            .into_par_iter()
+            .map(|(fam, model)| {
+                let cand = self.fit(fam, model, None, self.start_params(&fam), &GROW);
+                ((fam.aerofoil, fam.degree), cand.map(|c| c.state))
+            })
+            .collect();
+        starts.extend(made);
+    }
+
+    /// The first fit of a family, made by [`Search::first_fits`] before its batch ran.
     fn initial(&self, fam: Family, model: Model) -> Option<Cand> {
         let key = (fam.aerofoil, fam.degree);
-        if let Some(state) = self.starts.lock().ok().and_then(|m| m.get(&key).cloned()) {
-            let count = fam.count(&model.layout);
-            return Some(Cand {
-                fam,
-                model,
-                state,
-                count,
-            });
-        }
-        let cand = self.fit(fam, model, None, self.start_params(&fam), &GROW)?;
-        if let Ok(mut m) = self.starts.lock() {
-            m.insert(key, cand.state.clone());
-        }
-        Some(cand)
+        let state = self.starts.lock().ok()?.get(&key).cloned().flatten()?;
+        let count = fam.count(&model.layout);
+        Some(Cand {
+            fam,
+            model,
+            state,
+            count,
+        })
     }
 
     /// Grow `cand`'s family from `cand` (see [`Search::run_family`]) for at most `max_steps`
     /// layouts, recording in `out`.
-    fn grow_from(&self, mut cand: Cand, mut out: Outcome, max_steps: usize) -> Outcome {
+    fn grow_from(&self, mut cand: Cand, mut out: Outcome, max_steps: usize, bound: usize) -> Outcome {
         let fam = cand.fam;
         let mut history: Vec<f64> = Vec::new();
         loop {
             out.steps += 1;
             if self.accept(&mut cand) {
                 let reduced = self.reduce(cand);
-                self.bound.fetch_min(reduced.count, Ordering::Relaxed);
                 out.closest = Some(reduced.clone());
                 out.met = Some(reduced);
                 out.stop = Stop::Met;
@@ -626,7 +661,7 @@ impl<'a> Search<'a> {
                 out.stop = Stop::Limit;
                 return out;
             };
-            if let Some(stop) = self.refused(fam, &model) {
+            if let Some(stop) = self.refused(fam, &model, bound) {
                 out.stop = stop;
                 return out;
             }
