@@ -213,6 +213,27 @@ fn the_held_out_check_refits_on_every_other_point() {
     assert!(h.max < 2.0 * r.offset.max.max(1e-3), "held-out max {:e}", h.max);
 }
 
+/// At 1e-5 the search picks d6 C2 with stored breaks, a layout in which every other point
+/// leaves a segment nearly empty: the refit on the kept half holds the design points those
+/// points do not determine where the full fit put them (before, they went anywhere and the
+/// held-out max was 3.5e-2, three thousand times the tolerance).
+#[test]
+fn the_held_out_refit_keeps_design_points_its_points_leave_undetermined() {
+    let pts = naca4413();
+    let tol = 1e-5;
+    let r = adapt_curve(
+        &pts,
+        &AdaptOptions {
+            tol,
+            ..AdaptOptions::default()
+        },
+    )
+    .unwrap();
+    let h = r.held_out.expect("a held-out check");
+    assert!(r.offset.max <= tol, "max {:e}", r.offset.max);
+    assert!(h.max < 3.0 * tol, "held-out max {:e} at tolerance {tol:e}", h.max);
+}
+
 /// The search runs its families in parallel batches, each pruned by the bound the batches
 /// before it set: its result and every count in its trace are the same whatever the thread
 /// count (before, a family pruned by a bound that another thread happened to set first made

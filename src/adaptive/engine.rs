@@ -127,6 +127,62 @@ impl Model {
         Some(z[..self.x_unknowns()].to_vec())
     }
 
+    /// Which design points the data at `params` leave undetermined: those whose basis
+    /// function's squares summed over the data fall below [`UNDETERMINED`] of the largest such
+    /// sum (a segment holding no data point, or one only at a C2 join where the segment's own
+    /// basis functions are flat to rounding).
+    pub fn undetermined(&self, params: &[f64]) -> Vec<bool> {
+        let d = self.layout.degree();
+        let mut reach = vec![0.0_f64; self.layout.design_count()];
+        for &t in params {
+            let b = self.layout.basis(t, 0);
+            for a in 0..=d {
+                reach[b.first + a] += b.value[a] * b.value[a];
+            }
+        }
+        let top = reach.iter().fold(0.0_f64, |m, &r| m.max(r));
+        reach
+            .iter()
+            .map(|&r| r.is_nan() || r <= UNDETERMINED * top)
+            .collect()
+    }
+
+    /// This model's constraint with the design points `held` kept where they start: their y
+    /// (and x, where x is free) take no step; x under the aerofoil rule stays on the rule.
+    fn holding(&self, held: &[bool]) -> Constraint {
+        let mut next = 0;
+        let mut own = |h: bool| {
+            if h {
+                Vec::new()
+            } else {
+                next += 1;
+                vec![(next - 1, 1.0)]
+            }
+        };
+        let x_rows: Vec<Vec<(usize, f64)>> = match &self.rule {
+            XRule::Free => held.iter().map(|&h| own(h)).collect(),
+            XRule::Aerofoil { rows: r, shared_te } => {
+                for _ in 0..self.x_unknowns() {
+                    own(false);
+                }
+                r.iter()
+                    .map(|w| match shared_te {
+                        true => vec![(0, w[0]), (1, w[1] + w[2])],
+                        false => vec![(0, w[0]), (1, w[1]), (2, w[2])],
+                    })
+                    .collect()
+            }
+        };
+        let mut rows = Vec::with_capacity(2 * held.len());
+        for (x, &h) in x_rows.into_iter().zip(held) {
+            rows.push(x);
+            rows.push(own(h));
+        }
+        // The offsets never enter the fit: lsq moves the design by steps within the rows.
+        let offset = vec![0.0; rows.len()];
+        Constraint::coupled(rows, offset, next)
+    }
+
     /// The fitting problem of this model on `data` from `params`: the ends anchored at 0 and
     /// 1, the rule a constraint on x. `None` when the data cannot determine the layout.
     fn problem<'a>(&self, data: &Data<'a>, params: Vec<f64>) -> Option<FitProblem<'a, CurveShape<DVec2>, 1>> {
@@ -252,6 +308,11 @@ pub(crate) struct Data<'a> {
     pub points: &'a [DVec2],
 }
 
+/// A design point whose basis function's squares, summed over the data, fall below this
+/// share of the largest such sum is not determined by the data: `1e-10`, where the Cholesky
+/// factors of the normal equations no longer resolve it (their diagonal spans 10 decades).
+const UNDETERMINED: f64 = 1e-10;
+
 /// Newton steps of a point's local foot-point search.
 const FOOT_STEPS: usize = 16;
 
@@ -368,7 +429,39 @@ pub(crate) fn fit(
     params: Vec<f64>,
     effort: &Effort,
 ) -> Option<State> {
-    let mut problem = model.problem(data, params)?;
+    let problem = model.problem(data, params)?;
+    run(problem, start, effort)
+}
+
+/// [`fit`] from design points `start` with the design points the data at `params` leave
+/// undetermined ([`Model::undetermined`]) held where `start` has them: a refit on part of the
+/// data (the held-out check) otherwise lets the part no point reaches go anywhere, since
+/// moving it changes no distance.
+pub(crate) fn refit(
+    model: &Model,
+    data: &Data<'_>,
+    start: Vec<DVec2>,
+    params: Vec<f64>,
+    effort: &Effort,
+) -> Option<State> {
+    let held = model.undetermined(&params);
+    if !held.contains(&true) {
+        return fit(model, data, Some(start), params, effort);
+    }
+    let problem = model
+        .problem(data, params)?
+        .with_constraint(model.holding(&held))
+        .ok()?;
+    run(problem, Some(start), effort)
+}
+
+/// Least squares on `problem` from design points `start` (or the linear fit at its
+/// parameters), then the minimax polish if `effort` asks for it.
+fn run(
+    mut problem: FitProblem<'_, CurveShape<DVec2>, 1>,
+    start: Option<Vec<DVec2>>,
+    effort: &Effort,
+) -> Option<State> {
     let params = problem.params().to_vec();
     let start = match start {
         Some(coeffs) => Start::Design(coeffs, params),

@@ -422,13 +422,7 @@ fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Optio
         give_up_after: 0,
         max_stall: 0,
     };
-    let state = engine::fit(
-        &best.model,
-        &data,
-        Some(best.state.coeffs.clone()),
-        params,
-        &effort,
-    )?;
+    let state = engine::refit(&best.model, &data, best.state.coeffs.clone(), params, &effort)?;
     let chain = chain_of(
         &search::Cand {
             state,
