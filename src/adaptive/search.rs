@@ -154,6 +154,17 @@ pub(crate) struct Cand {
 }
 
 impl Cand {
+    /// A candidate of family `fam`, its stored scalars counted from the model's layout.
+    fn new(fam: Family, model: Model, state: State) -> Self {
+        let count = fam.count(&model.layout);
+        Cand {
+            fam,
+            model,
+            state,
+            count,
+        }
+    }
+
     /// The stored form of the candidate.
     pub fn encoding(&self) -> Encoding {
         let layout = &self.model.layout;
@@ -320,13 +331,7 @@ impl<'a> Search<'a> {
         if !state.coeffs.iter().all(|v| v.is_finite()) {
             return None;
         }
-        let count = fam.count(&model.layout);
-        Some(Cand {
-            fam,
-            model,
-            state,
-            count,
-        })
+        Some(Cand::new(fam, model, state))
     }
 
     /// True when the candidate meets the tolerance, after a minimax polish if it is close.
@@ -616,13 +621,7 @@ impl<'a> Search<'a> {
     fn initial(&self, fam: Family, model: Model) -> Option<Cand> {
         let key = (fam.aerofoil, fam.degree);
         let state = self.starts.lock().ok()?.get(&key).cloned().flatten()?;
-        let count = fam.count(&model.layout);
-        Some(Cand {
-            fam,
-            model,
-            state,
-            count,
-        })
+        Some(Cand::new(fam, model, state))
     }
 
     /// Grow `cand`'s family from `cand` (see [`Search::run_family`]) for at most `max_steps`
