@@ -211,6 +211,10 @@ fn a_noisy_unordered_blade_cloud_is_fitted_to_the_noise() {
         fit.stages.iter().map(|s| s.name).collect::<Vec<_>>(),
         vec!["subsample", "full"]
     );
+    // The whole-cloud stage runs its fixed iterations by design and always ends at its cap:
+    // only the subsample stage's cap would cut the fit short.
+    assert_eq!(fit.stages[1].report.cap(), Some("iteration cap"));
+    assert_eq!(fit.stopped(), fit.stages[0].report.cap());
     let sigma = noise * blade.max_chord();
     // Closest-point offsets of points with Gaussian noise of sigma per coordinate have an rms
     // of about sigma (the normal component); the model error must add little.
@@ -321,6 +325,10 @@ fn noisy_unordered_fit(per_section: usize, sections: usize, subsample: usize) ->
         fit.stages.iter().map(|s| s.name).collect::<Vec<_>>(),
         vec!["subsample", "full"]
     );
+    // The whole-cloud stage runs its fixed iterations by design and always ends at its cap:
+    // only the subsample stage's cap would cut the fit short.
+    assert_eq!(fit.stages[1].report.cap(), Some("iteration cap"));
+    assert_eq!(fit.stopped(), fit.stages[0].report.cap());
     assert_eq!(fit.stats.points, cloud.points.len());
     assert!(fit.grid.continuity_error() < 1e-9);
     let sigma = noise * blade.max_chord();

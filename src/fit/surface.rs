@@ -264,6 +264,10 @@ impl Default for SurfaceOptions {
     }
 }
 
+/// The name of the whole-cloud stage after a subsample fit: a fixed number of joint
+/// iterations over every point (`SurfaceOptions::polish_iterations`).
+const POLISH_STAGE: &str = "full";
+
 /// One stage of a surface fit.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceStage {
@@ -327,11 +331,16 @@ pub struct SurfaceFit {
 
 impl SurfaceFit {
     /// The cap that cut the fit short: that of a least-squares stage (a generation limit is the
-    /// evolutionary stage's own end, not a cap); `None` when every stage stopped on its own.
+    /// evolutionary stage's own end, and the whole-cloud polish after a subsample fit runs its
+    /// fixed number of iterations by design: neither is a cap); `None` when every other stage
+    /// stopped on its own.
     #[must_use]
     pub fn stopped(&self) -> Option<&'static str> {
         let skip = usize::from(self.evolution.is_some());
-        self.stages[skip..].iter().find_map(|s| s.report.cap())
+        self.stages[skip..]
+            .iter()
+            .filter(|s| s.name != POLISH_STAGE)
+            .find_map(|s| s.report.cap())
     }
 }
 
@@ -560,13 +569,13 @@ pub fn fit_surface_with(
         let polished = opts.method.evolutionary().is_none_or(|(_, p)| p);
         if opts.polish_iterations > 0 && polished {
             progress(SurfaceProgress::Stage {
-                name: "full",
+                name: POLISH_STAGE,
                 points: n,
             });
             let fit = observed_lsq(&full, Start::Design(design, params), &polish, progress)?;
             params = fit.params;
             stages.push(SurfaceStage {
-                name: "full",
+                name: POLISH_STAGE,
                 points: n,
                 report: fit.report,
             });
