@@ -536,6 +536,14 @@ impl ChainLayout {
     #[must_use]
     pub fn segment_jet<P: Vector>(&self, ctrl: &[P], t: f64, order: usize) -> [P; 3] {
         let (k, u) = self.locate(t);
+        self.segment_jet_in(ctrl, k, u, order)
+    }
+
+    /// [`ChainLayout::segment_jet`] at local parameter `u` of segment `k` (a caller that also
+    /// needs the basis there locates the parameter once).
+    #[inline]
+    #[must_use]
+    pub fn segment_jet_in<P: Vector>(&self, ctrl: &[P], k: usize, u: f64, order: usize) -> [P; 3] {
         let d = self.degree;
         let c = &ctrl[k * d..=(k + 1) * d];
         let v = 1.0 - u;

@@ -7,7 +7,7 @@
 //! non-zero `φ_i`. Every fitting routine (foot points, least squares, gradients) works through
 //! this trait, so the curve and the surface fits share one implementation.
 
-use super::{ChainLayout, GridLayout};
+use super::{ChainLayout, GridLayout, SpanBasis};
 use crate::bezier::Vector;
 use std::marker::PhantomData;
 
@@ -202,10 +202,17 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
         self.layout.bezier(design)
     }
 
-    /// The basis values, and the point and tangent by Horner's scheme.
+    /// The basis values, and the point and tangent by Horner's scheme, the parameter located
+    /// once for both.
     fn basis_and_jet(&self, ctrl: &Vec<P>, _design: &[P], t: [f64; 1], out: &mut Basis<1>) -> Jet<P, 1> {
-        self.basis(t, 0, out);
-        self.jet_at(ctrl, t, 1, out)
+        let (k, u) = self.layout.locate(t[0]);
+        fill_basis(&self.layout.basis_in(k, u, 0), self.layout.degree() + 1, 0, out);
+        let [point, d1, d2] = self.layout.segment_jet_in(ctrl, k, u, 1);
+        Jet {
+            point,
+            d1: [d1],
+            d2: [[d2]],
+        }
     }
 
     /// Horner's scheme on the segment's Bezier control points and their differences.
@@ -258,20 +265,29 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
     }
 
     fn basis(&self, t: [f64; 1], order: usize, out: &mut Basis<1>) {
-        let n = self.layout.degree() + 1;
-        out.resize(n, order);
-        let b = self.layout.basis(t[0], order);
-        out.cell = b.segment;
-        out.value.copy_from_slice(&b.value[..n]);
-        if order >= 1 {
-            for (o, &x) in out.d1.iter_mut().zip(&b.d1[..n]) {
-                *o = [x];
-            }
+        fill_basis(
+            &self.layout.basis(t[0], order),
+            self.layout.degree() + 1,
+            order,
+            out,
+        );
+    }
+}
+
+/// `out` from a chain's basis `b` of `n` functions, with derivatives up to `order`.
+#[inline]
+fn fill_basis(b: &SpanBasis, n: usize, order: usize, out: &mut Basis<1>) {
+    out.resize(n, order);
+    out.cell = b.segment;
+    out.value.copy_from_slice(&b.value[..n]);
+    if order >= 1 {
+        for (o, &x) in out.d1.iter_mut().zip(&b.d1[..n]) {
+            *o = [x];
         }
-        if order >= 2 {
-            for (o, &x) in out.d2.iter_mut().zip(&b.d2[..n]) {
-                *o = [[x]];
-            }
+    }
+    if order >= 2 {
+        for (o, &x) in out.d2.iter_mut().zip(&b.d2[..n]) {
+            *o = [[x]];
         }
     }
 }

@@ -353,6 +353,43 @@ impl Normal {
         )
     }
 
+    /// Add point model `pm` with weight `w`, its basis `values` over cell `cell`'s support.
+    fn add<P: Vector, const K: usize>(&mut self, pm: &PointModel<P, K>, cell: usize, values: &[f64], w: f64) {
+        let dim = P::DIM;
+        let mut proj = pm.projector();
+        if w != 1.0 {
+            proj.iter_mut().flatten().for_each(|x| *x *= w);
+        }
+        let mut pr = [0.0; 3];
+        for (c1, x) in pr.iter_mut().enumerate().take(dim) {
+            *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
+        }
+        let s = values.len();
+        let (block, rhs, diag) = self.cell_mut(cell, dim);
+        for (a, &wa) in values.iter().enumerate() {
+            diag[a] += w * wa * wa;
+            for c1 in 0..dim {
+                rhs[a * dim + c1] += wa * pr[c1];
+            }
+        }
+        for c1 in 0..dim {
+            for c2 in c1..dim {
+                let w = proj[c1][c2];
+                if w == 0.0 {
+                    continue;
+                }
+                let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
+                // G is symmetric in the support indices: its lower triangle is kept.
+                for (a, (row, &wa)) in g.chunks_exact_mut(s).zip(values).enumerate() {
+                    let wa = w * wa;
+                    for (x, &wb) in row[..=a].iter_mut().zip(values) {
+                        *x += wa * wb;
+                    }
+                }
+            }
+        }
+    }
+
     fn merge(mut self, other: Normal) -> Normal {
         let add = |a: &mut Vec<f64>, b: Vec<f64>| a.iter_mut().zip(b).for_each(|(p, q)| *p += q);
         add(&mut self.blocks, other.blocks);
@@ -400,73 +437,50 @@ fn pair(c1: usize, c2: usize, dim: usize) -> usize {
 }
 
 /// Accumulate the reduced system at `(design, params)` with damping `lambda`.
+///
+/// Small point sets keep their point models (for the trial step, and for the next assembly):
+/// `kept` are those of the last assembly at the same design and parameters, after a rejected
+/// step, of which only the damping changes, so no point is evaluated again.
 fn assemble<S: Shape<K>, const K: usize>(
     problem: &FitProblem<'_, S, K>,
     design: &[S::Point],
     params: &[[f64; K]],
     lambda: f64,
+    kept: Option<Models<S::Point, K>>,
 ) -> (Normal, Option<Models<S::Point, K>>) {
     let shape = problem.shape();
-    let dim = S::Point::DIM;
-    let keep = params.len() < PARALLEL_MIN;
+    if params.len() < PARALLEL_MIN {
+        let models = match kept {
+            Some(mut m) => {
+                m.damp(problem, params, lambda);
+                m
+            }
+            None => Models::new(problem, design, params, lambda),
+        };
+        let mut normal = Normal::new(shape);
+        for (j, pm) in models.models.iter().enumerate() {
+            normal.add(pm, models.cells[j] as usize, models.values(j), problem.weight(j));
+        }
+        return (normal, Some(models));
+    }
     let prepared = shape.prepare(design);
-    let (normal, _, models) = chunked_sum(
+    let (normal, _) = chunked_sum(
         params.len(),
-        || {
-            let models = keep.then(|| Models::with_capacity(params.len(), shape.support(0).len()));
-            (Normal::new(shape), Basis::new(), models)
-        },
-        |(acc, b, models), range| {
+        || (Normal::new(shape), Basis::new()),
+        |(acc, b), range| {
             for j in range {
                 let pm = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
-                let mut proj = pm.projector();
-                let w = problem.weight(j);
-                if w != 1.0 {
-                    proj.iter_mut().flatten().for_each(|x| *x *= w);
-                }
-                let mut pr = [0.0; 3];
-                for (c1, x) in pr.iter_mut().enumerate().take(dim) {
-                    *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
-                }
-                let (cell, s) = (b.cell, b.value.len());
-                let (block, rhs, diag) = acc.cell_mut(cell, dim);
-                for (a, &wa) in b.value.iter().enumerate() {
-                    diag[a] += w * wa * wa;
-                    for c1 in 0..dim {
-                        rhs[a * dim + c1] += wa * pr[c1];
-                    }
-                }
-                for c1 in 0..dim {
-                    for c2 in c1..dim {
-                        let w = proj[c1][c2];
-                        if w == 0.0 {
-                            continue;
-                        }
-                        let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
-                        // G is symmetric in the support indices: its lower triangle is kept.
-                        for (a, (row, &wa)) in g.chunks_exact_mut(s).zip(&b.value).enumerate() {
-                            let wa = w * wa;
-                            for (x, &wb) in row[..=a].iter_mut().zip(&b.value) {
-                                *x += wa * wb;
-                            }
-                        }
-                    }
-                }
-                if let Some(m) = models {
-                    m.cells.push(cell as u32);
-                    m.values.extend_from_slice(&b.value);
-                    m.offsets.push(m.values.len() as u32);
-                    m.models.push(pm);
-                }
+                acc.add(&pm, b.cell, &b.value, problem.weight(j));
             }
         },
-        |a, b| (a.0.merge(b.0), a.1, None),
+        |a, b| (a.0.merge(b.0), a.1),
     );
-    (normal, models)
+    (normal, None)
 }
 
 /// The per-point models of one assembly, kept for the trial step of small point sets (the
-/// same numbers [`trial_starts`] would compute again).
+/// same numbers [`trial_starts`] would compute again) and for the assembly after a rejected
+/// step.
 struct Models<P, const K: usize> {
     models: Vec<PointModel<P, K>>,
     cells: Vec<u32>,
@@ -475,15 +489,57 @@ struct Models<P, const K: usize> {
     offsets: Vec<u32>,
 }
 
-impl<P, const K: usize> Models<P, K> {
-    /// Room for `n` points of `s` basis values each.
-    fn with_capacity(n: usize, s: usize) -> Self {
-        Models {
+impl<P: Vector, const K: usize> Models<P, K> {
+    /// The model of every point at `(design, params)` with damping `lambda`.
+    fn new<S: Shape<K, Point = P>>(
+        problem: &FitProblem<'_, S, K>,
+        design: &[P],
+        params: &[[f64; K]],
+        lambda: f64,
+    ) -> Self {
+        let shape = problem.shape();
+        let prepared = shape.prepare(design);
+        let (n, s) = (params.len(), shape.support(0).len());
+        let mut m = Models {
             models: Vec::with_capacity(n),
             cells: Vec::with_capacity(n),
             values: Vec::with_capacity(n * s),
             offsets: Vec::with_capacity(n),
+        };
+        let mut b = Basis::new();
+        for (j, t) in params.iter().enumerate() {
+            m.models
+                .push(model_at(problem, (&prepared, design), j, t, lambda, &mut b));
+            m.cells.push(b.cell as u32);
+            m.values.extend_from_slice(&b.value);
+            m.offsets.push(m.values.len() as u32);
         }
+        m
+    }
+
+    /// The same models at damping `lambda` (only `M⁻¹` depends on it).
+    fn damp<S: Shape<K, Point = P>>(
+        &mut self,
+        problem: &FitProblem<'_, S, K>,
+        params: &[[f64; K]],
+        lambda: f64,
+    ) {
+        for (j, pm) in self.models.iter_mut().enumerate() {
+            *pm = PointModel::new(
+                pm.r,
+                pm.tangents,
+                &params[j],
+                lambda,
+                problem.is_anchored(j),
+                problem.held(),
+            );
+        }
+    }
+
+    /// The basis values of point `j` over its cell's support.
+    fn values(&self, j: usize) -> &[f64] {
+        let from = if j == 0 { 0 } else { self.offsets[j - 1] as usize };
+        &self.values[from..self.offsets[j] as usize]
     }
 }
 
@@ -535,11 +591,18 @@ fn solve_step<S: Shape<K>, const K: usize>(
     };
     let mut sdiag = vec![0.0; nn];
     if scale == DampingScale::Reduced && constraint.is_none() {
-        each_entry(shape, normal, &mut |r, c, v| {
-            if r == c {
-                sdiag[r] += v;
+        // The diagonal of S: of the entries `each_entry` visits, those of a support point's
+        // coordinate with itself, in the same order.
+        for cell in 0..shape.cell_count() {
+            let support = shape.support(cell);
+            let n = support.len();
+            let block = normal.cell(cell, dim).0;
+            for (a, &ia) in support.iter().enumerate() {
+                for c in 0..dim {
+                    sdiag[ia as usize * dim + c] += block[pair(c, c, dim) * n * n + a * n + a];
+                }
             }
-        });
+        }
         sdiag = scaled(&mut |k| sdiag[k], nn);
     }
     // The damping of flat design variable k.
@@ -563,11 +626,18 @@ fn solve_step<S: Shape<K>, const K: usize>(
                 dz_scale[a] += wa * wa * dx[r / dim];
             }
         }
+        // Only the lower triangle (with the diagonal) is summed: all the factorisation and
+        // the damping read.
+        let flat = sz.as_mut_slice();
         each_entry(shape, normal, &mut |r, c, v| {
             if v != 0.0 {
                 for &(a, wa) in &rows[r] {
+                    let wv = wa * v;
                     for &(z, wz) in &rows[c] {
-                        sz[(a, z)] += wa * v * wz;
+                        if z <= a {
+                            // Column-major: entry (a, z).
+                            flat[a + z * nz] += wv * wz;
+                        }
                     }
                 }
             }
@@ -626,7 +696,13 @@ fn solve_step<S: Shape<K>, const K: usize>(
         (0..nn).map(|row| y[at(row)]).collect()
     } else {
         let mut s = DMatrix::<f64>::zeros(nn, nn);
-        each_entry(shape, normal, &mut |r, c, v| s[(r, c)] += v);
+        // The lower triangle, all the factorisation reads (column-major: (r, c) at r + c nn).
+        let flat = s.as_mut_slice();
+        each_entry(shape, normal, &mut |r, c, v| {
+            if c <= r {
+                flat[r + c * nn] += v;
+            }
+        });
         for i in 0..m {
             for c in 0..dim {
                 s[(i * dim + c, i * dim + c)] += lambda * damp(i * dim + c);
@@ -664,22 +740,17 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     models: Option<&Models<S::Point, K>>,
 ) -> (Vec<[f64; K]>, f64) {
     let shape = problem.shape();
-    let prepared = shape.prepare(design);
+    // Without kept models every point is evaluated again, on the prepared design.
+    let prepared = models.is_none().then(|| shape.prepare(design));
     let per_point = |b: &mut Basis<K>, j: usize| -> ([f64; K], f64) {
         let computed;
-        let (pm, cell, values) = match models {
-            Some(m) => {
-                let from = if j == 0 { 0 } else { m.offsets[j - 1] as usize };
-                (
-                    &m.models[j],
-                    m.cells[j] as usize,
-                    &m.values[from..m.offsets[j] as usize],
-                )
-            }
-            None => {
-                computed = model_at(problem, (&prepared, design), j, &params[j], lambda, b);
+        let (pm, cell, values) = match (models, &prepared) {
+            (Some(m), _) => (&m.models[j], m.cells[j] as usize, m.values(j)),
+            (None, Some(prepared)) => {
+                computed = model_at(problem, (prepared, design), j, &params[j], lambda, b);
                 (&computed, b.cell, &b.value[..])
             }
+            (None, None) => unreachable!("the design is prepared whenever no models are kept"),
         };
         let mut jx = S::Point::ZERO;
         for (&i, &w) in shape.support(cell).iter().zip(values) {
@@ -903,6 +974,8 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
     let window = opts.window.max(1);
     let mut history = vec![phi];
     let mut checks = 0;
+    // The point models at the current design and parameters, while no step has moved them.
+    let mut kept = None;
     let start = LsqIterate {
         iteration: 0,
         sum_sq: phi,
@@ -921,7 +994,7 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
             break StopReason::MaxIterations;
         } else {
             iterations += 1;
-            let (normal, models) = assemble(problem, &design, &params, lambda);
+            let (normal, models) = assemble(problem, &design, &params, lambda, kept.take());
             let mut accepted = false;
             let solved = solve_step(
                 problem.shape(),
@@ -970,6 +1043,7 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
                 }
             }
             if !accepted {
+                kept = models;
                 match opts.damping_factors {
                     Some([_, up]) => lambda *= up,
                     None => {
@@ -1014,6 +1088,7 @@ fn levenberg_marquardt<S: Shape<K>, const K: usize>(
                     history.push(phi);
                     lambda = opts.initial_damping;
                     nu = 2.0;
+                    kept = None;
                     continue;
                 }
             }
