@@ -368,7 +368,7 @@ impl ChainLayout {
 
     /// The segment holding global parameter `t` (clamped to `[0, 1]`; a break belongs to the
     /// segment that starts there, 1 to the last) and the local parameter in it.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn locate(&self, t: f64) -> (usize, f64) {
         let s = self.segments();
@@ -544,7 +544,23 @@ impl ChainLayout {
     #[inline]
     #[must_use]
     pub fn segment_jet_in<P: Vector>(&self, ctrl: &[P], k: usize, u: f64, order: usize) -> [P; 3] {
-        let d = self.degree;
+        // One monomorphic path per degree, as for the basis: every loop length is a constant.
+        match self.degree {
+            1 => self.jet_fixed::<P, 1>(ctrl, k, u, order),
+            2 => self.jet_fixed::<P, 2>(ctrl, k, u, order),
+            3 => self.jet_fixed::<P, 3>(ctrl, k, u, order),
+            4 => self.jet_fixed::<P, 4>(ctrl, k, u, order),
+            5 => self.jet_fixed::<P, 5>(ctrl, k, u, order),
+            6 => self.jet_fixed::<P, 6>(ctrl, k, u, order),
+            _ => self.jet_fixed::<P, MAX_DEGREE>(ctrl, k, u, order),
+        }
+    }
+
+    /// [`ChainLayout::segment_jet_in`] for degree `D`.
+    #[inline(always)]
+    fn jet_fixed<P: Vector, const D: usize>(&self, ctrl: &[P], k: usize, u: f64, order: usize) -> [P; 3] {
+        debug_assert_eq!(self.degree, D, "jet_fixed: wrong path for degree {}", self.degree);
+        let d = D;
         let c = &ctrl[k * d..=(k + 1) * d];
         let v = 1.0 - u;
         let h = self.inv_len[k];

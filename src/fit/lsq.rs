@@ -355,7 +355,32 @@ impl Normal {
 
     /// Add point model `pm` with weight `w`, its basis `values` over cell `cell`'s support.
     fn add<P: Vector, const K: usize>(&mut self, pm: &PointModel<P, K>, cell: usize, values: &[f64], w: f64) {
+        // The supports of chains (2 to 8 design points) as constants: the short loops over
+        // them unroll (the same operations in the same order).
+        match values.len() {
+            2 => self.add_sized::<P, K, 2>(pm, cell, values, w),
+            3 => self.add_sized::<P, K, 3>(pm, cell, values, w),
+            4 => self.add_sized::<P, K, 4>(pm, cell, values, w),
+            5 => self.add_sized::<P, K, 5>(pm, cell, values, w),
+            6 => self.add_sized::<P, K, 6>(pm, cell, values, w),
+            7 => self.add_sized::<P, K, 7>(pm, cell, values, w),
+            8 => self.add_sized::<P, K, 8>(pm, cell, values, w),
+            _ => self.add_sized::<P, K, 0>(pm, cell, values, w),
+        }
+    }
+
+    /// [`Normal::add`] for a support of `N` design points (`N = 0`: any).
+    #[inline(always)]
+    fn add_sized<P: Vector, const K: usize, const N: usize>(
+        &mut self,
+        pm: &PointModel<P, K>,
+        cell: usize,
+        values: &[f64],
+        w: f64,
+    ) {
         let dim = P::DIM;
+        let s = if N > 0 { N } else { values.len() };
+        let values = &values[..s];
         let mut proj = pm.projector();
         if w != 1.0 {
             proj.iter_mut().flatten().for_each(|x| *x *= w);
@@ -364,8 +389,8 @@ impl Normal {
         for (c1, x) in pr.iter_mut().enumerate().take(dim) {
             *x = (0..dim).map(|c2| proj[c1][c2] * pm.r.coord(c2)).sum();
         }
-        let s = values.len();
         let (block, rhs, diag) = self.cell_mut(cell, dim);
+        let (rhs, diag) = (&mut rhs[..s * dim], &mut diag[..s]);
         for (a, &wa) in values.iter().enumerate() {
             diag[a] += w * wa * wa;
             for c1 in 0..dim {
@@ -380,9 +405,9 @@ impl Normal {
                 }
                 let g = &mut block[pair(c1, c2, dim) * s * s..(pair(c1, c2, dim) + 1) * s * s];
                 // G is symmetric in the support indices: its lower triangle is kept.
-                for (a, (row, &wa)) in g.chunks_exact_mut(s).zip(values).enumerate() {
-                    let wa = w * wa;
-                    for (x, &wb) in row[..=a].iter_mut().zip(values) {
+                for a in 0..s {
+                    let wa = w * values[a];
+                    for (x, &wb) in g[a * s..=a * s + a].iter_mut().zip(values) {
                         *x += wa * wb;
                     }
                 }
