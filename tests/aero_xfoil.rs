@@ -4,7 +4,7 @@
 //!
 //! By default against XFOIL's numbers recorded in `data/xfoil/inviscid.csv` (made by
 //! `data/xfoil/make.sh`); with `BEZCHAIN_XFOIL=1` XFOIL itself is run on each file
-//! (`xfoil`, `xvfb-run` on the path: `apt-get install -y xfoil xvfb xauth`).
+//! (`xfoil`, `xvfb-run` on the path: `apt-get install -y xfoil xvfb xauth xfonts-base`: XFOIL opens an X font when it plots and dies without one).
 
 use bezchain::aero::{Analysis, Paneling};
 use bezchain::geometry::read_curve;
@@ -94,8 +94,9 @@ fn every_shipped_aerofoil_agrees_with_the_recorded_xfoil_numbers() {
     }
 }
 
-/// XFOIL run now on `file`: `(alpha, cl, cm)` at 0°, 4° and 8°, or `None` when it fails.
-fn xfoil(file: &Path) -> Option<Vec<(f64, f64, f64)>> {
+/// XFOIL run now on `file`: `(alpha, cl, cm)` at 0°, 4° and 8°, or what it printed last on
+/// standard error when it fails (an X error where the fonts are missing).
+fn xfoil(file: &Path) -> Result<Vec<(f64, f64, f64)>, String> {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(file, dir.path().join("a.dat")).unwrap();
     let mut child = std::process::Command::new("xvfb-run")
@@ -103,9 +104,9 @@ fn xfoil(file: &Path) -> Option<Vec<(f64, f64, f64)>> {
         .current_dir(dir.path())
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
-        .expect("xvfb-run and xfoil are installed (apt-get install -y xfoil xvfb xauth)");
+        .expect("xvfb-run and xfoil are installed (apt-get install -y xfoil xvfb xauth xfonts-base)");
     use std::io::Write;
     child
         .stdin
@@ -113,8 +114,13 @@ fn xfoil(file: &Path) -> Option<Vec<(f64, f64, f64)>> {
         .unwrap()
         .write_all(b"LOAD a.dat\n\nPANE\nOPER\nPACC\npol.txt\n\nALFA 0\nALFA 4\nALFA 8\n\nQUIT\n")
         .unwrap();
-    child.wait().unwrap();
-    let text = std::fs::read_to_string(dir.path().join("pol.txt")).ok()?;
+    let out = child.wait_with_output().unwrap();
+    let failed = || {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).take(2).collect();
+        format!("{} ({})", out.status, last.join("; "))
+    };
+    let text = std::fs::read_to_string(dir.path().join("pol.txt")).map_err(|_| failed())?;
     let rows: Vec<(f64, f64, f64)> = text
         .lines()
         .filter_map(|l| {
@@ -127,7 +133,11 @@ fn xfoil(file: &Path) -> Option<Vec<(f64, f64, f64)>> {
             .then(|| (f[0], f[1], f[4]))
         })
         .collect();
-    (rows.len() == 3).then_some(rows)
+    if rows.len() == 3 {
+        Ok(rows)
+    } else {
+        Err(failed())
+    }
 }
 
 #[test]
@@ -139,7 +149,7 @@ fn every_shipped_aerofoil_agrees_with_xfoil_run_now() {
     let rows = recorded();
     for file in shipped() {
         match xfoil(&root().join(&file)) {
-            Some(x) => {
+            Ok(x) => {
                 check(&file, &x);
                 // The recorded numbers are XFOIL's.
                 for (alpha, cl, cm) in &x {
@@ -149,7 +159,10 @@ fn every_shipped_aerofoil_agrees_with_xfoil_run_now() {
                         && (r.3 - cm).abs() < 5e-5));
                 }
             }
-            None => assert!(file.ends_with("clarky_lednicer.dat"), "{file}: XFOIL failed"),
+            Err(why) => assert!(
+                file.ends_with("clarky_lednicer.dat"),
+                "{file}: XFOIL failed: {why}"
+            ),
         }
     }
 }

@@ -2,7 +2,7 @@
 # Regenerate data/xfoil/inviscid.csv: XFOIL's inviscid CL and CM at 0°, 4° and 8° for every
 # aerofoil file the project ships, XFOIL's default paneling (PANE: 160 nodes).
 #
-#   apt-get install -y xfoil xvfb xauth
+#   apt-get install -y xfoil xvfb xauth xfonts-base   (XFOIL dies on X_OpenFont without the fonts)
 #   sh data/xfoil/make.sh > data/xfoil/inviscid.csv     (from the repository root)
 #
 # XFOIL opens a display even when it draws nothing, so it runs under xvfb-run. Each file is
