@@ -150,7 +150,11 @@ impl Model {
     /// This model's constraint with the design points `held` kept where they start: their y
     /// (and x, where x is free) take no step; x under the aerofoil rule stays on the rule.
     fn holding(&self, held: &[bool]) -> Constraint {
-        let mut next = 0;
+        // The rule's θ are the first unknowns; every coordinate not held gets the next one.
+        let mut next = match &self.rule {
+            XRule::Free => 0,
+            XRule::Aerofoil { .. } => self.x_unknowns(),
+        };
         let mut own = |h: bool| {
             if h {
                 Vec::new()
@@ -161,17 +165,7 @@ impl Model {
         };
         let x_rows: Vec<Vec<(usize, f64)>> = match &self.rule {
             XRule::Free => held.iter().map(|&h| own(h)).collect(),
-            XRule::Aerofoil { rows: r, shared_te } => {
-                for _ in 0..self.x_unknowns() {
-                    own(false);
-                }
-                r.iter()
-                    .map(|w| match shared_te {
-                        true => vec![(0, w[0]), (1, w[1] + w[2])],
-                        false => vec![(0, w[0]), (1, w[1]), (2, w[2])],
-                    })
-                    .collect()
-            }
+            XRule::Aerofoil { rows, shared_te } => rows.iter().map(|w| theta_row(w, *shared_te)).collect(),
         };
         let mut rows = Vec::with_capacity(2 * held.len());
         for (x, &h) in x_rows.into_iter().zip(held) {
@@ -244,20 +238,22 @@ pub(crate) fn rule_rows(layout: &ChainLayout) -> Vec<[f64; 3]> {
 /// The aerofoil rule as a constraint: x of design point `i` is `rows[i] · θ` (the two
 /// trailing-edge numbers one with `shared_te`), y free.
 fn rule_constraint(rows: &[[f64; 3]], shared_te: bool) -> Constraint {
-    let x = if shared_te {
-        CoordRule::linear(
-            rows.iter().map(|r| vec![(0, r[0]), (1, r[1] + r[2])]).collect(),
-            2,
-        )
-    } else {
-        CoordRule::linear(
-            rows.iter()
-                .map(|r| vec![(0, r[0]), (1, r[1]), (2, r[2])])
-                .collect(),
-            3,
-        )
-    };
+    let x = CoordRule::linear(
+        rows.iter().map(|w| theta_row(w, shared_te)).collect(),
+        3 - usize::from(shared_te),
+    );
     Constraint::new(vec![x, CoordRule::free(rows.len())])
+}
+
+/// The entries `(unknown, weight)` of a design point's x under the aerofoil rule, `w` its
+/// weights on `θ = (x_le, x_te,1, x_te,2)`: the two trailing-edge numbers are one unknown
+/// with `shared_te`.
+fn theta_row(w: &[f64; 3], shared_te: bool) -> Vec<(usize, f64)> {
+    if shared_te {
+        vec![(0, w[0]), (1, w[1] + w[2])]
+    } else {
+        vec![(0, w[0]), (1, w[1]), (2, w[2])]
+    }
 }
 
 /// A fitted state of a model: design points, one parameter and one distance per data point.
