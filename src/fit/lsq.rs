@@ -453,6 +453,22 @@ fn each_entry<S: Shape<K>, const K: usize, F: FnMut(usize, usize, f64) + ?Sized>
     }
 }
 
+/// Adds the diagonal of `S` to `diag` (flat design indices): of the entries [`each_entry`]
+/// visits, those of a support point's coordinate with itself, in the same order.
+fn add_diagonal<S: Shape<K>, const K: usize>(shape: &S, normal: &Normal, diag: &mut [f64]) {
+    let dim = S::Point::DIM;
+    for cell in 0..shape.cell_count() {
+        let support = shape.support(cell);
+        let n = support.len();
+        let block = normal.cell(cell, dim).0;
+        for (a, &ia) in support.iter().enumerate() {
+            for c in 0..dim {
+                diag[ia as usize * dim + c] += block[pair(c, c, dim) * n * n + a * n + a];
+            }
+        }
+    }
+}
+
 /// Index of the coordinate pair `(c1, c2)`, `c1 <= c2 < dim`, in row-major upper-triangle
 /// order.
 #[inline]
@@ -616,18 +632,7 @@ fn solve_step<S: Shape<K>, const K: usize>(
     };
     let mut sdiag = vec![0.0; nn];
     if scale == DampingScale::Reduced && constraint.is_none() {
-        // The diagonal of S: of the entries `each_entry` visits, those of a support point's
-        // coordinate with itself, in the same order.
-        for cell in 0..shape.cell_count() {
-            let support = shape.support(cell);
-            let n = support.len();
-            let block = normal.cell(cell, dim).0;
-            for (a, &ia) in support.iter().enumerate() {
-                for c in 0..dim {
-                    sdiag[ia as usize * dim + c] += block[pair(c, c, dim) * n * n + a * n + a];
-                }
-            }
-        }
+        add_diagonal(shape, normal, &mut sdiag);
         sdiag = scaled(&mut |k| sdiag[k], nn);
     }
     // The damping of flat design variable k.
@@ -765,17 +770,16 @@ fn trial_starts<S: Shape<K>, const K: usize>(
     models: Option<&Models<S::Point, K>>,
 ) -> (Vec<[f64; K]>, f64) {
     let shape = problem.shape();
-    // Without kept models every point is evaluated again, on the prepared design.
-    let prepared = models.is_none().then(|| shape.prepare(design));
+    // The kept models, or (without them) the prepared design every point is evaluated on.
+    let source = models.ok_or_else(|| shape.prepare(design));
     let per_point = |b: &mut Basis<K>, j: usize| -> ([f64; K], f64) {
         let computed;
-        let (pm, cell, values) = match (models, &prepared) {
-            (Some(m), _) => (&m.models[j], m.cells[j] as usize, m.values(j)),
-            (None, Some(prepared)) => {
+        let (pm, cell, values) = match &source {
+            Ok(m) => (&m.models[j], m.cells[j] as usize, m.values(j)),
+            Err(prepared) => {
                 computed = model_at(problem, (prepared, design), j, &params[j], lambda, b);
                 (&computed, b.cell, &b.value[..])
             }
-            (None, None) => unreachable!("the design is prepared whenever no models are kept"),
         };
         let mut jx = S::Point::ZERO;
         for (&i, &w) in shape.support(cell).iter().zip(values) {
