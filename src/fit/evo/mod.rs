@@ -615,7 +615,7 @@ impl<'p> Evolution<'p> {
             return Some(EvoStop::Stall);
         }
         // A converged CMA-ES run with restarts left goes on: the next step restarts it.
-        self.converged().filter(|_| !self.restart_due())
+        self.converged().filter(|_| !self.restarts_left())
     }
 
     /// Why the CMA-ES strategy has converged, if it has (step size, condition, flatness);
@@ -638,15 +638,16 @@ impl<'p> Evolution<'p> {
             .then_some(EvoStop::Flat)
     }
 
-    /// True when the CMA-ES strategy has converged and has restarts left
-    /// ([`CmaesOptions::restarts`]): the next [`step`](Self::step) restarts it.
+    /// True when the CMA-ES strategy has converged and has restarts left: the next
+    /// [`step`](Self::step) restarts it.
     fn restart_due(&self) -> bool {
-        match &self.engine {
-            Engine::Cmaes(es) => {
-                es.state.restarts < self.options.cmaes.restarts as u64 && self.converged().is_some()
-            }
-            Engine::Ga(_) => false,
-        }
+        self.restarts_left() && self.converged().is_some()
+    }
+
+    /// True when the CMA-ES strategy has restarts left ([`CmaesOptions::restarts`]); false for
+    /// the GA.
+    fn restarts_left(&self) -> bool {
+        matches!(self.engine, Engine::Cmaes(_)) && self.restarts() < self.options.cmaes.restarts as u64
     }
 
     /// Restarts done by the CMA-ES strategy (0 for the GA).
