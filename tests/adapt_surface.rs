@@ -53,7 +53,10 @@ fn check_met(r: &AdaptedSurface, points: &[DVec3], grid: Grid, tol: f64) {
     let (lu, lv) = r.encoding.layouts().unwrap();
     if r.encoding.chord_rule {
         assert_eq!(r.count.coords, lu.design_count() * lv.design_count());
-        assert_eq!(r.count.frames, 4 * lv.design_count());
+        // Four numbers a column frame, five with the trailing-edge term.
+        let per_frame = 4 + usize::from(r.encoding.te_term);
+        assert_eq!(r.count.frames, per_frame * lv.design_count());
+        assert!(!r.encoding.te_term || lu.degree() >= 4);
     } else {
         let per = if r.encoding.span_rule.is_some() { 2 } else { 3 };
         assert_eq!(r.count.coords, lu.design_count() * lv.design_count() * per);
@@ -100,8 +103,11 @@ fn a_coarse_blade_meets_the_tolerance_at_every_point() {
 }
 
 /// The chord rule's design net regenerated the way an outside tool would, from the report's
-/// stored numbers and knot vectors alone: `x_i` the blossom of `(2u - 1)²` at the knots
-/// `τ_{i+1} … τ_{i+d}`, design point `(i, j) = O_j + c_j x_i d_j + y_ij n_j` in the x-y plane.
+/// stored numbers and knot vectors alone: with `t_a = 2τ_a - 1` over the knots
+/// `τ_{i+1} … τ_{i+d}` and `e_k` their elementary symmetric polynomials, `x_i = e_2 / C(d, 2)`
+/// (the blossom of `(2u - 1)²`) and, with the trailing-edge term, `w_i = e_2 / C(d, 2) -
+/// e_4 / C(d, 4)` (of `t² (1 - t²)`); design point `(i, j) = O_j + c_j (x_i + b_j w_i) d_j +
+/// y_ij n_j` in the x-y plane.
 fn chord_rule_net(r: &AdaptedSurface) -> Vec<DVec3> {
     let e = &r.encoding;
     let (lu, lv) = e.layouts().unwrap();
@@ -109,23 +115,28 @@ fn chord_rule_net(r: &AdaptedSurface) -> Vec<DVec3> {
     let knots = lu.knots();
     let rule = e.span_rule.unwrap();
     let g = lv.greville();
+    let k = 4 + usize::from(e.te_term);
+    let choose = |n: usize, r: usize| (0..r).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64);
     let mut net = Vec::new();
     for i in 0..nu {
-        let tau = &knots[i + 1..=i + d];
-        let mut s = 0.0;
-        for a in 0..d {
-            for b in a + 1..d {
-                s += (2.0 * tau[a] - 1.0) * (2.0 * tau[b] - 1.0);
+        let t: Vec<f64> = knots[i + 1..=i + d].iter().map(|tau| 2.0 * tau - 1.0).collect();
+        // Elementary symmetric polynomials e_0 ..= e_4 of the t_a.
+        let mut es = [1.0, 0.0, 0.0, 0.0, 0.0];
+        for &ta in &t {
+            for r in (1..5).rev() {
+                es[r] += ta * es[r - 1];
             }
         }
-        let x = s / (d * (d - 1) / 2) as f64;
+        let x = es[2] / choose(d, 2);
+        let w = if d >= 4 { x - es[4] / choose(d, 4) } else { 0.0 };
         for (j, gj) in g.iter().enumerate() {
-            let f = &e.coords[4 * j..4 * j + 4];
+            let f = &e.coords[k * j..k * j + k];
+            let chordwise = x + if e.te_term { f[4] * w } else { 0.0 };
             let (dx, dy) = (f[2].cos(), f[2].sin());
-            let y = e.coords[4 * nv + i * nv + j];
+            let y = e.coords[k * nv + i * nv + j];
             net.push(DVec3::new(
-                f[0] + f[3] * x * dx - y * dy,
-                f[1] + f[3] * x * dy + y * dx,
+                f[0] + f[3] * chordwise * dx - y * dy,
+                f[1] + f[3] * chordwise * dy + y * dx,
                 rule.ends[0] + gj * (rule.ends[1] - rule.ends[0]),
             ));
         }
@@ -160,8 +171,8 @@ fn the_chord_rule_neither_folds_nor_overhangs_and_counts_its_frames() {
     // the checker's sampled search agrees with the exact offsets within 10 %.
     assert!(r.fold.passes && r.fold.max_turn_deg <= 90.0, "{:?}", r.fold);
     assert!(r.agreement <= 1.1, "checker/exact {}", r.agreement);
-    // Counting: one number a design point, four a design column, two for the span rule, the
-    // stored breaks.
+    // Counting: one number a design point, four a design column (five with the
+    // trailing-edge term), two for the span rule, the stored breaks.
     let (lu, lv) = r.encoding.layouts().unwrap();
     let (nu, nv) = (lu.design_count(), lv.design_count());
     let breaks = |b: &Breaks| match b {
@@ -170,7 +181,11 @@ fn the_chord_rule_neither_folds_nor_overhangs_and_counts_its_frames() {
     };
     assert_eq!(
         r.count.total,
-        nu * nv + 4 * nv + 2 + breaks(&r.encoding.breaks_u) + breaks(&r.encoding.breaks_v)
+        nu * nv
+            + (4 + usize::from(r.encoding.te_term)) * nv
+            + 2
+            + breaks(&r.encoding.breaks_u)
+            + breaks(&r.encoding.breaks_v)
     );
     // An outside tool regenerates the design net from the stored numbers.
     let net = chord_rule_net(&r);

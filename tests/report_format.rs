@@ -478,7 +478,7 @@ fn check_adapt_surface(rep: &Value) {
             "span_rule",
             "coords",
         ],
-        &["chord_rule"],
+        &["chord_rule", "te_term"],
         "encoding",
     );
 
@@ -494,21 +494,29 @@ fn check_adapt_surface(rep: &Value) {
     let chord_rule = enc["chord_rule"].as_bool().unwrap_or(false);
     let per = if rule.is_null() { 3 } else { 2 };
     let g = greville(dv, &kv);
-    // The chord rule: [O_j (2), θ_j, c_j] a column, then y_ij row-major; design point (i, j)
-    // is O_j + c_j x_i d_j + y_ij n_j in the two axes besides the span axis, x_i the blossom
-    // of (2u - 1)² at the u knots τ_{i+1} … τ_{i+du}.
+    // The chord rule: [O_j (2), θ_j, c_j] a column ([O_j (2), θ_j, c_j, b_j] with the
+    // trailing-edge term), then y_ij row-major; design point (i, j) is
+    // O_j + c_j (x_i + b_j w_i) d_j + y_ij n_j in the two axes besides the span axis, with
+    // t_a = 2τ_a - 1 over the u knots τ_{i+1} … τ_{i+du} and e_k their elementary symmetric
+    // polynomials, x_i = e_2 / C(du, 2) (the blossom of (2u - 1)²), w_i = x_i - e_4 / C(du, 4)
+    // (of t² (1 - t²)).
+    let te_term = enc["te_term"].as_bool().unwrap_or(false);
+    let fl = if te_term { 5 } else { 4 };
+    let choose = |n: usize, r: usize| (0..r).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64);
     let chord_design = |k: usize| -> Vec<f64> {
         let (i, j) = (k / nv, k % nv);
-        let t: Vec<f64> = ku[i + 1..=i + du].iter().map(|tau| 2.0 * tau - 1.0).collect();
-        let mut s = 0.0;
-        for a in 0..du {
-            for b in a + 1..du {
-                s += t[a] * t[b];
+        let mut es = [1.0, 0.0, 0.0, 0.0, 0.0];
+        for tau in &ku[i + 1..=i + du] {
+            for r in (1..5).rev() {
+                es[r] += (2.0 * tau - 1.0) * es[r - 1];
             }
         }
-        let x = s / (du * (du - 1) / 2) as f64;
-        let f = &coords[4 * j..4 * j + 4];
-        let y = coords[4 * nv + k];
+        let mut x = es[2] / choose(du, 2);
+        let f = &coords[fl * j..fl * j + fl];
+        if te_term {
+            x += f[4] * (es[2] / choose(du, 2) - es[4] / choose(du, 4));
+        }
+        let y = coords[fl * nv + k];
         let (dx, dy) = (f[2].cos(), f[2].sin());
         let flat = [f[0] + f[3] * x * dx - y * dy, f[1] + f[3] * x * dy + y * dx];
         let axis = rule["axis"].as_u64().unwrap() as usize;
@@ -525,7 +533,7 @@ fn check_adapt_surface(rep: &Value) {
             .collect()
     };
     if chord_rule {
-        assert_eq!(coords.len(), nv * (nu + 4));
+        assert_eq!(coords.len(), nv * (nu + fl));
     } else {
         assert_eq!(coords.len(), nu * nv * per);
     }

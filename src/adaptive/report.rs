@@ -115,7 +115,8 @@ pub const SURFACE_COUNTING: &str = "stored scalars = every stored design-net coo
 each design point, or the two besides the span axis where the span rule holds, or under the chord rule \
 one thickness-direction offset y_ij per design point) + the 4 numbers of every design column's frame \
 under the chord rule (leading edge O_j in the two in-plane axes, chord angle theta_j, chord length c_j; \
-design point (i, j) = O_j + c_j x_i d_j + y_ij n_j with x_i the B-spline coefficient of (2u - 1)^2, d_j = (cos theta_j, sin theta_j), n_j = (-sin theta_j, cos theta_j)) \
+design point (i, j) = O_j + c_j x_i d_j + y_ij n_j with x_i the B-spline coefficient of (2u - 1)^2, d_j = (cos theta_j, sin theta_j), n_j = (-sin theta_j, cos theta_j)), \
+5 with the trailing-edge term (te_term: a fifth number b_j, x_i + b_j w_i in place of x_i, w_i the B-spline coefficient of t^2 (1 - t^2), t = 2u - 1) \
 + the 2 numbers of the span rule when used + every stored break in either direction; the layout \
 integers (degrees, patch counts, the continuity order of each join) are not counted";
 

@@ -157,7 +157,14 @@ pub struct Constraint {
     /// For a coupled constraint: the offset of every flat design variable and the number of
     /// unknowns (`coords` is then empty).
     coupled: Option<(Vec<f64>, usize)>,
+    /// A fairness penalty on the unknowns of a coupled constraint: rows `(unknown, weight)`
+    /// of `D` and the factor `ε`; the linear fit adds `ε d̄ Σ (D z)²`, `d̄` the mean diagonal
+    /// of the data's normal matrix.
+    fair: Option<(Vec<SparseRow>, f64)>,
 }
+
+/// A sparse row: `(unknown, weight)` entries.
+type SparseRow = Vec<(usize, f64)>;
 
 impl Constraint {
     /// The constraint of one rule per coordinate.
@@ -182,6 +189,7 @@ impl Constraint {
             first,
             flat,
             coupled: None,
+            fair: None,
         }
     }
 
@@ -195,7 +203,18 @@ impl Constraint {
             first: Vec::new(),
             flat: rows,
             coupled: Some((offset, unknowns)),
+            fair: None,
         }
+    }
+
+    /// The coupled constraint with a fairness penalty `ε d̄ Σ (D z)²` in the linear fit
+    /// (`d̄` the mean diagonal of the data's normal matrix in the unknowns): `rows` are the
+    /// rows of `D`. Design points the data leave barely determined (a cell with no point of
+    /// some section) then follow their neighbours instead of swinging freely.
+    #[must_use]
+    pub fn with_fairness(mut self, rows: Vec<SparseRow>, eps: f64) -> Self {
+        self.fair = Some((rows, eps));
+        self
     }
 
     /// The rule of coordinate `c`; `None` for a coupled constraint.
@@ -1014,6 +1033,17 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                                 for &(q, wq) in &rows[l * dim + k] {
                                     a[(p, q)] += wp * v * wq;
                                 }
+                            }
+                        }
+                    }
+                }
+                if let Some((d, eps)) = &con.fair {
+                    let mean = (0..nz).map(|i| a[(i, i)]).sum::<f64>() / nz.max(1) as f64;
+                    let lambda = eps * mean;
+                    for row in d {
+                        for &(p, wp) in row {
+                            for &(q, wq) in row {
+                                a[(p, q)] += lambda * wp * wq;
                             }
                         }
                     }
