@@ -828,7 +828,7 @@ struct Family {
     split: bool,
     /// A trailing-edge family of the chord rule ([`Search::grow_bulk`]): the chordwise law's
     /// trailing-edge term, the sections' ends anchored, span fairness, a break between
-    /// every two sections.
+    /// every two sections, and the fold check part of meeting the tolerance.
     te: bool,
 }
 
@@ -936,6 +936,15 @@ impl<'d, 'a> Search<'d, 'a> {
     fn met(&self, fam: &Family, c: &Cand) -> bool {
         self.check(fam, c)
             .is_some_and(|e| norm_of(&e, self.opts.norm) <= self.opts.tol)
+            && (!fam.te || self.fold(fam, c).is_none())
+    }
+
+    /// Where the grid the stored numbers regenerate folds ([`fold_check`]): the `u` of the
+    /// largest turn, when it exceeds 90°.
+    fn fold(&self, fam: &Family, c: &Cand) -> Option<f64> {
+        let grid = encode(self.data, fam, c).grid().ok()?;
+        let f = fold_check(&grid, FOLD_SAMPLES);
+        (!f.passes).then_some(f.at[0])
     }
 
     /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
@@ -1058,8 +1067,16 @@ impl<'d, 'a> Search<'d, 'a> {
             if closest.as_ref().is_none_or(|b| c.fit.measure < b.fit.measure) {
                 *closest = Some(c.clone());
             }
+            let mut fold = None;
             let err = match self.check(fam, &c) {
-                Some(e) if norm_of(&e, self.opts.norm) <= tol => return Some(c),
+                Some(e) if norm_of(&e, self.opts.norm) <= tol => match self.fold(fam, &c) {
+                    None => return Some(c),
+                    // Meets the tolerance but folds: split the u segment of the fold.
+                    Some(u) => {
+                        fold = Some(u);
+                        e
+                    }
+                },
                 // Within the tolerance by its own offsets: refine where the checker misses.
                 Some(e) => e.iter().zip(&c.fit.err).map(|(a, b)| a.max(*b)).collect(),
                 None => c.fit.err.clone(),
@@ -1080,9 +1097,18 @@ impl<'d, 'a> Search<'d, 'a> {
                     seg_bad[s] = true;
                 }
             }
+            if let Some(u) = fold {
+                seg_bad.fill(false);
+                seg_bad[bu[1..nseg].partition_point(|&b| b <= u)] = true;
+            }
             let mut nbu = bu.clone();
             for s in 0..nseg {
-                if !seg_bad[s] || seg_pts[s].len() < 2 * data.sections {
+                let least = if fold.is_some() {
+                    data.sections
+                } else {
+                    2 * data.sections
+                };
+                if !seg_bad[s] || seg_pts[s].len() < least {
                     continue;
                 }
                 let mut pts = seg_pts[s].clone();
