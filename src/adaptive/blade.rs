@@ -15,16 +15,20 @@
 //! aerofoil-rule net in its own frame: x runs monotonically from the trailing edge to the
 //! leading edge and back whatever the stored numbers, so the chordwise net cannot fold back
 //! on itself, and the thickness direction is the only free one (as for the 2D chains, where x
-//! follows the rule and only y is stored).
+//! follows the rule and only y is stored). With the trailing-edge term the law
+//! `X + b_j W` is monotone on each half for `0 ≤ b_j ≤ 1`; `b_j > 1` peaks before the end on
+//! purpose (a bulging end), so there the search's fold check, not the law, rules out folds.
 //!
-//! **The quadratic rule, not a quartic.** `X = t²` is tangent to the section at the leading
-//! edge only. At a round trailing edge (a cylinder root, a blunt thick section) `y(u)` keeps a
-//! square-root singularity at `u = 0, 1`, and the search crowds its u-breaks there (17 of 33
-//! within 2.3 % of the ends on the IEA 15 MW blade at 1e-3 of the chord). The quartic
-//! `X = 1 - (1 - t²)²`, tangent at both ends, was tried and measured worse: on the paper's
-//! blade it stalled at 5.0e-3 (the quadratic meets 1.77e-4 with 92 stored scalars), and on
-//! the IEA blades at 1e-3 it missed by 2.3x (15 MW) and 17x (3.4 MW), likely because the
-//! parameter correction along u loses its chordwise grip where `X'(u) = 0`.
+//! **The trailing-edge term.** `X = t²` is tangent to the section at the leading edge only.
+//! At a round trailing edge (a cylinder root, a blunt thick section) `y(u)` keeps a
+//! square-root singularity at `u = 0, 1`, and the greedy search crowds its u-breaks there
+//! (17 of 33 within 2.3 % of the ends on the IEA 15 MW blade at 1e-3 of the chord). A fixed
+//! quartic `X = 1 - (1 - t²)²`, tangent at both ends, was measured worse (the paper's blade
+//! stalled at 5.0e-3: at a sharp trailing edge the surface's u-derivative vanishes). The
+//! trailing-edge families therefore fit each column's own weight `b_j` of
+//! `W = t² (1 - t²)` ([`Chordwise`]): 0 at a sharp end, 1 at a round one, above 1 where a
+//! round end bulges past its end points, with each section's initial parameters following
+//! its own weight ([`section_params`], [`te_weight`]).
 //!
 //! **Fitting.** Given each column's chord direction `d_j` and the thickness-direction
 //! component of its leading edge (both from the sections' own leading and trailing edges,
