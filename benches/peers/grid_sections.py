@@ -14,6 +14,13 @@ nearest cloud point of the two sections, with its u, next to the largest such di
 two sections' own points from each other: a surface that follows its cloud stays within
 about the latter, a folded or overhanging one leaves it by much more. It also prints the
 report's fold check.
+
+It also samples the surface AT every section (v = v_k) and prints, for the sections where it
+lies farthest from the section's own points, that distance and its u, and the u range the
+section's points cover (each point's foot approximated by the nearest of 200,001 surface
+samples): where the surface leaves the cloud at u below the first foot or above the last one,
+the grid runs past the section's trailing-edge points (an overhang the fit's own offsets do
+not see: no data point is closer to it).
 Needs numpy and scipy.
 """
 import argparse
@@ -56,7 +63,7 @@ def main():
     rows = []
     for k in range(len(v) - 1):
         vm = 0.5 * (v[k] + v[k + 1])
-        s = np.einsum("ai,j,ijc->ac", Bu, bv([vm])[0], net)
+        s = Bu @ np.einsum("j,ijc->ic", bv([vm])[0], net)
         a, b = pts[sec == k][:, :2], pts[sec == k + 1][:, :2]
         dist, _ = cKDTree(np.r_[a, b]).query(s[:, :2])
         apart = max(cKDTree(a).query(b)[0].max(), cKDTree(b).query(a)[0].max())
@@ -66,6 +73,20 @@ def main():
     print(f"{args.report}: surface half-way between neighbouring sections, farthest from the cloud")
     for dist, k, vm, uw, apart in rows[: args.top]:
         print(f"  sections {k}-{k + 1} (v {vm:.4f}): {dist:.3e} at u {uw:.5f} (the sections {apart:.3e} apart)")
+    fine = np.linspace(0, 1, 200001)
+    Bf = bu(fine)
+    at = []
+    for k in range(len(v)):
+        s = (Bf @ np.einsum("j,ijc->ic", bv([v[k]])[0], net))[:, :2]
+        a = pts[sec == k][:, :2]
+        dist, _ = cKDTree(a).query(s)
+        _, foot = cKDTree(s).query(a)
+        w = dist.argmax()
+        at.append((dist[w], k, fine[w], fine[foot].min(), fine[foot].max()))
+    at.sort(reverse=True)
+    print(f"{args.report}: surface at the sections, farthest from the section's own points")
+    for dist, k, uw, lo, hi in at[: args.top]:
+        print(f"  section {k} (v {v[k]:.4f}): {dist:.3e} at u {uw:.5f} (its points' feet cover u {lo:.5f} to {hi:.5f})")
     fold = r.get("adapt", {}).get("fold")
     if fold:
         print(f"  fold check: {fold['max_turn_deg']:.1f} deg at u {fold['at'][0]:.5f}, v {fold['at'][1]:.5f}")
