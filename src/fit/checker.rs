@@ -94,6 +94,37 @@ impl CheckPatch {
     }
 }
 
+/// The four best `(distance², sample index)` of a scan, in order: a later sample enters only
+/// when strictly nearer, so ties keep sampling order, as Python's stable sort keeps them.
+struct Four {
+    c: [(f64, usize); 4],
+    kept: usize,
+}
+
+impl Default for Four {
+    fn default() -> Self {
+        Four {
+            c: [(f64::INFINITY, usize::MAX); 4],
+            kept: 0,
+        }
+    }
+}
+
+impl Four {
+    fn offer(&mut self, d: f64, i: usize) {
+        if self.kept == 4 && d.total_cmp(&self.c[3].0).is_ge() {
+            return;
+        }
+        let mut at = self.kept.min(3);
+        while at > 0 && d.total_cmp(&self.c[at - 1].0).is_lt() {
+            self.c[at] = self.c[at - 1];
+            at -= 1;
+        }
+        self.c[at] = (d, i);
+        self.kept = (self.kept + 1).min(4);
+    }
+}
+
 fn dist2(a: DVec3, b: DVec3) -> f64 {
     let d = a - b;
     d.x * d.x + d.y * d.y + d.z * d.z
@@ -135,22 +166,33 @@ pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
             })
         })
         .collect();
+    let sx: Vec<f64> = samples.iter().map(|s| s.3.x).collect();
+    let sy: Vec<f64> = samples.iter().map(|s| s.3.y).collect();
+    let sz: Vec<f64> = samples.iter().map(|s| s.3.z).collect();
     points
         .par_iter()
         .map(|&q| {
-            // (distance², sample index): Python's stable sort by distance keeps ties in
-            // sampling order.
-            let mut cands: Vec<(f64, usize)> = samples
-                .iter()
-                .enumerate()
-                .map(|(i, s)| (dist2(s.3, q), i))
-                .collect();
-            let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-            let four = 4.min(cands.len());
-            cands.select_nth_unstable_by(four - 1, by);
-            cands[..four].sort_by(by);
-            let mut best = cands[0].0;
-            for &(_, i) in &cands[..four] {
+            // The four best (distance², sample index) in one pass: Python's stable sort by
+            // distance keeps ties in sampling order, and so does inserting a later sample
+            // only when it is strictly nearer.
+            let mut four = Four::default();
+            // Blocks of 8 distances (the same arithmetic as `dist2`), offered only when one
+            // of them beats the fourth best: the scan over every sample is the checker's cost.
+            for (b, ((xs, ys), zs)) in sx.chunks(8).zip(sy.chunks(8)).zip(sz.chunks(8)).enumerate() {
+                let mut ds = [f64::INFINITY; 8];
+                for k in 0..xs.len() {
+                    let (dx, dy, dz) = (xs[k] - q.x, ys[k] - q.y, zs[k] - q.z);
+                    ds[k] = dx * dx + dy * dy + dz * dz;
+                }
+                if four.kept < 4 || ds[..xs.len()].iter().any(|d| d.total_cmp(&four.c[3].0).is_lt()) {
+                    for k in 0..xs.len() {
+                        four.offer(ds[k], 8 * b + k);
+                    }
+                }
+            }
+            let (kept, four) = (four.kept, four.c);
+            let mut best = four[0].0;
+            for &(_, i) in &four[..kept] {
                 let (k, u0, v0, _) = samples[i];
                 let p = &patches[k];
                 let (mut u, mut v) = (u0, v0);
