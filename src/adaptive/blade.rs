@@ -214,15 +214,23 @@ impl Chordwise {
     /// The law on `lu`; `te` carries the trailing-edge term (from [`TE_DEGREE`] around).
     pub fn new(lu: &ChainLayout, te: bool) -> Self {
         let x = rule_rows(lu).iter().map(|r| r[1] + r[2]).collect();
-        let w = if te && lu.degree() >= TE_DEGREE {
-            poly_coefficients(lu, |u| {
-                let t2 = (2.0 * u - 1.0).powi(2);
-                t2 * (1.0 - t2)
-            })
+        let w = if Self::carries(lu.degree(), te) {
+            te_rows(lu)
         } else {
             Vec::new()
         };
         Chordwise { x, w }
+    }
+
+    /// True when a law of degree `degree` around carries the trailing-edge term.
+    pub fn carries(degree: usize, te: bool) -> bool {
+        te && degree >= TE_DEGREE
+    }
+
+    /// Stored numbers of a column's frame on a layout of degree `degree` around (see
+    /// [`Chordwise::frame_len`]), without building the law.
+    pub fn frame_len_for(degree: usize, te: bool) -> usize {
+        4 + usize::from(Self::carries(degree, te))
     }
 
     /// True when the law carries the trailing-edge term.
@@ -242,23 +250,25 @@ impl Chordwise {
     }
 }
 
-/// The B-spline coefficients on `lu` of a polynomial `f` of degree at most `lu`'s, by
-/// collocation at the Greville abscissae (exact up to rounding).
-fn poly_coefficients(lu: &ChainLayout, f: impl Fn(f64) -> f64) -> Vec<f64> {
-    let g = lu.greville();
-    let n = g.len();
-    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
-    let mut b = nalgebra::DVector::<f64>::zeros(n);
-    for (r, &u) in g.iter().enumerate() {
-        let s = lu.basis(u, 0);
-        for k in 0..=lu.degree() {
-            a[(r, s.first + k)] = s.value[k];
-        }
-        b[r] = f(u);
-    }
-    a.lu()
-        .solve(&b)
-        .map_or_else(|| vec![f64::NAN; n], |x| x.as_slice().to_vec())
+/// The B-spline coefficients of the trailing-edge term `W(u) = t² (1 - t²)`, `t = 2u - 1`, on
+/// `lu` (degree [`TE_DEGREE`] or more), by blossoming as [`rule_rows`] does for `t²`: with
+/// `t_a = 2τ_a - 1` over the knots `τ_{i+1} … τ_{i+d}` and `e_k` their elementary symmetric
+/// polynomials, `w_i = e₂ / C(d, 2) - e₄ / C(d, 4)`.
+fn te_rows(lu: &ChainLayout) -> Vec<f64> {
+    let d = lu.degree();
+    let knots = lu.knots();
+    let choose = |r: usize| (0..r).fold(1.0, |c, i| c * (d - i) as f64 / (i + 1) as f64);
+    (0..lu.design_count())
+        .map(|i| {
+            let mut e = [1.0, 0.0, 0.0, 0.0, 0.0];
+            for tau in &knots[i + 1..=i + d] {
+                for r in (1..5).rev() {
+                    e[r] += (2.0 * tau - 1.0) * e[r - 1];
+                }
+            }
+            e[2] / choose(2) - e[4] / choose(4)
+        })
+        .collect()
 }
 
 /// The fixed part of each design column's frame: the reference leading edge `O⁰_j` and the

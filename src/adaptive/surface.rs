@@ -229,7 +229,7 @@ impl SurfaceEncoding {
         let frames = if self.chord_rule {
             self.layouts()
                 .map_or(0, |(lu, lv)| {
-                    Chordwise::new(&lu, self.te_term).frame_len() * lv.design_count()
+                    Chordwise::frame_len_for(lu.degree(), self.te_term) * lv.design_count()
                 })
                 .min(self.coords.len())
         } else {
@@ -886,7 +886,7 @@ impl<'d, 'a> Search<'d, 'a> {
             self.data.axes.len()
         };
         let frames = if self.data.blade.is_some() {
-            Chordwise::new(&lu, fam.te).frame_len() * lv.design_count()
+            Chordwise::frame_len_for(fam.du, fam.te) * lv.design_count()
         } else {
             0
         };
@@ -909,16 +909,18 @@ impl<'d, 'a> Search<'d, 'a> {
         }
         self.fits.fetch_add(1, Ordering::Relaxed);
         *count += 1;
-        let ends: Vec<(usize, f64)> = (0..self.data.sections)
-            .flat_map(|k| [(k * self.data.per, 0.0), ((k + 1) * self.data.per - 1, 1.0)])
-            .collect();
+        let ends: Option<Vec<(usize, f64)>> = fam.te.then(|| {
+            (0..self.data.sections)
+                .flat_map(|k| [(k * self.data.per, 0.0), ((k + 1) * self.data.per - 1, 1.0)])
+                .collect()
+        });
         let mut f = Fitter::new(
             self.data,
             lu,
             lv,
             self.data.points,
             self.data.point_v(),
-            fam.te.then_some(&ends[..]),
+            ends.as_deref(),
         )?;
         let fit = f.fit(u0, self.opts)?;
         let coords = store(self.data, fam, bu, bv, &fit.design)?;
@@ -1351,7 +1353,7 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
         breaks_v: stored(&c.bv),
         span_rule: data.span,
         chord_rule: data.blade.is_some(),
-        te_term: fam.te && data.blade.is_some() && fam.du >= TE_DEGREE,
+        te_term: data.blade.is_some() && Chordwise::carries(fam.du, fam.te),
         coords,
     }
 }
