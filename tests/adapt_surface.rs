@@ -411,42 +411,39 @@ fn the_paper_blade_beats_three_bivariate_splines() {
     assert_eq!((grid.sections, grid.per_section), (12, 82));
     for (rel, bar) in [(1e-3, 390), (1e-4, 512)] {
         let tol = rel * chord;
-        let r = adapt_surface(
-            &points,
-            grid,
-            &SurfaceAdaptOptions {
-                tol,
-                ..SurfaceAdaptOptions::default()
-            },
-        )
-        .unwrap();
-        check_met(&r, &points, grid, tol);
+        let r = met_with_defaults(&points, grid, tol, &format!("{rel:e} of the chord"));
         assert!(
             r.count.total <= bar,
             "{rel:e}: {} stored scalars > {bar}",
             r.count.total
         );
-        eprintln!(
-            "{rel:e} of the chord: {} stored scalars ({}), max {:.3e}, checker {:.3e}, held-out {:.3e}, {:.2} s",
-            r.count.total,
-            r.family,
-            r.offset.max,
-            r.checked.max,
-            r.held_out.map_or(f64::NAN, |h| h.max),
-            r.seconds
-        );
     }
 }
 
-/// The largest distance between two points of one section (what `--relative` scales by).
-fn largest_chord(points: &[DVec3], per: usize) -> f64 {
-    points
-        .chunks(per)
-        .flat_map(|s| {
-            s.iter()
-                .flat_map(move |a| s.iter().map(move |b| (*a - *b).length()))
-        })
-        .fold(0.0, f64::max)
+/// `adapt_surface` with the default options at `tol`, checked by [`check_met`], its figures
+/// printed under `label`.
+fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> AdaptedSurface {
+    let r = adapt_surface(
+        points,
+        grid,
+        &SurfaceAdaptOptions {
+            tol,
+            ..SurfaceAdaptOptions::default()
+        },
+    )
+    .unwrap();
+    check_met(&r, points, grid, tol);
+    eprintln!(
+        "{label}: {} stored scalars ({}), max {:.3e}, checker {:.3e}, held-out {:.3e}, fold {:.1} deg, {:.2} s",
+        r.count.total,
+        r.family,
+        r.offset.max,
+        r.checked.max,
+        r.held_out.map_or(f64::NAN, |h| h.max),
+        r.fold.max_turn_deg,
+        r.seconds
+    );
+    r
 }
 
 /// Issue 12's real blade: the IEA 15 MW windIO v2 blade lofted to 30 sections of 160 points
@@ -467,33 +464,14 @@ fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
         })
         .unwrap();
     let (points, grid) = (cloud.points, cloud.grid.unwrap());
-    let chord = largest_chord(&points, grid.per_section);
+    let chord = grid.largest_chord(&points);
     assert!((chord - 5.765).abs() < 1e-3, "largest chord {chord}");
     let tol = 1e-3 * chord;
-    let r = adapt_surface(
-        &points,
-        grid,
-        &SurfaceAdaptOptions {
-            tol,
-            ..SurfaceAdaptOptions::default()
-        },
-    )
-    .unwrap();
-    check_met(&r, &points, grid, tol);
+    let r = met_with_defaults(&points, grid, tol, "IEA 15 MW at 1e-3");
     assert!(r.encoding.te_term, "{}", r.family);
     assert!(2 * r.count.total <= 1629, "{} stored scalars", r.count.total);
     assert!(r.agreement <= 1.1, "checker/exact {}", r.agreement);
     assert!(r.fold.passes && r.fold.max_turn_deg <= 90.0, "{:?}", r.fold);
     let h = r.held_out.expect("held-out check");
     assert!(h.max <= 3.0 * tol, "held-out max {:e}", h.max);
-    eprintln!(
-        "IEA 15 MW at 1e-3: {} stored scalars ({}), max {:.3e}, checker {:.3e}, held-out {:.3e}, fold {:.1} deg, {:.1} s",
-        r.count.total,
-        r.family,
-        r.offset.max,
-        r.checked.max,
-        h.max,
-        r.fold.max_turn_deg,
-        r.seconds
-    );
 }

@@ -10,7 +10,6 @@ use bezchain::adaptive::{
 };
 use bezchain::export::InputInfo;
 use bezchain::geometry::read_cloud;
-use glam::DVec3;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -57,18 +56,6 @@ pub enum ChordArg {
     On,
     /// Never the chord rule.
     Off,
-}
-
-/// The largest distance between two points of one section.
-fn largest_chord(points: &[DVec3], per: usize) -> f64 {
-    points
-        .chunks(per)
-        .map(|s| {
-            s.iter()
-                .flat_map(|a| s.iter().map(move |b| (*a - *b).length()))
-                .fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max)
 }
 
 fn describe(b: &Breaks) -> String {
@@ -168,7 +155,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let points = &loaded.points;
     let scale = if args.tolerance.relative {
-        largest_chord(points, grid.per_section)
+        grid.largest_chord(points)
     } else {
         1.0
     };

@@ -36,6 +36,22 @@ pub struct Grid {
     pub per_section: usize,
 }
 
+impl Grid {
+    /// The largest distance between two points of one section of `points` (section-major,
+    /// this grid's shape): the chord `--relative` patch-grid tolerances are fractions of.
+    #[must_use]
+    pub fn largest_chord(&self, points: &[DVec3]) -> f64 {
+        points
+            .chunks(self.per_section.max(1))
+            .map(|s| {
+                s.iter()
+                    .flat_map(|a| s.iter().map(move |b| (*a - *b).length()))
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
 /// A 3D point cloud, optionally ordered as a grid of sections.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cloud {
