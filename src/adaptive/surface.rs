@@ -341,6 +341,10 @@ pub struct SurfaceFamilyTrace {
     pub best_measure: f64,
     /// How it ended.
     pub outcome: String,
+    /// Wall-clock seconds of its search (families run in parallel, so these add up to more
+    /// than the search's own seconds).
+    #[serde(default)]
+    pub seconds: f64,
 }
 
 /// The offsets found by the shared checker's search ([`sampled_offsets`]), model units.
@@ -1149,6 +1153,7 @@ impl<'d, 'a> Search<'d, 'a> {
             best_scalars: None,
             best_measure: f64::INFINITY,
             outcome: String::new(),
+            seconds: 0.0,
         };
         let mut nfits = 0;
         let mut closest: Option<Cand> = None;
@@ -1559,7 +1564,9 @@ fn run_families(
     let results = families
         .par_iter()
         .map(|&f| {
-            let (w, c, t) = search.run(f);
+            let started = Instant::now();
+            let (w, c, mut t) = search.run(f);
+            t.seconds = started.elapsed().as_secs_f64();
             (f, w, c, t)
         })
         .collect();
