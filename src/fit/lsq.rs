@@ -41,7 +41,7 @@
 //! paper's cases both took about as many iterations and more often stopped in a worse local
 //! minimum.
 
-use super::band::{rcm_order, BandMatrix};
+use super::band::{rcm_order, BandMatrix, BAND_MIN};
 use super::objective::{SolveReport, StopReason};
 use super::offset::Metric;
 use super::problem::{chunked_sum, Constraint, FitProblem};
@@ -583,10 +583,6 @@ impl<P: Vector, const K: usize> Models<P, K> {
         &self.values[from..self.offsets[j] as usize]
     }
 }
-
-/// Systems with at least this many unknowns are solved in band form (see [`BandMatrix`]);
-/// below it (every curve) the dense Cholesky factorisation is as fast.
-const BAND_MIN: usize = 256;
 
 /// Assemble the reduced matrix, damp it and solve for the design step: dense for small
 /// systems, in band form for large ones (patch grids with many patches, whose matrix couples

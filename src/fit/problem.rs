@@ -9,6 +9,7 @@
 //! [`Objective`] of [`FitProblem::objective_fn`]), the GA and CMA-ES (the population
 //! objective of [`super::population`]).
 
+use super::band::BandPlan;
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
 use super::population::Frame;
@@ -381,16 +382,21 @@ pub(crate) fn chunked_sum<T: Send>(
     parts.fold(first, merge)
 }
 
-/// Solve the symmetric positive definite `a x = rhs` by Cholesky; when `a` is singular, with
-/// a ridge of `1e-10` of its largest diagonal pulling column `k` of the solution towards
-/// `toward(k)`.
+/// Solve the symmetric positive definite `a x = rhs` by Cholesky (in band form where `a`'s
+/// sparsity allows, [`BandPlan`]); when `a` is singular, with a ridge of `1e-10` of its
+/// largest diagonal pulling column `k` of the solution towards `toward(k)`.
 fn cholesky_ridged(
     mut a: DMatrix<f64>,
     mut rhs: DMatrix<f64>,
     toward: impl Fn(usize) -> f64,
 ) -> Result<DMatrix<f64>> {
-    if let Some(ch) = a.clone().cholesky() {
-        return Ok(ch.solve(&rhs));
+    let plan = BandPlan::of(&a);
+    let solve = |a: &DMatrix<f64>, rhs: &DMatrix<f64>| match &plan {
+        Some(p) => p.solve(a, rhs),
+        None => a.clone().cholesky().map(|ch| ch.solve(rhs)),
+    };
+    if let Some(x) = solve(&a, &rhs) {
+        return Ok(x);
     }
     let n = a.nrows();
     let mu = 1e-10
@@ -404,9 +410,7 @@ fn cholesky_ridged(
             rhs[(i, k)] += mu * toward(k);
         }
     }
-    Ok(a.cholesky()
-        .ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))?
-        .solve(&rhs))
+    solve(&a, &rhs).ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))
 }
 
 impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
