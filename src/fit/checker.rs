@@ -94,8 +94,8 @@ impl CheckPatch {
     }
 }
 
-/// The four best `(distance², sample index)` of a scan, in order: a later sample enters only
-/// when strictly nearer, so ties keep sampling order, as Python's stable sort keeps them.
+/// The four best `(distance², sample index)` of a scan, in order: the least distances, ties
+/// in sampling order, as Python's stable sort keeps them (in whatever order they are offered).
 struct Four {
     c: [(f64, usize); 4],
     kept: usize,
@@ -112,16 +112,96 @@ impl Default for Four {
 
 impl Four {
     fn offer(&mut self, d: f64, i: usize) {
-        if self.kept == 4 && d.total_cmp(&self.c[3].0).is_ge() {
+        let before = |c: (f64, usize)| d.total_cmp(&c.0).then(i.cmp(&c.1)).is_lt();
+        if self.kept == 4 && !before(self.c[3]) {
             return;
         }
         let mut at = self.kept.min(3);
-        while at > 0 && d.total_cmp(&self.c[at - 1].0).is_lt() {
+        while at > 0 && before(self.c[at - 1]) {
             self.c[at] = self.c[at - 1];
             at -= 1;
         }
         self.c[at] = (d, i);
         self.kept = (self.kept + 1).min(4);
+    }
+
+    /// The fourth best distance², once four are kept.
+    fn bound(&self) -> Option<f64> {
+        (self.kept == 4).then_some(self.c[3].0)
+    }
+}
+
+/// The samples sorted along the axis of their largest extent, for the nearest-sample scan: a
+/// sample farther along that axis than the fourth best distance cannot be among the four, so
+/// the scan runs outwards from the point and stops there (the same four as a scan of all).
+struct Slab {
+    axis: usize,
+    key: Vec<f64>,
+    pos: Vec<DVec3>,
+    index: Vec<usize>,
+}
+
+impl Slab {
+    fn new(samples: &[DVec3]) -> Self {
+        let (lo, hi) = samples.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let mut index: Vec<usize> = (0..samples.len()).collect();
+        index.sort_by(|&a, &b| samples[a][axis].total_cmp(&samples[b][axis]).then(a.cmp(&b)));
+        Slab {
+            axis,
+            key: index.iter().map(|&i| samples[i][axis]).collect(),
+            pos: index.iter().map(|&i| samples[i]).collect(),
+            index,
+        }
+    }
+
+    /// The four nearest samples to `q` (`dist2`'s arithmetic, ties by sample index).
+    fn four(&self, q: DVec3) -> Four {
+        let k = q[self.axis];
+        let n = self.key.len();
+        let (mut lo, mut hi) = {
+            let m = self.key.partition_point(|&s| s < k);
+            (m, m)
+        };
+        let mut four = Four::default();
+        loop {
+            // The nearer side along the axis next; its squared gap bounds every distance
+            // left (a sum of non-negative squares never rounds below one of them).
+            let gap = |j: usize| {
+                let t = self.key[j] - k;
+                t * t
+            };
+            let low = (lo > 0).then(|| gap(lo - 1));
+            let high = (hi < n).then(|| gap(hi));
+            let (take_low, g) = match (low, high) {
+                (Some(a), Some(b)) => (a <= b, a.min(b)),
+                (Some(a), None) => (true, a),
+                (None, Some(b)) => (false, b),
+                (None, None) => break,
+            };
+            if four.bound().is_some_and(|d4| g > d4) {
+                break;
+            }
+            let j = if take_low {
+                lo -= 1;
+                lo
+            } else {
+                hi += 1;
+                hi - 1
+            };
+            four.offer(dist2(self.pos[j], q), self.index[j]);
+        }
+        four
     }
 }
 
@@ -166,30 +246,11 @@ pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
             })
         })
         .collect();
-    let sx: Vec<f64> = samples.iter().map(|s| s.3.x).collect();
-    let sy: Vec<f64> = samples.iter().map(|s| s.3.y).collect();
-    let sz: Vec<f64> = samples.iter().map(|s| s.3.z).collect();
+    let slab = Slab::new(&samples.iter().map(|s| s.3).collect::<Vec<_>>());
     points
         .par_iter()
         .map(|&q| {
-            // The four best (distance², sample index) in one pass: Python's stable sort by
-            // distance keeps ties in sampling order, and so does inserting a later sample
-            // only when it is strictly nearer.
-            let mut four = Four::default();
-            // Blocks of 8 distances (the same arithmetic as `dist2`), offered only when one
-            // of them beats the fourth best: the scan over every sample is the checker's cost.
-            for (b, ((xs, ys), zs)) in sx.chunks(8).zip(sy.chunks(8)).zip(sz.chunks(8)).enumerate() {
-                let mut ds = [f64::INFINITY; 8];
-                for k in 0..xs.len() {
-                    let (dx, dy, dz) = (xs[k] - q.x, ys[k] - q.y, zs[k] - q.z);
-                    ds[k] = dx * dx + dy * dy + dz * dz;
-                }
-                if four.kept < 4 || ds[..xs.len()].iter().any(|d| d.total_cmp(&four.c[3].0).is_lt()) {
-                    for k in 0..xs.len() {
-                        four.offer(ds[k], 8 * b + k);
-                    }
-                }
-            }
+            let four = slab.four(q);
             let (kept, four) = (four.kept, four.c);
             let mut best = four[0].0;
             for &(_, i) in &four[..kept] {
@@ -312,6 +373,34 @@ mod tests {
             })
             .collect();
         PatchGrid::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn the_slab_scan_finds_the_four_a_scan_of_all_finds() {
+        // Samples on a coarse lattice (many exact ties, repeated samples as on shared patch
+        // edges) stretched along z, and points among and beyond them.
+        let samples: Vec<DVec3> = (0..600)
+            .map(|i| {
+                let k = i % 450;
+                DVec3::new((k % 5) as f64 * 0.5, ((k / 5) % 3) as f64, (k / 15) as f64 * 2.0)
+            })
+            .collect();
+        let slab = Slab::new(&samples);
+        assert_eq!(slab.axis, 2);
+        for j in 0..200 {
+            let t = j as f64;
+            let q = DVec3::new((t * 0.37).sin() * 2.0, (t * 0.11).cos() * 2.0, t * 0.35 - 5.0);
+            let mut all: Vec<(f64, usize)> = samples
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (dist2(*s, q), i))
+                .collect();
+            // Python's stable sort by distance: ties in sampling order.
+            all.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let four = slab.four(q);
+            assert_eq!(four.kept, 4);
+            assert_eq!(four.c.to_vec(), all[..4].to_vec(), "point {j}");
+        }
     }
 
     #[test]
