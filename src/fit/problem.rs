@@ -59,7 +59,70 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     grid: OnceLock<SampleGrid<K>>,
     /// The evolutionary methods' centred frame, made at first use.
     frame: OnceLock<Frame>,
+    /// The normal matrix's sparsity, made at the first linear fit.
+    gram: OnceLock<GramPattern>,
     extent: f64,
+}
+
+/// Which entries of a linear fit's normal matrix `AᵀWA` can be non-zero: design points `i`
+/// and `l` couple only where some cell supports both. Rows in CSR form (`col[start[i]..
+/// start[i + 1]]`, ascending), and for every cell the slot of each pair of its support.
+#[derive(Clone, Debug)]
+struct GramPattern {
+    start: Vec<usize>,
+    col: Vec<u32>,
+    /// `slots[cell][a * s + b]`: the slot of `(support[a], support[b])`, `s` the support size.
+    slots: Vec<Vec<u32>>,
+}
+
+impl GramPattern {
+    fn new<S: Shape<K>, const K: usize>(shape: &S) -> Self {
+        let m = shape.design_count();
+        let mut nbr: Vec<Vec<u32>> = vec![Vec::new(); m];
+        for c in 0..shape.cell_count() {
+            let sup = shape.support(c);
+            for &a in sup {
+                nbr[a as usize].extend_from_slice(sup);
+            }
+        }
+        for n in &mut nbr {
+            n.sort_unstable();
+            n.dedup();
+        }
+        let mut start = Vec::with_capacity(m + 1);
+        start.push(0);
+        for n in &nbr {
+            start.push(start.last().copied().unwrap_or(0) + n.len());
+        }
+        let slots = (0..shape.cell_count())
+            .map(|c| {
+                let sup = shape.support(c);
+                sup.iter()
+                    .flat_map(|&a| {
+                        let (row, base) = (&nbr[a as usize], start[a as usize]);
+                        sup.iter().map(move |b| {
+                            // Every pair of a support is in the row by construction.
+                            (base + row.binary_search(b).unwrap_or(0)) as u32
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        GramPattern {
+            start,
+            col: nbr.concat(),
+            slots,
+        }
+    }
+
+    /// Row `i`'s entries `(l, value)` of the values `val`.
+    fn row<'v>(&'v self, val: &'v [f64], i: usize) -> impl Iterator<Item = (usize, f64)> + 'v {
+        let r = self.start[i]..self.start[i + 1];
+        self.col[r.clone()]
+            .iter()
+            .map(|&l| l as usize)
+            .zip(val[r].iter().copied())
+    }
 }
 
 /// A linear rule for one coordinate of every design point: coordinate `c` of design point
@@ -473,6 +536,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             foot,
             grid,
             frame: OnceLock::new(),
+            gram: OnceLock::new(),
             extent,
         })
     }
@@ -968,19 +1032,22 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         }
         let m = self.design_count();
         let dim = S::Point::DIM;
+        let pat = self.gram.get_or_init(|| GramPattern::new(&self.shape));
         let (ata, atq, _) = chunked_sum(
             self.points.len(),
-            || (vec![0.0; m * m], vec![0.0; m * dim], Basis::new()),
+            || (vec![0.0; pat.col.len()], vec![0.0; m * dim], Basis::new()),
             |(ata, atq, b), range| {
                 for j in range {
                     self.shape.basis(params[j], 0, b);
                     let support = self.shape.support(b.cell);
+                    let slots = &pat.slots[b.cell];
+                    let s = support.len();
                     let q = self.points[j];
                     let w = self.weight(j);
                     for (a, &ia) in support.iter().enumerate() {
                         let wa = w * b.value[a];
-                        for (c, &ib) in support.iter().enumerate() {
-                            ata[ia as usize * m + ib as usize] += wa * b.value[c];
+                        for c in 0..s {
+                            ata[slots[a * s + c] as usize] += wa * b.value[c];
                         }
                         for k in 0..dim {
                             atq[ia as usize * dim + k] += wa * q.coord(k);
@@ -994,12 +1061,18 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 a
             },
         );
+        let row = |i: usize| pat.row(&ata, i);
         let centroid: Vec<f64> = (0..dim)
             .map(|k| self.points.iter().map(|p| p.coord(k)).sum::<f64>() / self.points.len() as f64)
             .collect();
         let design: Vec<S::Point> = match &self.constraint {
             None => {
-                let a = DMatrix::from_row_slice(m, m, &ata);
+                let mut a = DMatrix::<f64>::zeros(m, m);
+                for i in 0..m {
+                    for (l, v) in row(i) {
+                        a[(i, l)] = v;
+                    }
+                }
                 let rhs = DMatrix::from_row_slice(m, dim, &atq);
                 let sol = cholesky_ridged(a, rhs, |k| centroid[k])?;
                 (0..m)
@@ -1022,13 +1095,12 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 for i in 0..m {
                     for k in 0..dim {
                         let r = i * dim + k;
-                        let nb: f64 = (0..m).map(|l| ata[i * m + l] * offset[l * dim + k]).sum();
+                        let nb: f64 = row(i).map(|(l, v)| v * offset[l * dim + k]).sum();
                         for &(p, wp) in &rows[r] {
                             rhs[(p, 0)] += wp * (atq[r] - nb);
                         }
                     }
-                    for l in 0..m {
-                        let v = ata[i * m + l];
+                    for (l, v) in row(i) {
                         if v == 0.0 {
                             continue;
                         }
@@ -1066,11 +1138,10 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     let mut a = DMatrix::<f64>::zeros(n, n);
                     let mut rhs = DMatrix::<f64>::zeros(n, 1);
                     for i in 0..m {
-                        let nb: f64 = (0..m).map(|l| ata[i * m + l] * rule.offset[l]).sum();
+                        let nb: f64 = row(i).map(|(l, v)| v * rule.offset[l]).sum();
                         for &(p, wp) in rule.row(i) {
                             rhs[(p, 0)] += wp * (atq[i * dim + k] - nb);
-                            for l in 0..m {
-                                let v = ata[i * m + l];
+                            for (l, v) in row(i) {
                                 if v != 0.0 {
                                     for &(r, wr) in rule.row(l) {
                                         a[(p, r)] += wp * v * wr;
