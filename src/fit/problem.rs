@@ -71,6 +71,9 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
 struct GramPattern {
     start: Vec<usize>,
     col: Vec<u32>,
+    /// `(lower, upper)` slots of every pair `l < i`: the sum fills the upper triangle and
+    /// copies it down.
+    mirror: Vec<(u32, u32)>,
     /// `slots[cell][a * s + b]`: the slot of `(support[a], support[b])`, `s` the support size.
     slots: Vec<Vec<u32>>,
 }
@@ -108,9 +111,23 @@ impl GramPattern {
                     .collect()
             })
             .collect();
+        let mirror = (0..m)
+            .flat_map(|i| {
+                let (nbr, start) = (&nbr, &start);
+                nbr[i]
+                    .iter()
+                    .enumerate()
+                    .filter(move |(_, &l)| (l as usize) < i)
+                    .map(move |(k, &l)| {
+                        let up = start[l as usize] + nbr[l as usize].binary_search(&(i as u32)).unwrap_or(0);
+                        ((start[i] + k) as u32, up as u32)
+                    })
+            })
+            .collect();
         GramPattern {
             start,
             col: nbr.concat(),
+            mirror,
             slots,
         }
     }
@@ -1046,7 +1063,8 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     let w = self.weight(j);
                     for (a, &ia) in support.iter().enumerate() {
                         let wa = w * b.value[a];
-                        for c in 0..s {
+                        // The upper triangle (the support ascends), copied down below.
+                        for c in a..s {
                             ata[slots[a * s + c] as usize] += wa * b.value[c];
                         }
                         for k in 0..dim {
@@ -1061,6 +1079,10 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 a
             },
         );
+        let mut ata = ata;
+        for &(lo, up) in &pat.mirror {
+            ata[lo as usize] = ata[up as usize];
+        }
         let row = |i: usize| pat.row(&ata, i);
         let centroid: Vec<f64> = (0..dim)
             .map(|k| self.points.iter().map(|p| p.coord(k)).sum::<f64>() / self.points.len() as f64)
