@@ -461,7 +461,14 @@ fn check_adapt_surface(rep: &Value) {
     for f in a["search"].as_array().unwrap() {
         assert_keys(
             f,
-            &["family", "fits", "best_scalars", "best_measure", "outcome", "seconds"],
+            &[
+                "family",
+                "fits",
+                "best_scalars",
+                "best_measure",
+                "outcome",
+                "seconds",
+            ],
             &[],
             "search[]",
         );
