@@ -784,6 +784,12 @@ impl<'p> Fitter<'p> {
     }
 }
 
+/// Where `grid` folds ([`fold_check`]): the `u` of the largest turn, when it exceeds 90°.
+fn fold_at(grid: &PatchGrid<DVec3>) -> Option<f64> {
+    let f = fold_check(grid, FOLD_SAMPLES);
+    (!f.passes).then_some(f.at[0])
+}
+
 fn norm_of(err: &[f64], norm: Norm) -> f64 {
     match norm {
         Norm::Max => err.iter().fold(0.0, |m: f64, e| m.max(*e)),
@@ -942,27 +948,20 @@ impl<'d, 'a> Search<'d, 'a> {
     /// The fit's own offsets meet the tolerance, and so do the checker's
     /// ([`sampled_offsets`]) on the grid the stored numbers regenerate.
     fn met(&self, fam: &Family, c: &Cand) -> bool {
-        self.check(fam, c)
-            .is_some_and(|e| norm_of(&e, self.opts.norm) <= self.opts.tol)
-            && (!fam.te || self.fold(fam, c).is_none())
-    }
-
-    /// Where the grid the stored numbers regenerate folds ([`fold_check`]): the `u` of the
-    /// largest turn, when it exceeds 90°.
-    fn fold(&self, fam: &Family, c: &Cand) -> Option<f64> {
-        let grid = encode(self.data, fam, c).grid().ok()?;
-        let f = fold_check(&grid, FOLD_SAMPLES);
-        (!f.passes).then_some(f.at[0])
+        self.check(fam, c).is_some_and(|(e, grid)| {
+            norm_of(&e, self.opts.norm) <= self.opts.tol && (!fam.te || fold_at(&grid).is_none())
+        })
     }
 
     /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
-    /// tolerance; `None` when they do not.
-    fn check(&self, fam: &Family, c: &Cand) -> Option<Vec<f64>> {
+    /// tolerance, with the grid the stored numbers regenerate (for the fold check); `None`
+    /// when they do not.
+    fn check(&self, fam: &Family, c: &Cand) -> Option<(Vec<f64>, PatchGrid<DVec3>)> {
         if c.fit.measure > self.opts.tol {
             return None;
         }
         let grid = encode(self.data, fam, c).grid().ok()?;
-        Some(sampled_offsets(&grid, self.data.points))
+        Some((sampled_offsets(&grid, self.data.points), grid))
     }
 
     /// The u split: in the segment holding the worst point, at the squared-error-weighted
@@ -1078,7 +1077,7 @@ impl<'d, 'a> Search<'d, 'a> {
             }
             let mut fold = None;
             let err = match self.check(fam, &c) {
-                Some(e) if norm_of(&e, self.opts.norm) <= tol => match self.fold(fam, &c) {
+                Some((e, grid)) if norm_of(&e, self.opts.norm) <= tol => match fold_at(&grid) {
                     None => return Some(c),
                     // Meets the tolerance but folds: split the u segment of the fold.
                     Some(u) => {
@@ -1087,7 +1086,7 @@ impl<'d, 'a> Search<'d, 'a> {
                     }
                 },
                 // Within the tolerance by its own offsets: refine where the checker misses.
-                Some(e) => e.iter().zip(&c.fit.err).map(|(a, b)| a.max(*b)).collect(),
+                Some((e, _)) => e.iter().zip(&c.fit.err).map(|(a, b)| a.max(*b)).collect(),
                 None => c.fit.err.clone(),
             };
             if *nfits >= self.opts.max_family_fits {
@@ -1114,13 +1113,13 @@ impl<'d, 'a> Search<'d, 'a> {
                 seg_bad.fill(false);
                 seg_bad[bu[1..nseg].partition_point(|&b| b <= u)] = true;
             }
+            let least = if fold.is_some() {
+                data.sections
+            } else {
+                2 * data.sections
+            };
             let mut nbu = bu.clone();
             for s in 0..nseg {
-                let least = if fold.is_some() {
-                    data.sections
-                } else {
-                    2 * data.sections
-                };
                 if !seg_bad[s] || seg_pts[s].len() < least {
                     continue;
                 }
@@ -1181,7 +1180,7 @@ impl<'d, 'a> Search<'d, 'a> {
                 trace.outcome = format!("pruned (as many stored scalars as the {bound} met before)");
                 break None;
             }
-            let checked = self.check(&fam, &cur);
+            let checked = self.check(&fam, &cur).map(|(e, _)| e);
             if checked
                 .as_ref()
                 .is_some_and(|e| norm_of(e, self.opts.norm) <= self.opts.tol)
@@ -1574,26 +1573,31 @@ fn run_families(
     // with a bound fixed while a batch runs, so the result does not depend on thread timing).
     // On the IEA 15 MW at 1e-3 the greedy chord-rule families spent 80 fits each beyond the
     // trailing-edge families' 448 without meeting it.
-    let run = |fams: Vec<Family>, bound: usize| -> Vec<(usize, FamilyResult)> {
-        fams.par_iter()
-            .map(|&f| {
+    // Each result with its family's place in `families`, which orders the trace.
+    let run = |te: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
+        let picked: Vec<(usize, Family)> = families
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|(_, f)| f.te == te)
+            .collect();
+        picked
+            .par_iter()
+            .map(|&(k, f)| {
                 let started = Instant::now();
                 let (w, c, mut t) = search.run(f, bound);
                 t.seconds = started.elapsed().as_secs_f64();
-                (f, w, c, t)
+                (k, (f, w, c, t))
             })
-            .collect::<Vec<_>>()
-            .into_iter()
-            .map(|r| (families.iter().position(|f| *f == r.0).unwrap_or(0), r))
             .collect()
     };
-    let mut results = run(families.iter().copied().filter(|f| f.te).collect(), usize::MAX);
+    let mut results = run(true, usize::MAX);
     let bound = results
         .iter()
         .filter_map(|(_, r)| r.1.as_ref().map(|w| w.scalars))
         .min()
         .unwrap_or(usize::MAX);
-    results.extend(run(families.iter().copied().filter(|f| !f.te).collect(), bound));
+    results.extend(run(false, bound));
     results.sort_by_key(|(k, _)| *k);
     (
         results.into_iter().map(|(_, r)| r).collect(),
