@@ -448,7 +448,7 @@ pub(crate) fn regenerate(law: &Chordwise, coords: &[f64], nv: usize, i: usize, j
     let k = law.frame_len();
     let f = &coords[k * j..k * j + k];
     let (o, d) = (DVec2::new(f[0], f[1]), DVec2::from_angle(f[2]));
-    let x = law.x[i] + if k == 5 { f[4] * law.w[i] } else { 0.0 };
+    let x = law.x[i] + if law.has_te() { f[4] * law.w[i] } else { 0.0 };
     o + f[3] * x * d + coords[k * nv + i * nv + j] * d.perp()
 }
 
