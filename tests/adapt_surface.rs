@@ -454,22 +454,52 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 #[test]
 #[ignore = "half a minute in release; run with --release -- --ignored"]
 fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
-    let b = Blade::from_file(&crate_root().join("data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml"))
-        .unwrap();
-    let cloud = b
-        .loft(&LoftOptions {
-            points_per_section: Some(160),
-            sections: Some(30),
-            ..LoftOptions::default()
-        })
-        .unwrap();
-    let (points, grid) = (cloud.points, cloud.grid.unwrap());
+    let (points, grid) = lofted("data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml", Some(30));
     let chord = grid.largest_chord(&points);
     assert!((chord - 5.765).abs() < 1e-3, "largest chord {chord}");
     let tol = 1e-3 * chord;
     let r = met_with_defaults(&points, grid, tol, "IEA 15 MW at 1e-3");
     assert!(r.encoding.te_term, "{}", r.family);
-    assert!(2 * r.count.total <= 1629, "{} stored scalars", r.count.total);
+    assert_meets_issue_12(&r, tol, 1629);
+}
+
+/// The IEA 3.4 MW AeroDyn 15 blade (30 stations of 160 points), at 1e-3 of its largest
+/// chord: its thick flat-back root sections defeat the chord rule's law (a chord-rule
+/// trailing-edge family stalls at 6.0e-3), and the plain bulk families meet it within half
+/// of scipy's 2,611 coefficients.
+#[test]
+#[ignore = "a minute in release; run with --release -- --ignored"]
+fn the_iea_3_4mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
+    let (points, grid) = lofted(
+        "data/blades/iea-3.4-130-rwt/openfast/IEA-3.4-130-RWT_AeroDyn15.dat",
+        None,
+    );
+    let chord = grid.largest_chord(&points);
+    assert!((chord - 4.2889).abs() < 1e-3, "largest chord {chord}");
+    let tol = 1e-3 * chord;
+    let r = met_with_defaults(&points, grid, tol, "IEA 3.4 MW at 1e-3");
+    assert!(r.family.ends_with(" bulk"), "{}", r.family);
+    assert_meets_issue_12(&r, tol, 2611);
+}
+
+/// A reference blade file lofted to 160 points a section (and `sections` sections).
+fn lofted(path: &str, sections: Option<usize>) -> (Vec<DVec3>, Grid) {
+    let b = Blade::from_file(&crate_root().join(path)).unwrap();
+    let cloud = b
+        .loft(&LoftOptions {
+            points_per_section: Some(160),
+            sections,
+            ..LoftOptions::default()
+        })
+        .unwrap();
+    (cloud.points, cloud.grid.unwrap())
+}
+
+/// Issue 12's bars on a met result: at most half of `scipy` (the coefficients three scipy
+/// `RectBivariateSpline`s need on the same cloud), the checker within 10 % of the exact
+/// offsets, no fold, a held-out max within 3 times the tolerance.
+fn assert_meets_issue_12(r: &AdaptedSurface, tol: f64, scipy: usize) {
+    assert!(2 * r.count.total <= scipy, "{} stored scalars", r.count.total);
     assert!(r.agreement <= 1.1, "checker/exact {}", r.agreement);
     assert!(r.fold.passes && r.fold.max_turn_deg <= 90.0, "{:?}", r.fold);
     let h = r.held_out.expect("held-out check");

@@ -36,9 +36,11 @@
 //! removes every break it can while the tolerance still holds. A family stops when it would
 //! need more design points than the data allow (half the points of a section around, the
 //! number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
-//! The trailing-edge families run first; the others then stop growing at the fewest stored
-//! scalars those met the tolerance with, a bound fixed before they start, so the result does
-//! not depend on thread timing.
+//! The bulk families ([`Search::grow_bulk`]: a span break between every two sections, the
+//! sections' ends anchored, every bad u segment split at once, the fold check part of meeting
+//! the tolerance; under the chord rule these are its trailing-edge families) run first; the
+//! others then stop growing at the fewest stored scalars those met the tolerance with, a
+//! bound fixed before they start, so the result does not depend on thread timing.
 
 #![allow(clippy::needless_range_loop)]
 
@@ -52,7 +54,7 @@ pub use crate::fit::checker::{fold_check, sampled_offsets, FoldCheck};
 /// Samples a patch in each direction of the result's fold check.
 pub const FOLD_SAMPLES: usize = 16;
 
-/// Equal u segments the trailing-edge families start from (a break at the leading edge).
+/// Equal u segments the bulk families start from (a break at the leading edge).
 const BULK_START: usize = 8;
 use crate::fit::{
     lsq, shape_offsets, Constraint, CoordRule, FitProblem, FootOptions, GridProblem, GridShape, LsqHooks,
@@ -652,7 +654,7 @@ impl<'p> Fitter<'p> {
         )
         .ok()?
         .with_held([false, true]);
-        // The trailing-edge families anchor every section's end points at the ends of u:
+        // The bulk families anchor every section's end points at the ends of u:
         // without them the grid ran past a section's last point by metres (IEA 15 MW).
         let problem = problem.with_anchors(&ends).ok()?;
         let problem = match (data.span, span_col) {
@@ -838,9 +840,12 @@ struct Family {
     ov: usize,
     /// Breaks split at data-driven positions (stored) instead of equal.
     split: bool,
-    /// A trailing-edge family of the chord rule ([`Search::grow_bulk`]): the chordwise law's
-    /// trailing-edge term, the sections' ends anchored, span fairness, a break between
-    /// every two sections, and the fold check part of meeting the tolerance.
+    /// A bulk family ([`Search::grow_bulk`]): the sections' ends anchored, a break between
+    /// every two sections, u grown by splitting every bad segment at once, and the fold
+    /// check part of meeting the tolerance.
+    bulk: bool,
+    /// A trailing-edge family of the chord rule: a bulk family whose chordwise law carries
+    /// the trailing-edge term, with span fairness.
     te: bool,
 }
 
@@ -853,7 +858,13 @@ impl Family {
             self.ou,
             self.ov,
             if self.split { "split" } else { "uniform" },
-            if self.te { " trailing-edge" } else { "" }
+            if self.te {
+                " trailing-edge"
+            } else if self.bulk {
+                " bulk"
+            } else {
+                ""
+            }
         )
     }
 
@@ -910,8 +921,9 @@ impl<'d, 'a> Search<'d, 'a> {
     fn fit(&self, count: &mut usize, fam: &Family, bu: &[f64], bv: &[f64], u0: &[f64]) -> Option<Cand> {
         let lu = fam.layout(fam.du, fam.ou, bu)?;
         let lv = fam.layout(fam.dv, fam.ov, bv)?;
-        // The trailing-edge families' span fairness holds the columns beyond one a section.
-        let limit_v = self.data.sections + if fam.te { fam.dv } else { 0 };
+        // The bulk families have a span a section, so dv more columns than sections: the chord
+        // rule's span fairness holds them, and without it the ridge of a singular solve.
+        let limit_v = self.data.sections + if fam.bulk { fam.dv } else { 0 };
         if lu.design_count() > self.limit_u || lv.design_count() > limit_v {
             return None;
         }
@@ -921,7 +933,7 @@ impl<'d, 'a> Search<'d, 'a> {
         }
         self.fits.fetch_add(1, Ordering::Relaxed);
         *count += 1;
-        let ends: Option<Vec<(usize, f64)>> = fam.te.then(|| {
+        let ends: Option<Vec<(usize, f64)>> = fam.bulk.then(|| {
             (0..self.data.sections)
                 .flat_map(|k| [(k * self.data.per, 0.0), ((k + 1) * self.data.per - 1, 1.0)])
                 .collect()
@@ -949,7 +961,7 @@ impl<'d, 'a> Search<'d, 'a> {
     /// ([`sampled_offsets`]) on the grid the stored numbers regenerate.
     fn met(&self, fam: &Family, c: &Cand) -> bool {
         self.check(fam, c).is_some_and(|(e, grid)| {
-            norm_of(&e, self.opts.norm) <= self.opts.tol && (!fam.te || fold_at(&grid).is_none())
+            norm_of(&e, self.opts.norm) <= self.opts.tol && (!fam.bulk || fold_at(&grid).is_none())
         })
     }
 
@@ -1037,7 +1049,7 @@ impl<'d, 'a> Search<'d, 'a> {
         Some(out)
     }
 
-    /// The trailing-edge families' growth: a break half-way between every two neighbouring
+    /// The bulk families' growth: a break half-way between every two neighbouring
     /// sections along the span (held), [`BULK_START`] equal segments around, then every u
     /// segment holding a point beyond half the largest offset and 0.9 of the tolerance (by the
     /// fit's offsets, or by the checker's once those meet it) split at once at the median u
@@ -1160,7 +1172,7 @@ impl<'d, 'a> Search<'d, 'a> {
         };
         let mut nfits = 0;
         let mut closest: Option<Cand> = None;
-        if fam.te {
+        if fam.bulk {
             let winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
             return self.finish(fam, winner, closest, nfits, trace);
         }
@@ -1265,7 +1277,7 @@ impl<'d, 'a> Search<'d, 'a> {
         mut trace: SurfaceFamilyTrace,
     ) -> (Option<Cand>, Option<Cand>, SurfaceFamilyTrace) {
         let winner = winner.map(|mut w| {
-            if fam.te {
+            if fam.bulk {
                 // One sweep over the breaks, each tried once (the greedy families' repeated
                 // sweeps took 100 s on the IEA 15 MW cloud).
                 for dir in 0..2 {
@@ -1550,36 +1562,42 @@ fn run_families(
                         ou,
                         ov: dv - 1,
                         split,
+                        bulk: false,
                         te: false,
                     });
                 }
             }
-            // The trailing-edge families of the chord rule, from the degree that carries the
-            // term (round and blunt root sections, bulging ends).
-            if data.u0_te.is_some() && du >= TE_DEGREE {
+            // The bulk families: under the chord rule the trailing-edge families, from the
+            // degree that carries the term (round and blunt root sections, bulging ends);
+            // without it every degree. On the IEA 3.4 MW cloud at 1e-3 the plain bulk d4x3
+            // met the tolerance with 1,238 stored scalars where no greedy plain family met it
+            // (their closest layouts overhung, the checker's max 13.6 times the fit's own).
+            let te = data.u0_te.is_some() && du >= TE_DEGREE;
+            if te || data.blade.is_none() {
                 families.push(Family {
                     du,
                     dv,
                     ou: du - 1,
                     ov: dv - 1,
                     split: true,
-                    te: true,
+                    bulk: true,
+                    te,
                 });
             }
         }
     }
-    // The trailing-edge families first: the others then stop growing at the fewest stored
+    // The bulk families first: the others then stop growing at the fewest stored
     // scalars those met the tolerance with (as the curve search prunes by the batches before,
     // with a bound fixed while a batch runs, so the result does not depend on thread timing).
     // On the IEA 15 MW at 1e-3 the greedy chord-rule families spent 80 fits each beyond the
     // trailing-edge families' 448 without meeting it.
     // Each result with its family's place in `families`, which orders the trace.
-    let run = |te: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
+    let run = |bulk: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
         let picked: Vec<(usize, Family)> = families
             .iter()
             .copied()
             .enumerate()
-            .filter(|(_, f)| f.te == te)
+            .filter(|(_, f)| f.bulk == bulk)
             .collect();
         picked
             .par_iter()
@@ -1631,7 +1649,7 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
         lv,
         &points,
         kept.iter().map(|&p| v[p]).collect(),
-        fam.te.then_some(&ends[..]),
+        fam.bulk.then_some(&ends[..]),
     )?;
     let u0: Vec<f64> = kept.iter().map(|&p| data.u0(fam)[p]).collect();
     let fit = f.fit(&u0, opts)?;
