@@ -232,12 +232,7 @@ impl BandMatrix {
                 let lo = lo_i.max(j.saturating_sub(b));
                 let (ri, rj) = (i * w + b - i, j * w + b - j);
                 let mut s = self.data[ri + j];
-                let dot: f64 = self.data[ri + lo..ri + j]
-                    .iter()
-                    .zip(&self.data[rj + lo..rj + j])
-                    .map(|(x, y)| x * y)
-                    .sum();
-                s -= dot;
+                s -= dot(&self.data[ri + lo..ri + j], &self.data[rj + lo..rj + j]);
                 if i == j {
                     if !(s > 0.0) || !s.is_finite() {
                         return None;
@@ -250,6 +245,27 @@ impl BandMatrix {
         }
         Some(BandCholesky { l: self })
     }
+}
+
+/// `Σ a_k b_k` in four interleaved partial sums, which the compiler keeps in vector
+/// registers (a single running sum must add in order and is not vectorised): the band
+/// factorisation's inner loop, 21 % of a plain `adapt-surface` search's time before.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    debug_assert_eq!(a.len(), b.len());
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    let mut acc = [0.0; 4];
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
 }
 
 /// The Cholesky factor `L` of a [`BandMatrix`].
@@ -267,7 +283,7 @@ impl BandCholesky {
         for i in 0..n {
             let lo = i.saturating_sub(b);
             let ri = i * w + b - i;
-            let s: f64 = d[ri + lo..ri + i].iter().zip(&x[lo..i]).map(|(a, y)| a * y).sum();
+            let s = dot(&d[ri + lo..ri + i], &x[lo..i]);
             x[i] = (x[i] - s) / d[ri + i];
         }
         for i in (0..n).rev() {
