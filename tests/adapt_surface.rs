@@ -334,6 +334,12 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
         stdout.contains("stored scalars") && stdout.contains("checker"),
         "{stdout}"
     );
+    // Standard error is a pipe: plain progress lines, the first family's at once.
+    let progress = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        progress.contains("b.csv at ") && progress.contains(" family 1/") && progress.contains(" pass: d"),
+        "{progress}"
+    );
     let text = std::fs::read_to_string(&json).unwrap();
     // The offsets the report claims, re-measured from its control net alone.
     let points = bezchain::geometry::read_cloud(&cloud).unwrap().points;
@@ -367,11 +373,21 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
     let out = Command::new(bin())
         .arg("adapt-surface")
         .arg(&cloud)
-        .args(["--tol", "1e-12", "--degrees-u", "3", "--degrees-v", "2", "--json"])
+        .args([
+            "--tol",
+            "1e-12",
+            "--degrees-u",
+            "3",
+            "--degrees-v",
+            "2",
+            "--quiet",
+            "--json",
+        ])
         .arg(&json)
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
+    // `--quiet`: the error alone.
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.starts_with("error: ") && err.contains("not met"), "{err}");
     assert!(json.exists());

@@ -40,8 +40,8 @@ pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
 pub use report::{AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
 pub use surface::{
-    adapt_surface, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule, SurfaceAdaptOptions,
-    SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+    adapt_surface, adapt_surface_with, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule,
+    SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress,
 };
 
 use crate::chain::CurveChain;

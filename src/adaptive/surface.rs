@@ -351,6 +351,20 @@ pub struct SurfaceFamilyTrace {
     pub seconds: f64,
 }
 
+/// A family of [`adapt_surface_with`]'s search has ended (called from the search's threads).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceProgress<'a> {
+    /// The pass: `"chord rule"` or `"plain"` (`ChordRule::Auto` runs the second when the
+    /// first meets nothing).
+    pub pass: &'static str,
+    /// Families of the pass ended, this one included.
+    pub done: usize,
+    /// Families of the pass.
+    pub total: usize,
+    /// How the family ended.
+    pub family: &'a SurfaceFamilyTrace,
+}
+
 /// The offsets found by the shared checker's search ([`sampled_offsets`]), model units.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CheckedOffsets {
@@ -1387,6 +1401,16 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
 /// `opts.norm`. When none does, the result holds the closest layout found, `met` false and a
 /// message.
 pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -> Result<AdaptedSurface> {
+    adapt_surface_with(points, grid, opts, &|_| {})
+}
+
+/// [`adapt_surface`], calling `progress` as each family of the search ends.
+pub fn adapt_surface_with(
+    points: &[DVec3],
+    grid: Grid,
+    opts: &SurfaceAdaptOptions,
+    progress: &(dyn Fn(&SurfaceProgress<'_>) + Sync),
+) -> Result<AdaptedSurface> {
     let start = Instant::now();
     if !(opts.tol > 0.0) || !opts.tol.is_finite() {
         return Err(Error::invalid(format!(
@@ -1409,12 +1433,13 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
     let limit_scalars = opts.max_scalars.unwrap_or(usize::MAX).min(3 * points.len() - 1);
     let chord = opts.chord_rule != ChordRule::Off;
     let mut data = Data::new(points, grid, opts.span_rule, chord)?;
-    let (mut results, mut fits) = run_families(&data, opts, limit_scalars);
+    let pass = |d: &Data<'_>| if d.blade.is_some() { "chord rule" } else { "plain" };
+    let (mut results, mut fits) = run_families(&data, opts, limit_scalars, (pass(&data), progress));
     let mut trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
     let none_met = |r: &[FamilyResult]| r.iter().all(|r| r.1.is_none());
     if data.blade.is_some() && opts.chord_rule == ChordRule::Auto && none_met(&results) {
         let plain = Data::new(points, grid, opts.span_rule, false)?;
-        let (more, f) = run_families(&plain, opts, limit_scalars);
+        let (more, f) = run_families(&plain, opts, limit_scalars, (pass(&plain), progress));
         fits += f;
         trace.extend(more.iter().map(|r| r.3.clone()));
         let closest = |r: &[FamilyResult]| {
@@ -1521,11 +1546,13 @@ pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -
 /// One family's result: its winner, its closest layout, its trace.
 type FamilyResult = (Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace);
 
-/// Every family of the search on `data`, in parallel, and the fits run.
+/// Every family of the search on `data`, in parallel, and the fits run; `progress` is told
+/// of each family as it ends, as one of the pass named.
 fn run_families(
     data: &Data<'_>,
     opts: &SurfaceAdaptOptions,
     limit_scalars: usize,
+    (pass, progress): (&'static str, &(dyn Fn(&SurfaceProgress<'_>) + Sync)),
 ) -> (Vec<FamilyResult>, usize) {
     let search = Search {
         data,
@@ -1592,6 +1619,7 @@ fn run_families(
     // On the IEA 15 MW at 1e-3 the greedy chord-rule families spent 80 fits each beyond the
     // trailing-edge families' 448 without meeting it.
     // Each result with its family's place in `families`, which orders the trace.
+    let done = AtomicUsize::new(0);
     let run = |bulk: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
         let picked: Vec<(usize, Family)> = families
             .iter()
@@ -1605,6 +1633,12 @@ fn run_families(
                 let started = Instant::now();
                 let (w, c, mut t) = search.run(f, bound);
                 t.seconds = started.elapsed().as_secs_f64();
+                progress(&SurfaceProgress {
+                    pass,
+                    done: done.fetch_add(1, Ordering::Relaxed) + 1,
+                    total: families.len(),
+                    family: &t,
+                });
                 (k, (f, w, c, t))
             })
             .collect()

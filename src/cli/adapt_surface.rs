@@ -3,15 +3,18 @@
 
 use super::adapt::{finish, parse_degrees, search_each, Tolerances};
 use super::output::Outputs;
+use super::progress::Generations;
 use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::adaptive::{
-    adapt_surface, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
+    adapt_surface_with, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
+    SurfaceProgress,
 };
 use bezchain::export::InputInfo;
 use bezchain::geometry::read_cloud;
 use std::fmt::Write as _;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 /// Arguments of `bezchain adapt-surface`.
 #[derive(clap::Args, Debug)]
@@ -45,6 +48,9 @@ pub struct Args {
     pub json: Option<PathBuf>,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
+    /// No progress bar or progress lines (the families of the search as they end).
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// `--chord-rule`.
@@ -185,7 +191,25 @@ pub fn run(args: Args) -> Result<()> {
     };
     let reports = search_each(&tols, scale, &args.cloud, |tol| {
         let opts = SurfaceAdaptOptions { tol, ..base };
-        let r = adapt_surface(points, grid, &opts)?;
+        let label = format!("{name} at {:.3e}", opts.tol);
+        let bar = Mutex::new(Generations::counting(args.quiet, ("family", "family")));
+        let shown = |p: &SurfaceProgress<'_>| {
+            let Ok(mut bar) = bar.lock() else { return };
+            if !bar.started() {
+                bar.start(&label, 0, p.total as u64);
+            }
+            let f = p.family;
+            let best = f
+                .best_scalars
+                .map_or(String::new(), |n| format!(", {n} stored scalars"));
+            let msg = format!("{} pass: {} {}{best}", p.pass, f.family, f.outcome);
+            bar.show(&label, p.done as u64, p.total as u64, msg);
+        };
+        let r = adapt_surface_with(points, grid, &opts, &shown);
+        if let Ok(mut bar) = bar.lock() {
+            bar.finish();
+        }
+        let r = r?;
         if tols.len() == 1 {
             outs.say(&summary(&name, points.len(), opts.tol, opts.norm, &r));
         }

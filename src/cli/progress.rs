@@ -1,6 +1,7 @@
-//! Progress of a run that counts generations (`fit`, `fit-surface` and `compare` with an
-//! evolutionary method, `optimise`): a bar on a terminal, a line every few seconds when the
-//! standard error is a file or a pipe (CI logs), nothing with `--quiet`.
+//! Progress of a run that counts its steps (generations of `fit`, `fit-surface` and `compare`
+//! with an evolutionary method and of `optimise`; the families of `adapt-surface`): a bar on a
+//! terminal, a line every few seconds when the standard error is a file or a pipe (CI logs),
+//! nothing with `--quiet`.
 
 use super::output::{Output, Outputs};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -10,24 +11,37 @@ use std::time::{Duration, Instant};
 /// Seconds between plain progress lines.
 const LINE_EVERY: Duration = Duration::from_secs(5);
 
-/// The generation counter on the terminal.
+/// The step counter on the terminal (generations unless said).
 pub struct Generations {
     bar: Option<ProgressBar>,
     quiet: bool,
     plain: bool,
     last_line: Instant,
+    /// What a step is called on a plain line, and on the bar.
+    unit: (&'static str, &'static str),
 }
 
 impl Generations {
     /// Quiet: shows nothing. Otherwise plain lines when standard error is not a terminal,
     /// and a bar (once [`Generations::start`] is called) when it is.
     pub fn new(quiet: bool) -> Self {
+        Self::counting(quiet, ("generation", "gen"))
+    }
+
+    /// As [`Generations::new`], counting steps called `unit` (a plain line's word, the bar's).
+    pub fn counting(quiet: bool, unit: (&'static str, &'static str)) -> Self {
         Generations {
             bar: None,
             quiet,
             plain: !quiet && !std::io::stderr().is_terminal(),
             last_line: Instant::now(),
+            unit,
         }
+    }
+
+    /// Whether a bar is showing.
+    pub fn started(&self) -> bool {
+        self.bar.is_some()
     }
 
     /// Show the bar of a run called `name`, at generation `at` of `total` (a terminal only).
@@ -37,8 +51,11 @@ impl Generations {
         }
         let bar = ProgressBar::new(total);
         bar.set_style(
-            ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} gen {pos}/{len} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(&format!(
+                "{{prefix}} [{{elapsed_precise}}] {{bar:30}} {} {{pos}}/{{len}} {{msg}}",
+                self.unit.1
+            ))
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         bar.set_prefix(name.to_string());
         bar.set_position(at);
@@ -55,7 +72,7 @@ impl Generations {
             bar.set_position(generation);
             bar.set_message(msg);
         } else if self.plain && (self.last_line.elapsed() >= LINE_EVERY || generation == 1) {
-            eprintln!("{name} generation {generation}/{total}: {msg}");
+            eprintln!("{name} {} {generation}/{total}: {msg}", self.unit.0);
             self.last_line = Instant::now();
         }
     }
