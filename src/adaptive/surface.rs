@@ -36,7 +36,7 @@
 //! removes every break it can while the tolerance still holds. A family stops when it would
 //! need more design points than the data allow (half the points of a section around, the
 //! number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
-//! The bulk families ([`Search::grow_bulk`]: a span break between every two sections, the
+//! The bulk families (`Search::grow_bulk`: a span break between every two sections, the
 //! sections' ends anchored, every bad u segment split at once, the fold check part of meeting
 //! the tolerance; under the chord rule these are its trailing-edge families) run first; the
 //! others then stop growing at the fewest stored scalars those met the tolerance with, a
