@@ -1151,18 +1151,35 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             }
             Some(con) => {
                 // Per coordinate: (Aᵀ N A) z = Aᵀ (N⁻ q - N b), with N the normal matrix.
+                // Coordinates with the same A (the two free coordinates of a span-rule grid)
+                // share the matrix: factored once, one right-hand side each.
+                let rules: Vec<&CoordRule> = (0..dim)
+                    .map(|k| {
+                        con.coord(k)
+                            .ok_or_else(|| Error::invalid("linear_fit: a constraint rule is missing"))
+                    })
+                    .collect::<Result<_>>()?;
                 let mut coords = vec![vec![0.0; m]; dim];
-                for (k, x) in coords.iter_mut().enumerate() {
-                    let Some(rule) = con.coord(k) else {
-                        return Err(Error::invalid("linear_fit: a constraint rule is missing"));
-                    };
+                let mut done = vec![false; dim];
+                for k0 in 0..dim {
+                    if done[k0] {
+                        continue;
+                    }
+                    let rule = rules[k0];
+                    let group: Vec<usize> = (k0..dim)
+                        .filter(|&k| {
+                            !done[k] && rules[k].rows == rule.rows && rules[k].unknowns == rule.unknowns
+                        })
+                        .collect();
                     let n = rule.unknowns();
                     let mut a = DMatrix::<f64>::zeros(n, n);
-                    let mut rhs = DMatrix::<f64>::zeros(n, 1);
+                    let mut rhs = DMatrix::<f64>::zeros(n, group.len());
                     for i in 0..m {
-                        let nb: f64 = row(i).map(|(l, v)| v * rule.offset[l]).sum();
                         for &(p, wp) in rule.row(i) {
-                            rhs[(p, 0)] += wp * (atq[i * dim + k] - nb);
+                            for (c, &k) in group.iter().enumerate() {
+                                let nb: f64 = row(i).map(|(l, v)| v * rules[k].offset[l]).sum();
+                                rhs[(p, c)] += wp * (atq[i * dim + k] - nb);
+                            }
                             for (l, v) in row(i) {
                                 if v != 0.0 {
                                     for &(r, wr) in rule.row(l) {
@@ -1173,12 +1190,16 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                         }
                     }
                     let z = if n > 0 {
-                        cholesky_ridged(a, rhs, |_| centroid[k])?.as_slice().to_vec()
+                        cholesky_ridged(a, rhs, |c| centroid[group[c]])?
                     } else {
-                        Vec::new()
+                        DMatrix::zeros(0, group.len())
                     };
-                    for (i, xi) in x.iter_mut().enumerate() {
-                        *xi = rule.value(i, &z);
+                    for (c, &k) in group.iter().enumerate() {
+                        let zk: Vec<f64> = z.column(c).iter().copied().collect();
+                        for (i, xi) in coords[k].iter_mut().enumerate() {
+                            *xi = rules[k].value(i, &zk);
+                        }
+                        done[k] = true;
                     }
                 }
                 (0..m)
