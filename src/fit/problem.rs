@@ -1174,11 +1174,18 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     let n = rule.unknowns();
                     let mut a = DMatrix::<f64>::zeros(n, n);
                     let mut rhs = DMatrix::<f64>::zeros(n, group.len());
+                    // (N b)_i of each coordinate of the group, once a design point.
+                    let mut nb = vec![0.0; group.len()];
                     for i in 0..m {
+                        if rule.row(i).is_empty() {
+                            continue;
+                        }
+                        for (c, &k) in group.iter().enumerate() {
+                            nb[c] = row(i).map(|(l, v)| v * rules[k].offset[l]).sum();
+                        }
                         for &(p, wp) in rule.row(i) {
                             for (c, &k) in group.iter().enumerate() {
-                                let nb: f64 = row(i).map(|(l, v)| v * rules[k].offset[l]).sum();
-                                rhs[(p, c)] += wp * (atq[i * dim + k] - nb);
+                                rhs[(p, c)] += wp * (atq[i * dim + k] - nb[c]);
                             }
                             for (l, v) in row(i) {
                                 if v != 0.0 {
