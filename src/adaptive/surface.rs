@@ -1445,13 +1445,12 @@ pub fn adapt_surface_with(
     let limit_scalars = opts.max_scalars.unwrap_or(usize::MAX).min(3 * points.len() - 1);
     let chord = opts.chord_rule != ChordRule::Off;
     let mut data = Data::new(points, grid, opts.span_rule, chord)?;
-    let pass = |d: &Data<'_>| if d.blade.is_some() { "chord rule" } else { "plain" };
-    let (mut results, mut fits) = run_families(&data, opts, limit_scalars, (pass(&data), progress));
+    let (mut results, mut fits) = run_families(&data, opts, limit_scalars, progress);
     let mut trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
     let none_met = |r: &[FamilyResult]| r.iter().all(|r| r.1.is_none());
     if data.blade.is_some() && opts.chord_rule == ChordRule::Auto && none_met(&results) {
         let plain = Data::new(points, grid, opts.span_rule, false)?;
-        let (more, f) = run_families(&plain, opts, limit_scalars, (pass(&plain), progress));
+        let (more, f) = run_families(&plain, opts, limit_scalars, progress);
         fits += f;
         trace.extend(more.iter().map(|r| r.3.clone()));
         let closest = |r: &[FamilyResult]| {
@@ -1559,13 +1558,18 @@ pub fn adapt_surface_with(
 type FamilyResult = (Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace);
 
 /// Every family of the search on `data`, in parallel, and the fits run; `progress` is told
-/// of each family as it ends, as one of the pass named.
+/// of each family as it ends.
 fn run_families(
     data: &Data<'_>,
     opts: &SurfaceAdaptOptions,
     limit_scalars: usize,
-    (pass, progress): (&'static str, &(dyn Fn(&SurfaceProgress<'_>) + Sync)),
+    progress: &(dyn Fn(&SurfaceProgress<'_>) + Sync),
 ) -> (Vec<FamilyResult>, usize) {
+    let pass = if data.blade.is_some() {
+        "chord rule"
+    } else {
+        "plain"
+    };
     let search = Search {
         data,
         opts,
