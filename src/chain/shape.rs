@@ -125,6 +125,25 @@ pub trait Shape<const K: usize>: Sync {
         scratch: &mut Basis<K>,
     ) -> Jet<Self::Point, K>;
 
+    /// The curve of the first parameter with the others held at `t`'s values: its shape and
+    /// its design points, where the shape is a tensor product (a patch grid's row through
+    /// `v`, on the grid's u layout); `None` (the default) where it has no such restriction.
+    /// A foot-point search that holds every other parameter then searches the curve, whose
+    /// evaluation is a Horner scheme on one segment instead of a tensor-product sum.
+    fn first_curve(&self, _design: &[Self::Point], _t: [f64; K]) -> Option<FirstCurve<'_, Self::Point>> {
+        None
+    }
+
+    /// For a tensor-product shape, the basis values at `t` as the product of the first
+    /// parameter's (`first`) and the other parameters' (`rest`): value `a * rest.len() + b`
+    /// of the cell's support is `first[a] rest[b]`. Returns the cell, `None` (the default)
+    /// where the basis is no such product. A least-squares sum over points that share the
+    /// other parameters (a section of a sectioned cloud) then adds the first factor's small
+    /// products and expands them once per cell.
+    fn product_basis(&self, _t: [f64; K], _first: &mut Vec<f64>, _rest: &mut Vec<f64>) -> Option<usize> {
+        None
+    }
+
     /// The basis at `t` (its values; shapes may fill more) and the point with its first
     /// derivatives there, the design given both prepared and as it is: what a residual and
     /// its Jacobian take. The default fills the basis with first derivatives and applies
@@ -169,6 +188,9 @@ pub trait Shape<const K: usize>: Sync {
         jet
     }
 }
+
+/// A curve of a shape's first parameter ([`Shape::first_curve`]): its shape and its design.
+pub type FirstCurve<'s, P> = (&'s CurveShape<P>, Vec<P>);
 
 /// A chain of Bezier curves as a [`Shape`] of parameter dimension 1.
 #[derive(Clone, Debug, PartialEq)]
@@ -301,6 +323,8 @@ pub struct GridShape<P> {
     u: ChainLayout,
     v: ChainLayout,
     supports: Vec<Vec<u32>>,
+    /// The chains of the u layout: the grid's rows at fixed `v` ([`Shape::first_curve`]).
+    rows: CurveShape<P>,
     _point: PhantomData<fn() -> P>,
 }
 
@@ -322,6 +346,7 @@ impl<P: Vector> GridShape<P> {
             }
         }
         GridShape {
+            rows: CurveShape::new(u.clone()),
             u,
             v,
             supports,
@@ -346,6 +371,32 @@ impl<P: Vector> Shape<2> for GridShape<P> {
 
     fn jet_at(&self, design: &&[P], t: [f64; 2], order: usize, scratch: &mut Basis<2>) -> Jet<P, 2> {
         self.eval_jet(t, order, design, scratch)
+    }
+
+    fn product_basis(&self, t: [f64; 2], first: &mut Vec<f64>, rest: &mut Vec<f64>) -> Option<usize> {
+        let bu = self.u.basis(t[0], 0);
+        let bv = self.v.basis(t[1], 0);
+        let (nu, nv) = (self.u.support(bu.segment).len(), self.v.support(bv.segment).len());
+        first.clear();
+        first.extend_from_slice(&bu.value[..nu]);
+        rest.clear();
+        rest.extend_from_slice(&bv.value[..nv]);
+        Some(bu.segment * self.v.segments() + bv.segment)
+    }
+
+    /// Row `i` of the curve's design is `Σ_j B_j(v) x_ij` over the v basis at `t[1]`.
+    fn first_curve(&self, design: &[P], t: [f64; 2]) -> Option<FirstCurve<'_, P>> {
+        let bv = self.v.basis(t[1], 0);
+        let sv = self.v.support(bv.segment);
+        let nv = self.v.design_count();
+        let row = (0..self.u.design_count())
+            .map(|i| {
+                sv.iter()
+                    .zip(&bv.value)
+                    .fold(P::ZERO, |acc, (&j, &w)| acc + design[i * nv + j as usize] * w)
+            })
+            .collect();
+        Some((&self.rows, row))
     }
 
     fn design_count(&self) -> usize {
@@ -615,6 +666,36 @@ mod tests {
                     let (a, _) = grid.layout().u.locate(t[0]);
                     let (c, _) = grid.layout().v.locate(t[1]);
                     assert_eq!(b.cell, a * 3 + c, "{t:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_grid_factors_its_basis_and_restricts_to_its_rows() {
+        let (grid, shape) = wavy_grid();
+        let (mut b, mut b1) = (Basis::new(), Basis::<1>::new());
+        let (mut first, mut rest) = (Vec::new(), Vec::new());
+        for i in 0..=40 {
+            for j in 0..=30 {
+                let t = [i as f64 / 40.0, j as f64 / 30.0];
+                for t in [t, [0.15, 0.95], [0.6 - 1e-17, 0.7], [1.0, 0.0]] {
+                    // The basis is the product of the u and v factors, in the support's order.
+                    let cell = shape.product_basis(t, &mut first, &mut rest).unwrap();
+                    shape.basis(t, 0, &mut b);
+                    assert_eq!(cell, b.cell, "{t:?}");
+                    assert_eq!(first.len() * rest.len(), b.value.len());
+                    for (a, &v) in b.value.iter().enumerate() {
+                        assert!((first[a / rest.len()] * rest[a % rest.len()] - v).abs() < 1e-15);
+                    }
+                    // The row through v is the grid along u at that v, with its u derivatives.
+                    let (curve, row) = shape.first_curve(grid.design(), t).unwrap();
+                    let ctrl = curve.prepare(&row);
+                    let along = curve.jet_at(&ctrl, [t[0]], 2, &mut b1);
+                    let jet = shape.eval_jet(t, 2, grid.design(), &mut b);
+                    assert!((along.point - jet.point).length() < 1e-13, "{t:?}");
+                    assert!((along.d1[0] - jet.d1[0]).length() < 1e-11, "{t:?}");
+                    assert!((along.d2[0][0] - jet.d2[0][0]).length() < 1e-9, "{t:?}");
                 }
             }
         }

@@ -13,7 +13,7 @@ use super::band::BandPlan;
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
 use super::population::Frame;
-use super::shape::{Basis, CurveShape, GridShape, Shape};
+use super::shape::{Basis, CurveShape, FirstCurve, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
 use crate::closest::{closest_all, refine_held, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
@@ -76,6 +76,66 @@ struct GramPattern {
     mirror: Vec<(u32, u32)>,
     /// `slots[cell][a * s + b]`: the slot of `(support[a], support[b])`, `s` the support size.
     slots: Vec<Vec<u32>>,
+}
+
+/// The normal equations' sums over a run of points in one cell of a tensor-product shape
+/// that share the basis of the other parameters ([`Shape::product_basis`]): the first
+/// factor's products `Σ w f_a f_c` and `Σ w f_a q`, expanded into the full sums once.
+#[derive(Default)]
+struct ProductRun {
+    cell: Option<usize>,
+    rest: Vec<f64>,
+    /// `Σ w f_a f_c`, row-major over the first factor.
+    gram: Vec<f64>,
+    /// `Σ w f_a q_k` at `a * dim + k`.
+    rhs: Vec<f64>,
+    width: usize,
+    dim: usize,
+}
+
+impl ProductRun {
+    fn start(&mut self, cell: usize, rest: &[f64], width: usize, dim: usize) {
+        self.cell = Some(cell);
+        self.rest.clear();
+        self.rest.extend_from_slice(rest);
+        self.gram.clear();
+        self.gram.resize(width * width, 0.0);
+        self.rhs.clear();
+        self.rhs.resize(width * dim, 0.0);
+        self.width = width;
+        self.dim = dim;
+    }
+
+    fn add<P: Vector>(&mut self, first: &[f64], w: f64, q: P) {
+        let n = self.width;
+        for (a, &fa) in first.iter().enumerate() {
+            let wa = w * fa;
+            for (g, &fc) in self.gram[a * n..(a + 1) * n].iter_mut().zip(first) {
+                *g += wa * fc;
+            }
+            for k in 0..self.dim {
+                self.rhs[a * self.dim + k] += wa * q.coord(k);
+            }
+        }
+    }
+
+    /// Add the run's sums to the upper triangle `ata` ([`GramPattern`] slots of the cell,
+    /// `slots`) and to `atq`, for the cell's `support`; the run is then empty.
+    fn flush(&mut self, slots: &[u32], support: &[u32], ata: &mut [f64], atq: &mut [f64]) {
+        let (n, r, s) = (self.width, self.rest.len(), support.len());
+        for a in 0..s {
+            let (au, av) = (a / r, a % r);
+            let ra = self.rest[av];
+            for c in a..s {
+                let (cu, cv) = (c / r, c % r);
+                ata[slots[a * s + c] as usize] += self.gram[au * n + cu] * ra * self.rest[cv];
+            }
+            for k in 0..self.dim {
+                atq[support[a] as usize * self.dim + k] += self.rhs[au * self.dim + k] * ra;
+            }
+        }
+        self.cell = None;
+    }
 }
 
 impl GramPattern {
@@ -905,14 +965,31 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             "project: one parameter per point"
         );
         let prepared = self.shape.prepare(design);
+        // Every parameter but the first held (a sectioned cloud's points move along their
+        // section): each point's search runs on the shape's curve through its held values,
+        // built once for every run of points that share them.
+        let along_first = K > 1 && !self.held[0] && self.held[1..].iter().all(|&h| h);
         let run = |offset: usize, ts: &mut [[f64; K]]| {
             let mut b = Basis::new();
+            let mut b1 = Basis::<1>::new();
+            // The held values, the curve through them and its prepared design.
+            let mut curve: Option<([f64; K], FirstCurve<'_, S::Point>)> = None;
             let (mut sum, mut max) = (0.0, 0.0_f64);
             for (j, t) in ts.iter_mut().enumerate() {
                 let q = self.points[offset + j];
+                if along_first && curve.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
+                    curve = self
+                        .shape
+                        .first_curve(design, *t)
+                        .map(|(shape, row)| (*t, (shape, shape.prepare(&row))));
+                }
                 let d2 = if self.anchored[offset + j] {
                     self.shape.basis(*t, 0, &mut b);
                     (self.shape.jet(&b, design, 0).point - q).length_squared()
+                } else if let Some((_, (shape, ctrl))) = curve.as_ref().filter(|_| along_first) {
+                    let f = refine_held(*shape, ctrl, q, [t[0]], [false], &self.foot, &mut b1);
+                    t[0] = f.t[0];
+                    f.dist_sq
                 } else {
                     let f = refine_held(&self.shape, &prepared, q, *t, self.held, &self.foot, &mut b);
                     *t = f.t;
@@ -1054,13 +1131,25 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             self.points.len(),
             || (vec![0.0; pat.col.len()], vec![0.0; m * dim], Basis::new()),
             |(ata, atq, b), range| {
+                let mut run = ProductRun::default();
+                let (mut first, mut rest) = (Vec::new(), Vec::new());
                 for j in range {
+                    let q = self.points[j];
+                    let w = self.weight(j);
+                    if let Some(cell) = self.shape.product_basis(params[j], &mut first, &mut rest) {
+                        if run.cell != Some(cell) || run.rest != rest {
+                            if let Some(c) = run.cell {
+                                run.flush(&pat.slots[c], self.shape.support(c), ata, atq);
+                            }
+                            run.start(cell, &rest, first.len(), dim);
+                        }
+                        run.add(&first, w, q);
+                        continue;
+                    }
                     self.shape.basis(params[j], 0, b);
                     let support = self.shape.support(b.cell);
                     let slots = &pat.slots[b.cell];
                     let s = support.len();
-                    let q = self.points[j];
-                    let w = self.weight(j);
                     for (a, &ia) in support.iter().enumerate() {
                         let wa = w * b.value[a];
                         // The upper triangle (the support ascends), copied down below.
@@ -1071,6 +1160,9 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                             atq[ia as usize * dim + k] += wa * q.coord(k);
                         }
                     }
+                }
+                if let Some(c) = run.cell {
+                    run.flush(&pat.slots[c], self.shape.support(c), ata, atq);
                 }
             },
             |mut a, b| {
@@ -1534,6 +1626,93 @@ mod tests {
         let p = FitProblem::grid(layout, &pts, params, Metric::Closest).unwrap();
         let x = GridProblem::<DVec3>::to_flat(&design);
         assert_gradient_matches(&mut p.objective_fn(), &x, "grid");
+    }
+
+    /// A sectioned cloud off the wavy grid of `grid_gradient_matches_finite_differences`'s
+    /// layout: 9 sections at fixed v, 23 points each.
+    fn sectioned() -> (GridLayout, Vec<DVec3>, Vec<[f64; 2]>) {
+        let u = ChainLayout::with_breaks(3, vec![0.0, 0.3, 0.45, 1.0], Continuity::C2).unwrap();
+        let v = ChainLayout::with_breaks(2, vec![0.0, 0.6, 1.0], Continuity::C1).unwrap();
+        let layout = GridLayout::new(u, v);
+        let mut pts = Vec::new();
+        let mut params = Vec::new();
+        for k in 0..9 {
+            let v = k as f64 / 8.0;
+            for i in 0..23 {
+                let u = (i as f64 / 22.0).powf(1.3);
+                pts.push(DVec3::new(
+                    u,
+                    (3.0 * u).sin() * (1.0 + v),
+                    v + 0.1 * (5.0 * u * v).cos(),
+                ));
+                params.push([(u + 0.01 * (7.0 * u).sin()).clamp(0.0, 1.0), v]);
+            }
+        }
+        (layout, pts, params)
+    }
+
+    #[test]
+    fn a_grid_fit_by_section_sums_solves_the_normal_equations() {
+        let (layout, pts, params) = sectioned();
+        let mut p = FitProblem::grid(layout.clone(), &pts, params.clone(), Metric::Closest).unwrap();
+        let w: Vec<f64> = (0..pts.len())
+            .map(|j| 1.0 + 0.5 * (j as f64 * 0.37).sin())
+            .collect();
+        p.set_weights(Some(w.clone())).unwrap();
+        let design = p.linear_fit(&params).unwrap();
+        // The same least-squares problem, point by point and dense.
+        let shape = GridShape::<DVec3>::new(layout);
+        let m = shape.design_count();
+        let mut a = DMatrix::<f64>::zeros(m, m);
+        let mut rhs = DMatrix::<f64>::zeros(m, 3);
+        let mut b = Basis::new();
+        for (j, (t, q)) in params.iter().zip(&pts).enumerate() {
+            shape.basis(*t, 0, &mut b);
+            let sup = shape.support(b.cell);
+            for (x, &i) in sup.iter().enumerate() {
+                for (y, &l) in sup.iter().enumerate() {
+                    a[(i as usize, l as usize)] += w[j] * b.value[x] * b.value[y];
+                }
+                for k in 0..3 {
+                    rhs[(i as usize, k)] += w[j] * b.value[x] * q.coord(k);
+                }
+            }
+        }
+        let x = a.cholesky().unwrap().solve(&rhs);
+        for (i, d) in design.iter().enumerate() {
+            let e = DVec3::new(x[(i, 0)], x[(i, 1)], x[(i, 2)]);
+            assert!((*d - e).length() < 1e-10, "design point {i}: {d} against {e}");
+        }
+    }
+
+    #[test]
+    fn a_search_along_u_at_held_v_finds_the_grid_search_feet() {
+        let (layout, pts, params) = sectioned();
+        let p = FitProblem::grid(layout.clone(), &pts, params.clone(), Metric::Closest)
+            .unwrap()
+            .with_held([false, true]);
+        let design = p.linear_fit(&params).unwrap();
+        let mut moved = params.clone();
+        let (_, max) = p.project_max(&design, &mut moved);
+        // The same searches on the grid itself.
+        let shape = GridShape::<DVec3>::new(layout);
+        let mut b = Basis::new();
+        let mut worst = 0.0_f64;
+        for ((t, q), got) in params.iter().zip(&pts).zip(&moved) {
+            let f = refine_held(
+                &shape,
+                &design.as_slice(),
+                *q,
+                *t,
+                [false, true],
+                p.foot_options(),
+                &mut b,
+            );
+            assert_eq!(got[1], t[1], "v is held");
+            assert!((got[0] - f.t[0]).abs() < 1e-9, "{got:?} against {:?}", f.t);
+            worst = worst.max(f.dist_sq.sqrt());
+        }
+        assert!((max - worst).abs() < 1e-12, "{max} against {worst}");
     }
 
     #[test]
