@@ -90,6 +90,16 @@ impl BandPlan {
                 }
             }
         }
+        Self::of_edges(n, &edges)
+    }
+
+    /// The plan for `n` unknowns whose system has non-zero entries off the diagonal only at
+    /// `edges` (`[i, j]`, either way round; repeats allowed), or `None` as [`BandPlan::of`].
+    #[must_use]
+    pub fn of_edges(n: usize, edges: &[[u32; 2]]) -> Option<Self> {
+        if n < BAND_MIN {
+            return None;
+        }
         let order = rcm_order(n, edges.iter().map(|e| e.as_slice()));
         let mut pos = vec![0; n];
         for (k, &i) in order.iter().enumerate() {
@@ -116,6 +126,85 @@ impl BandPlan {
         (3 * band < n).then_some(BandPlan { pos, band })
     }
 
+    /// The plan for `n` unknowns whose system has non-zero entries off the diagonal only at
+    /// the pairs `pairs` gives its argument (either way round; repeats allowed), or `None` as
+    /// [`BandPlan::of`].
+    pub fn of_pairs(n: usize, pairs: impl FnOnce(&mut dyn FnMut(usize, usize))) -> Option<Self> {
+        if n < BAND_MIN {
+            return None;
+        }
+        // Every pair once, from each unknown's list of lower neighbours.
+        let mut lower: Vec<Vec<u32>> = vec![Vec::new(); n];
+        pairs(&mut |p, q| {
+            if p > q {
+                lower[p].push(q as u32);
+            } else if q > p {
+                lower[q].push(p as u32);
+            }
+        });
+        let mut edges = Vec::new();
+        for (p, l) in lower.iter_mut().enumerate() {
+            l.sort_unstable();
+            l.dedup();
+            edges.extend(l.iter().map(|&q| [p as u32, q]));
+        }
+        Self::of_edges(n, &edges)
+    }
+
+    /// The number of unknowns.
+    #[must_use]
+    pub fn size(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// A zero system with the plan's sparsity, summed by [`BandPlan::add`].
+    #[must_use]
+    pub fn zeros(&self) -> BandMatrix {
+        BandMatrix::zeros(self.pos.len(), self.band)
+    }
+
+    /// Add `v` to entry `(i, j)` (the unknowns' own numbers) of a symmetric system `m` from
+    /// [`BandPlan::zeros`]: a sum that adds every entry and its mirror keeps the entries on
+    /// and below the diagonal in the plan's order and skips the others. Entries outside the
+    /// plan's sparsity are ignored.
+    #[inline]
+    pub fn add(&self, m: &mut BandMatrix, i: usize, j: usize, v: f64) {
+        let (pi, pj) = (self.pos[i], self.pos[j]);
+        if pi >= pj && pi - pj <= self.band {
+            m.add_lower(pi, pj, v);
+        }
+    }
+
+    /// Entry `(i, i)` of a system summed by [`BandPlan::add`].
+    #[must_use]
+    pub fn diagonal(&self, m: &BandMatrix, i: usize) -> f64 {
+        m.get(self.pos[i], self.pos[i])
+    }
+
+    /// Solve `m x = rhs` (every column of `rhs`) for a system summed by [`BandPlan::add`];
+    /// `None` when it is not positive definite.
+    #[must_use]
+    pub fn solve_summed(
+        &self,
+        m: BandMatrix,
+        rhs: &nalgebra::DMatrix<f64>,
+    ) -> Option<nalgebra::DMatrix<f64>> {
+        let n = self.pos.len();
+        let ch = m.cholesky()?;
+        let mut x = nalgebra::DMatrix::<f64>::zeros(n, rhs.ncols());
+        let mut y = vec![0.0; n];
+        for k in 0..rhs.ncols() {
+            for i in 0..n {
+                y[self.pos[i]] = rhs[(i, k)];
+            }
+            ch.solve_in_place(&mut y);
+            for i in 0..n {
+                x[(i, k)] = y[self.pos[i]];
+            }
+        }
+        Some(x)
+    }
+
     /// The bandwidth in the plan's order.
     #[must_use]
     pub fn bandwidth(&self) -> usize {
@@ -131,30 +220,20 @@ impl BandPlan {
         rhs: &nalgebra::DMatrix<f64>,
     ) -> Option<nalgebra::DMatrix<f64>> {
         let n = self.pos.len();
-        let mut m = BandMatrix::zeros(n, self.band);
+        let mut m = self.zeros();
         for j in 0..n {
             for i in j..n {
                 let v = a[(i, j)];
-                let (pi, pj) = (self.pos[i], self.pos[j]);
-                if v != 0.0 && pi.abs_diff(pj) <= self.band {
-                    let (r, c) = if pi >= pj { (pi, pj) } else { (pj, pi) };
-                    m.add_lower(r, c, v);
+                if v != 0.0 {
+                    // Both ways round: the one on or below the diagonal in the plan's order.
+                    self.add(&mut m, i, j, v);
+                    if i != j {
+                        self.add(&mut m, j, i, v);
+                    }
                 }
             }
         }
-        let ch = m.cholesky()?;
-        let mut x = nalgebra::DMatrix::<f64>::zeros(n, rhs.ncols());
-        let mut y = vec![0.0; n];
-        for k in 0..rhs.ncols() {
-            for i in 0..n {
-                y[self.pos[i]] = rhs[(i, k)];
-            }
-            ch.solve_in_place(&mut y);
-            for i in 0..n {
-                x[(i, k)] = y[self.pos[i]];
-            }
-        }
-        Some(x)
+        self.solve_summed(m, rhs)
     }
 }
 

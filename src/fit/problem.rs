@@ -9,7 +9,7 @@
 //! [`Objective`] of [`FitProblem::objective_fn`]), the GA and CMA-ES (the population
 //! objective of [`super::population`]).
 
-use super::band::BandPlan;
+use super::band::{BandMatrix, BandPlan};
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
 use super::population::Frame;
@@ -61,6 +61,9 @@ pub struct FitProblem<'a, S: Shape<K>, const K: usize> {
     frame: OnceLock<Frame>,
     /// The normal matrix's sparsity, made at the first linear fit.
     gram: OnceLock<GramPattern>,
+    /// The band plans of the linear fit's systems ([`FitProblem::band_plans`]), made at the
+    /// first linear fit.
+    plans: OnceLock<Vec<Option<BandPlan>>>,
     extent: f64,
 }
 
@@ -358,6 +361,46 @@ impl Constraint {
         self
     }
 
+    /// Add the fairness penalty ([`Constraint::with_fairness`]) to the normal matrix `a` of
+    /// the coupled constraint's unknowns.
+    fn add_fairness(&self, a: &mut Normal<'_>) {
+        let Some((d, eps)) = &self.fair else {
+            return;
+        };
+        let nz = a.size();
+        let lambda = eps * (0..nz).map(|i| a.diagonal(i)).sum::<f64>() / nz.max(1) as f64;
+        for row in d {
+            for &(p, wp) in row {
+                for &(q, wq) in row {
+                    a.add(p, q, lambda * wp * wq);
+                }
+            }
+        }
+    }
+
+    /// The coordinates that share one rule (the same rows and unknowns: a span-rule grid's
+    /// two free coordinates), each group with its first coordinate, in coordinate order.
+    fn groups(&self) -> Vec<(usize, Vec<usize>)> {
+        let mut done = vec![false; self.coords.len()];
+        let mut out = Vec::new();
+        for k0 in 0..self.coords.len() {
+            if done[k0] {
+                continue;
+            }
+            let rule = &self.coords[k0];
+            let group: Vec<usize> = (k0..self.coords.len())
+                .filter(|&k| {
+                    !done[k] && self.coords[k].rows == rule.rows && self.coords[k].unknowns == rule.unknowns
+                })
+                .collect();
+            for &k in &group {
+                done[k] = true;
+            }
+            out.push((k0, group));
+        }
+        out
+    }
+
     /// The rule of coordinate `c`; `None` for a coupled constraint.
     #[must_use]
     pub fn coord(&self, c: usize) -> Option<&CoordRule> {
@@ -522,35 +565,91 @@ pub(crate) fn chunked_sum<T: Send>(
     parts.fold(first, merge)
 }
 
-/// Solve the symmetric positive definite `a x = rhs` by Cholesky (in band form where `a`'s
-/// sparsity allows, [`BandPlan`]); when `a` is singular, with a ridge of `1e-10` of its
-/// largest diagonal pulling column `k` of the solution towards `toward(k)`.
-fn cholesky_ridged(
-    mut a: DMatrix<f64>,
-    mut rhs: DMatrix<f64>,
-    toward: impl Fn(usize) -> f64,
-) -> Result<DMatrix<f64>> {
-    let plan = BandPlan::of(&a);
-    let solve = |a: &DMatrix<f64>, rhs: &DMatrix<f64>| match &plan {
-        Some(p) => p.solve(a, rhs),
-        None => a.clone().cholesky().map(|ch| ch.solve(rhs)),
-    };
-    if let Some(x) = solve(&a, &rhs) {
-        return Ok(x);
-    }
-    let n = a.nrows();
-    let mu = 1e-10
-        * (0..n)
-            .map(|i| a[(i, i)])
-            .fold(0.0, f64::max)
-            .max(f64::MIN_POSITIVE);
-    for i in 0..n {
-        a[(i, i)] += mu;
-        for k in 0..rhs.ncols() {
-            rhs[(i, k)] += mu * toward(k);
+/// A linear fit's symmetric normal matrix as it is summed: in band form where the problem's
+/// plan of its sparsity ([`BandPlan`]) makes that cheaper, else dense. Every entry is added
+/// with its mirror ([`Normal::add`] both ways round), as a dense sum would.
+enum Normal<'p> {
+    Dense(DMatrix<f64>),
+    Band(&'p BandPlan, BandMatrix),
+}
+
+impl<'p> Normal<'p> {
+    fn new(n: usize, plan: Option<&'p BandPlan>) -> Self {
+        match plan {
+            Some(p) if p.size() == n => Normal::Band(p, p.zeros()),
+            _ => Normal::Dense(DMatrix::zeros(n, n)),
         }
     }
-    solve(&a, &rhs).ok_or_else(|| Error::Numerical("the least-squares system is singular".into()))
+
+    #[inline]
+    fn add(&mut self, i: usize, j: usize, v: f64) {
+        match self {
+            Normal::Dense(a) => a[(i, j)] += v,
+            Normal::Band(p, m) => p.add(m, i, j, v),
+        }
+    }
+
+    fn size(&self) -> usize {
+        match self {
+            Normal::Dense(a) => a.nrows(),
+            Normal::Band(p, _) => p.size(),
+        }
+    }
+
+    fn diagonal(&self, i: usize) -> f64 {
+        match self {
+            Normal::Dense(a) => a[(i, i)],
+            Normal::Band(p, m) => p.diagonal(m, i),
+        }
+    }
+
+    /// Solve `a x = rhs` by Cholesky (a dense system in band form where its own sparsity
+    /// allows, [`BandPlan::of`]); when `a` is singular, with a ridge of `1e-10` of its
+    /// largest diagonal pulling column `k` of the solution towards `toward(k)`.
+    fn solve_ridged(self, mut rhs: DMatrix<f64>, toward: impl Fn(usize) -> f64) -> Result<DMatrix<f64>> {
+        let n = self.size();
+        let mu = 1e-10
+            * (0..n)
+                .map(|i| self.diagonal(i))
+                .fold(0.0, f64::max)
+                .max(f64::MIN_POSITIVE);
+        let ridge = |rhs: &mut DMatrix<f64>| {
+            for i in 0..n {
+                for k in 0..rhs.ncols() {
+                    rhs[(i, k)] += mu * toward(k);
+                }
+            }
+        };
+        let singular = || Error::Numerical("the least-squares system is singular".into());
+        match self {
+            Normal::Band(plan, m) => {
+                if let Some(x) = plan.solve_summed(m.clone(), &rhs) {
+                    return Ok(x);
+                }
+                let mut m = m;
+                for i in 0..n {
+                    plan.add(&mut m, i, i, mu);
+                }
+                ridge(&mut rhs);
+                plan.solve_summed(m, &rhs).ok_or_else(singular)
+            }
+            Normal::Dense(mut a) => {
+                let plan = BandPlan::of(&a);
+                let solve = |a: &DMatrix<f64>, rhs: &DMatrix<f64>| match &plan {
+                    Some(p) => p.solve(a, rhs),
+                    None => a.clone().cholesky().map(|ch| ch.solve(rhs)),
+                };
+                if let Some(x) = solve(&a, &rhs) {
+                    return Ok(x);
+                }
+                for i in 0..n {
+                    a[(i, i)] += mu;
+                }
+                ridge(&mut rhs);
+                solve(&a, &rhs).ok_or_else(singular)
+            }
+        }
+    }
 }
 
 impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
@@ -614,6 +713,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             grid,
             frame: OnceLock::new(),
             gram: OnceLock::new(),
+            plans: OnceLock::new(),
             extent,
         })
     }
@@ -668,6 +768,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     pub fn with_constraint(mut self, constraint: Constraint) -> Result<Self> {
         constraint.check(S::Point::DIM, self.design_count())?;
         self.constraint = Some(constraint);
+        self.plans = OnceLock::new();
         Ok(self)
     }
 
@@ -1111,6 +1212,70 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         value
     }
 
+    /// The band plans of `linear_fit`'s systems, from their sparsity (not their values: a
+    /// basis function can vanish at a point and leave an entry zero in one fit and not the
+    /// next): the unconstrained or coupled system's at 0, each group of a per-coordinate
+    /// constraint's at its first coordinate ([`Constraint::groups`]); `None` where the system
+    /// is solved dense.
+    fn band_plans(&self, pat: &GramPattern) -> Vec<Option<BandPlan>> {
+        let m = self.design_count();
+        let dim = S::Point::DIM;
+        let neighbours = |i: usize| {
+            pat.col[pat.start[i]..pat.start[i + 1]]
+                .iter()
+                .map(|&l| l as usize)
+        };
+        match &self.constraint {
+            None => vec![BandPlan::of_pairs(m, |add: &mut dyn FnMut(usize, usize)| {
+                for i in 0..m {
+                    neighbours(i).for_each(|l| add(i, l));
+                }
+            })],
+            Some(con) if con.coupled.is_some() => {
+                let nz = con.unknowns();
+                let rows = con.flat_rows();
+                vec![BandPlan::of_pairs(nz, |add: &mut dyn FnMut(usize, usize)| {
+                    for i in 0..m {
+                        for l in neighbours(i) {
+                            for k in 0..dim {
+                                for &(p, _) in &rows[i * dim + k] {
+                                    for &(q, _) in &rows[l * dim + k] {
+                                        add(p, q);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    for row in con.fair.iter().flat_map(|(d, _)| d) {
+                        for &(p, _) in row {
+                            for &(q, _) in row {
+                                add(p, q);
+                            }
+                        }
+                    }
+                })]
+            }
+            Some(con) => {
+                let mut plans = vec![None; dim];
+                for (k0, _) in con.groups() {
+                    let Some(rule) = con.coord(k0) else { continue };
+                    plans[k0] = BandPlan::of_pairs(rule.unknowns(), |add: &mut dyn FnMut(usize, usize)| {
+                        for i in 0..m {
+                            for &(p, _) in rule.row(i) {
+                                for l in neighbours(i) {
+                                    for &(r, _) in rule.row(l) {
+                                        add(p, r);
+                                    }
+                                }
+                            }
+                        }
+                    });
+                }
+                plans
+            }
+        }
+    }
+
     /// The best design for fixed parameters: the linear least-squares problem
     /// `min Σ_j w_j |Σ_i φ_i(t_j) x_i - q_j|²` (within the constraint, when there is one),
     /// solved by Cholesky on the normal equations. At fixed parameters the coordinates are
@@ -1179,16 +1344,17 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         let centroid: Vec<f64> = (0..dim)
             .map(|k| self.points.iter().map(|p| p.coord(k)).sum::<f64>() / self.points.len() as f64)
             .collect();
+        let plans = self.plans.get_or_init(|| self.band_plans(pat));
         let design: Vec<S::Point> = match &self.constraint {
             None => {
-                let mut a = DMatrix::<f64>::zeros(m, m);
+                let mut a = Normal::new(m, plans[0].as_ref());
                 for i in 0..m {
                     for (l, v) in row(i) {
-                        a[(i, l)] = v;
+                        a.add(i, l, v);
                     }
                 }
                 let rhs = DMatrix::from_row_slice(m, dim, &atq);
-                let sol = cholesky_ridged(a, rhs, |k| centroid[k])?;
+                let sol = a.solve_ridged(rhs, |k| centroid[k])?;
                 (0..m)
                     .map(|i| {
                         let c: Vec<f64> = (0..dim).map(|k| sol[(i, k)]).collect();
@@ -1204,7 +1370,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     .as_ref()
                     .map_or((&[][..], 0), |(o, n)| (o.as_slice(), *n));
                 let rows = con.flat_rows();
-                let mut a = DMatrix::<f64>::zeros(nz, nz);
+                let mut a = Normal::new(nz, plans[0].as_ref());
                 let mut rhs = DMatrix::<f64>::zeros(nz, 1);
                 for i in 0..m {
                     for k in 0..dim {
@@ -1221,24 +1387,14 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                         for k in 0..dim {
                             for &(p, wp) in &rows[i * dim + k] {
                                 for &(q, wq) in &rows[l * dim + k] {
-                                    a[(p, q)] += wp * v * wq;
+                                    a.add(p, q, wp * v * wq);
                                 }
                             }
                         }
                     }
                 }
-                if let Some((d, eps)) = &con.fair {
-                    let mean = (0..nz).map(|i| a[(i, i)]).sum::<f64>() / nz.max(1) as f64;
-                    let lambda = eps * mean;
-                    for row in d {
-                        for &(p, wp) in row {
-                            for &(q, wq) in row {
-                                a[(p, q)] += lambda * wp * wq;
-                            }
-                        }
-                    }
-                }
-                let z = cholesky_ridged(a, rhs, |_| 0.0)?;
+                con.add_fairness(&mut a);
+                let z = a.solve_ridged(rhs, |_| 0.0)?;
                 con.design::<S::Point>(z.as_slice())
             }
             Some(con) => {
@@ -1252,19 +1408,10 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                     })
                     .collect::<Result<_>>()?;
                 let mut coords = vec![vec![0.0; m]; dim];
-                let mut done = vec![false; dim];
-                for k0 in 0..dim {
-                    if done[k0] {
-                        continue;
-                    }
+                for (k0, group) in con.groups() {
                     let rule = rules[k0];
-                    let group: Vec<usize> = (k0..dim)
-                        .filter(|&k| {
-                            !done[k] && rules[k].rows == rule.rows && rules[k].unknowns == rule.unknowns
-                        })
-                        .collect();
                     let n = rule.unknowns();
-                    let mut a = DMatrix::<f64>::zeros(n, n);
+                    let mut a = Normal::new(n, plans[k0].as_ref());
                     let mut rhs = DMatrix::<f64>::zeros(n, group.len());
                     // (N b)_i of each coordinate of the group, once a design point.
                     let mut nb = vec![0.0; group.len()];
@@ -1282,14 +1429,14 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                             for (l, v) in row(i) {
                                 if v != 0.0 {
                                     for &(r, wr) in rule.row(l) {
-                                        a[(p, r)] += wp * v * wr;
+                                        a.add(p, r, wp * v * wr);
                                     }
                                 }
                             }
                         }
                     }
                     let z = if n > 0 {
-                        cholesky_ridged(a, rhs, |c| centroid[group[c]])?
+                        a.solve_ridged(rhs, |c| centroid[group[c]])?
                     } else {
                         DMatrix::zeros(0, group.len())
                     };
@@ -1298,7 +1445,6 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                         for (i, xi) in coords[k].iter_mut().enumerate() {
                             *xi = rules[k].value(i, &zk);
                         }
-                        done[k] = true;
                     }
                 }
                 (0..m)
@@ -1682,6 +1828,65 @@ mod tests {
         for (i, d) in design.iter().enumerate() {
             let e = DVec3::new(x[(i, 0)], x[(i, 1)], x[(i, 2)]);
             assert!((*d - e).length() < 1e-10, "design point {i}: {d} against {e}");
+        }
+    }
+
+    #[test]
+    fn a_banded_constrained_grid_fit_solves_the_normal_equations_fit_after_fit() {
+        // 23 x 13 design points (above BAND_MIN), x and y free, z fixed by a span rule.
+        let u = ChainLayout::uniform(3, 20, Continuity::C2).unwrap();
+        let v = ChainLayout::uniform(3, 10, Continuity::C2).unwrap();
+        let layout = GridLayout::new(u, v);
+        let (nu, nv) = layout.design_shape();
+        let m = nu * nv;
+        assert!(m >= crate::fit::band::BAND_MIN);
+        let (mut pts, mut at_breaks, mut inside) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..31 {
+            let v = k as f64 / 30.0;
+            for i in 0..=60 {
+                let u = i as f64 / 60.0;
+                pts.push(DVec3::new(
+                    (4.0 * u).cos() * (1.0 + v),
+                    (4.0 * u).sin() * (1.0 - 0.3 * v),
+                    v,
+                ));
+                // Every third point exactly on a u break: its basis has zeros there.
+                at_breaks.push([u, v]);
+                inside.push([(u + 0.004 * (9.0 * u).sin()).clamp(0.0, 1.0), v]);
+            }
+        }
+        let span: Vec<f64> = (0..m).map(|i| (i % nv) as f64 / (nv - 1) as f64).collect();
+        let con = Constraint::new(vec![
+            CoordRule::free(m),
+            CoordRule::free(m),
+            CoordRule::fixed(span.clone()),
+        ]);
+        let p = FitProblem::grid(layout.clone(), &pts, at_breaks.clone(), Metric::Closest)
+            .unwrap()
+            .with_constraint(con)
+            .unwrap();
+        let shape = GridShape::<DVec3>::new(layout);
+        let mut b = Basis::new();
+        for params in [&at_breaks, &inside] {
+            let design = p.linear_fit(params).unwrap();
+            let mut a = DMatrix::<f64>::zeros(m, m);
+            let mut rhs = DMatrix::<f64>::zeros(m, 2);
+            for (t, q) in params.iter().zip(&pts) {
+                shape.basis(*t, 0, &mut b);
+                let sup = shape.support(b.cell);
+                for (x, &i) in sup.iter().enumerate() {
+                    for (y, &l) in sup.iter().enumerate() {
+                        a[(i as usize, l as usize)] += b.value[x] * b.value[y];
+                    }
+                    rhs[(i as usize, 0)] += b.value[x] * q.x;
+                    rhs[(i as usize, 1)] += b.value[x] * q.y;
+                }
+            }
+            let x = a.cholesky().unwrap().solve(&rhs);
+            for (i, d) in design.iter().enumerate() {
+                let e = DVec3::new(x[(i, 0)], x[(i, 1)], span[i]);
+                assert!((*d - e).length() < 1e-9, "design point {i}: {d} against {e}");
+            }
         }
     }
 
