@@ -1,7 +1,7 @@
 //! `PatchGrid`: a grid of tensor-product Bezier patches chained in both directions.
 
 use super::layout::{ChainLayout, Continuity};
-use crate::bezier::{BezierPatch, Vector};
+use crate::bezier::{bernstein, bernstein_deriv, BezierPatch, Vector};
 use crate::error::{Error, Result};
 
 /// The shape of a patch grid: one chain layout along u (rows) and one along v (columns).
@@ -197,6 +197,47 @@ impl<P: Vector> PatchGrid<P> {
             pu * (1.0 / self.layout.u.segment_length(i)),
             pv * (1.0 / self.layout.v.segment_length(j)),
         )
+    }
+
+    /// The partial derivatives `(S_u, S_v)` at every `(us[a], vs[b])` (row `a`, column `b`):
+    /// what [`PatchGrid::partials`] gives there, bit for bit, with each sample's basis along u
+    /// and along v computed once instead of at every pair, and no patch copied out.
+    #[must_use]
+    pub fn partials_on(&self, us: &[f64], vs: &[f64]) -> Vec<Vec<(P, P)>> {
+        let (du, dv) = (self.layout.u.degree(), self.layout.v.degree());
+        let mv = self.layout.net_shape().1;
+        // Each parameter's segment, its scale, and its Bernstein values and derivatives.
+        let basis = |l: &ChainLayout, d: usize, t: f64| {
+            let (k, a) = l.locate(t);
+            let (mut b, mut db) = ([0.0; 33], [0.0; 33]);
+            bernstein(d, a, &mut b);
+            bernstein_deriv(d, a, &mut db);
+            (k, 1.0 / l.segment_length(k), b, db)
+        };
+        let cols: Vec<_> = vs.iter().map(|&v| basis(&self.layout.v, dv, v)).collect();
+        us.iter()
+            .map(|&u| {
+                let (i, su, bu, dbu) = basis(&self.layout.u, du, u);
+                cols.iter()
+                    .map(|&(j, sv, bv, dbv)| {
+                        // BezierPatch::weighted's sums, in its order.
+                        let (mut pu, mut pv) = (P::ZERO, P::ZERO);
+                        for r in 0..=du {
+                            let row =
+                                &self.net[(i * du + r) * mv + j * dv..=(i * du + r) * mv + (j + 1) * dv];
+                            let (mut a, mut b) = (P::ZERO, P::ZERO);
+                            for (c, &x) in row.iter().enumerate() {
+                                a += x * bv[c];
+                                b += x * dbv[c];
+                            }
+                            pu += a * dbu[r];
+                            pv += b * bu[r];
+                        }
+                        (pu * su, pv * sv)
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The largest relative jump of the cross-border first derivative over every patch border,
@@ -431,6 +472,28 @@ mod tests {
             let (_, _, a) = grid.partials(u, 0.6 - h);
             let (_, _, b) = grid.partials(u, 0.6 + h);
             assert!((a - b).length() < 1e-6 * a.length());
+        }
+    }
+
+    #[test]
+    fn partials_on_a_sample_grid_are_the_partials_bit_for_bit() {
+        let u = ChainLayout::with_breaks(4, vec![0.0, 0.2, 0.35, 1.0], Continuity::C2).unwrap();
+        let v = ChainLayout::with_breaks(3, vec![0.0, 0.6, 1.0], Continuity::C1).unwrap();
+        let g = GridLayout::new(u, v);
+        let (nu, nv) = g.design_shape();
+        let design: Vec<DVec3> = (0..nu * nv)
+            .map(|i| DVec3::new((i / nv) as f64, (i % nv) as f64, ((i * 7) % 5) as f64 * 0.1))
+            .collect();
+        let grid = PatchGrid::new(g, design).unwrap();
+        // Breaks, ends and points between them.
+        let us: Vec<f64> = (0..=40).map(|k| k as f64 / 40.0).chain([0.2, 0.35]).collect();
+        let vs: Vec<f64> = (0..=25).map(|k| k as f64 / 25.0).chain([0.6]).collect();
+        let on = grid.partials_on(&us, &vs);
+        for (a, &u) in us.iter().enumerate() {
+            for (b, &v) in vs.iter().enumerate() {
+                let (_, pu, pv) = grid.partials(u, v);
+                assert_eq!(on[a][b], (pu, pv), "at ({u}, {v})");
+            }
         }
     }
 }

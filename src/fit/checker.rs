@@ -324,15 +324,9 @@ pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
     let per = per_patch.max(1);
     let (us, vs) = (samples(l.u.breaks(), per), samples(l.v.breaks(), per));
     let normals: Vec<Vec<DVec3>> = us
-        .par_iter()
-        .map(|&u| {
-            vs.iter()
-                .map(|&v| {
-                    let (_, pu, pv) = grid.partials(u, v);
-                    pu.cross(pv)
-                })
-                .collect()
-        })
+        .par_chunks(8)
+        .flat_map_iter(|rows| grid.partials_on(rows, &vs))
+        .map(|row| row.iter().map(|(pu, pv)| pu.cross(*pv)).collect())
         .collect();
     let big = normals.iter().flatten().fold(0.0_f64, |m, n| m.max(n.length()));
     let units: Vec<Vec<Option<DVec3>>> = normals
