@@ -134,6 +134,15 @@ pub trait Shape<const K: usize>: Sync {
         None
     }
 
+    /// Orders of the design points (`order[k]`: the point at position `k`) in which a
+    /// least-squares system on them may be narrower than in their own numbering: a grid's
+    /// points column by column, which on a net with fewer columns than rows beats both the
+    /// row-major numbering and reverse Cuthill-McKee (band 82 against 95 and 146 on a 26 x 23
+    /// net of degrees 4 x 3). None by default.
+    fn narrow_orders(&self) -> Vec<Vec<u32>> {
+        Vec::new()
+    }
+
     /// For a tensor-product shape, the basis values at `t` as the product of the first
     /// parameter's (`first`) and the other parameters' (`rest`): value `a * rest.len() + b`
     /// of the cell's support is `first[a] rest[b]`. Returns the cell, `None` (the default)
@@ -371,6 +380,11 @@ impl<P: Vector> Shape<2> for GridShape<P> {
 
     fn jet_at(&self, design: &&[P], t: [f64; 2], order: usize, scratch: &mut Basis<2>) -> Jet<P, 2> {
         self.eval_jet(t, order, design, scratch)
+    }
+
+    fn narrow_orders(&self) -> Vec<Vec<u32>> {
+        let (nu, nv) = (self.u.design_count() as u32, self.v.design_count() as u32);
+        vec![(0..nv).flat_map(|j| (0..nu).map(move |i| i * nv + j)).collect()]
     }
 
     fn product_basis(&self, t: [f64; 2], first: &mut Vec<f64>, rest: &mut Vec<f64>) -> Option<usize> {

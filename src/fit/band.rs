@@ -10,7 +10,9 @@
 /// A reverse Cuthill-McKee ordering of the graph with `n` nodes whose edges join every two
 /// nodes of each clique in `cliques`: `order[k]` is the node placed at position `k`. It keeps
 /// linked nodes close together, so a matrix with this sparsity has a small bandwidth in that
-/// order (a patch grid's design net gets its shorter side as the bandwidth). Deterministic.
+/// order. On a patch grid's design net it starts at a corner and its levels run diagonally:
+/// band 146 on a 26 x 23 net of degrees 4 x 3, where the net column by column has 82
+/// ([`BandPlan::of_edges_with`] takes the narrowest). Deterministic.
 #[must_use]
 pub fn rcm_order<'a>(n: usize, cliques: impl Iterator<Item = &'a [u32]>) -> Vec<u32> {
     let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -97,14 +99,25 @@ impl BandPlan {
     /// `edges` (`[i, j]`, either way round; repeats allowed), or `None` as [`BandPlan::of`].
     #[must_use]
     pub fn of_edges(n: usize, edges: &[[u32; 2]]) -> Option<Self> {
+        Self::of_edges_with(n, edges, &[])
+    }
+
+    /// [`BandPlan::of_edges`] with more candidate orders (`orders[c][k]`: the unknown at
+    /// position `k`; those not a permutation of the `n` unknowns are passed over): the
+    /// narrowest of them, the given order and reverse Cuthill-McKee's wins.
+    #[must_use]
+    pub fn of_edges_with(n: usize, edges: &[[u32; 2]], orders: &[Vec<u32>]) -> Option<Self> {
         if n < BAND_MIN {
             return None;
         }
-        let order = rcm_order(n, edges.iter().map(|e| e.as_slice()));
-        let mut pos = vec![0; n];
-        for (k, &i) in order.iter().enumerate() {
-            pos[i as usize] = k;
-        }
+        let positions = |order: &[u32]| {
+            let mut pos = vec![usize::MAX; n];
+            for (k, &i) in order.iter().enumerate() {
+                *pos.get_mut(i as usize)? = k;
+            }
+            (order.len() == n && pos.iter().all(|&p| p != usize::MAX)).then_some(pos)
+        };
+        let pos = positions(&rcm_order(n, edges.iter().map(|e| e.as_slice())))?;
         let reach = |pos: &[usize]| {
             edges
                 .iter()
@@ -118,6 +131,7 @@ impl BandPlan {
         let natural: Vec<usize> = (0..n).collect();
         let (pos, band) = [pos, natural]
             .into_iter()
+            .chain(orders.iter().filter_map(|o| positions(o)))
             .map(|p| {
                 let b = reach(&p);
                 (p, b)
@@ -127,9 +141,13 @@ impl BandPlan {
     }
 
     /// The plan for `n` unknowns whose system has non-zero entries off the diagonal only at
-    /// the pairs `pairs` gives its argument (either way round; repeats allowed), or `None` as
-    /// [`BandPlan::of`].
-    pub fn of_pairs(n: usize, pairs: impl FnOnce(&mut dyn FnMut(usize, usize))) -> Option<Self> {
+    /// the pairs `pairs` gives its argument (either way round; repeats allowed), with the
+    /// candidate `orders` of [`BandPlan::of_edges_with`], or `None` as [`BandPlan::of`].
+    pub fn of_pairs(
+        n: usize,
+        orders: &[Vec<u32>],
+        pairs: impl FnOnce(&mut dyn FnMut(usize, usize)),
+    ) -> Option<Self> {
         if n < BAND_MIN {
             return None;
         }
@@ -148,7 +166,7 @@ impl BandPlan {
             l.dedup();
             edges.extend(l.iter().map(|&q| [p as u32, q]));
         }
-        Self::of_edges(n, &edges)
+        Self::of_edges_with(n, &edges, orders)
     }
 
     /// The number of unknowns.
@@ -408,6 +426,33 @@ mod tests {
         for i in 0..n {
             assert!((x[i] - want[i]).abs() < 1e-12, "{i}: {} vs {}", x[i], want[i]);
         }
+    }
+
+    #[test]
+    fn a_plan_takes_the_narrowest_of_its_candidate_orders() {
+        // A 26 x 23 net (row-major) of degrees 4 x 3: every two points of a 5 x 4 block linked.
+        let (nu, nv) = (26u32, 23u32);
+        let mut edges = Vec::new();
+        for i in 0..nu - 4 {
+            for j in 0..nv - 3 {
+                let block: Vec<u32> = (i..i + 5)
+                    .flat_map(|a| (j..j + 4).map(move |b| a * nv + b))
+                    .collect();
+                for &a in &block {
+                    for &b in &block {
+                        if a > b {
+                            edges.push([a, b]);
+                        }
+                    }
+                }
+            }
+        }
+        let n = (nu * nv) as usize;
+        assert_eq!(BandPlan::of_edges(n, &edges).unwrap().bandwidth(), 4 * 23 + 3);
+        let by_column: Vec<u32> = (0..nv).flat_map(|j| (0..nu).map(move |i| i * nv + j)).collect();
+        let not_a_permutation = vec![0; n];
+        let plan = BandPlan::of_edges_with(n, &edges, &[not_a_permutation, by_column]).unwrap();
+        assert_eq!(plan.bandwidth(), 3 * 26 + 4);
     }
 
     #[test]

@@ -1225,51 +1225,65 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 .iter()
                 .map(|&l| l as usize)
         };
+        // The shape's orders of its design points fit the systems whose unknowns are the
+        // design points themselves.
+        let orders = self.shape.narrow_orders();
+        let one_per_point = |rule: &CoordRule| (0..m).all(|i| rule.row(i) == [(i, 1.0)]);
         match &self.constraint {
-            None => vec![BandPlan::of_pairs(m, |add: &mut dyn FnMut(usize, usize)| {
-                for i in 0..m {
-                    neighbours(i).for_each(|l| add(i, l));
-                }
-            })],
+            None => vec![BandPlan::of_pairs(
+                m,
+                &orders,
+                |add: &mut dyn FnMut(usize, usize)| {
+                    for i in 0..m {
+                        neighbours(i).for_each(|l| add(i, l));
+                    }
+                },
+            )],
             Some(con) if con.coupled.is_some() => {
                 let nz = con.unknowns();
                 let rows = con.flat_rows();
-                vec![BandPlan::of_pairs(nz, |add: &mut dyn FnMut(usize, usize)| {
-                    for i in 0..m {
-                        for l in neighbours(i) {
-                            for k in 0..dim {
-                                for &(p, _) in &rows[i * dim + k] {
-                                    for &(q, _) in &rows[l * dim + k] {
-                                        add(p, q);
+                vec![BandPlan::of_pairs(
+                    nz,
+                    &[],
+                    |add: &mut dyn FnMut(usize, usize)| {
+                        for i in 0..m {
+                            for l in neighbours(i) {
+                                for k in 0..dim {
+                                    for &(p, _) in &rows[i * dim + k] {
+                                        for &(q, _) in &rows[l * dim + k] {
+                                            add(p, q);
+                                        }
                                     }
                                 }
                             }
                         }
-                    }
-                    for row in con.fair.iter().flat_map(|(d, _)| d) {
-                        for &(p, _) in row {
-                            for &(q, _) in row {
-                                add(p, q);
+                        for row in con.fair.iter().flat_map(|(d, _)| d) {
+                            for &(p, _) in row {
+                                for &(q, _) in row {
+                                    add(p, q);
+                                }
                             }
                         }
-                    }
-                })]
+                    },
+                )]
             }
             Some(con) => {
                 let mut plans = vec![None; dim];
                 for (k0, _) in con.groups() {
                     let Some(rule) = con.coord(k0) else { continue };
-                    plans[k0] = BandPlan::of_pairs(rule.unknowns(), |add: &mut dyn FnMut(usize, usize)| {
-                        for i in 0..m {
-                            for &(p, _) in rule.row(i) {
-                                for l in neighbours(i) {
-                                    for &(r, _) in rule.row(l) {
-                                        add(p, r);
+                    let ours: &[Vec<u32>] = if one_per_point(rule) { &orders } else { &[] };
+                    plans[k0] =
+                        BandPlan::of_pairs(rule.unknowns(), ours, |add: &mut dyn FnMut(usize, usize)| {
+                            for i in 0..m {
+                                for &(p, _) in rule.row(i) {
+                                    for l in neighbours(i) {
+                                        for &(r, _) in rule.row(l) {
+                                            add(p, r);
+                                        }
                                     }
                                 }
                             }
-                        }
-                    });
+                        });
                 }
                 plans
             }
