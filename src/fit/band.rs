@@ -169,6 +169,17 @@ impl BandPlan {
         Self::of_edges_with(n, &edges, orders)
     }
 
+    /// The plan that keeps the unknowns in their own order, for a system whose non-zero
+    /// entries all lie within `band` of the diagonal in that order; `None` as
+    /// [`BandPlan::of`].
+    #[must_use]
+    pub fn in_order(n: usize, band: usize) -> Option<Self> {
+        (n >= BAND_MIN && 3 * band < n).then(|| BandPlan {
+            pos: (0..n).collect(),
+            band,
+        })
+    }
+
     /// The number of unknowns.
     #[must_use]
     pub fn size(&self) -> usize {
@@ -183,11 +194,16 @@ impl BandPlan {
 
     /// Add `v` to entry `(i, j)` (the unknowns' own numbers) of a symmetric system `m` from
     /// [`BandPlan::zeros`]: a sum that adds every entry and its mirror keeps the entries on
-    /// and below the diagonal in the plan's order and skips the others. Entries outside the
-    /// plan's sparsity are ignored.
+    /// and below the diagonal in the plan's order and skips the others. A non-zero entry
+    /// outside the band is a plan made for another sparsity (a debug build stops there).
     #[inline]
     pub fn add(&self, m: &mut BandMatrix, i: usize, j: usize, v: f64) {
         let (pi, pj) = (self.pos[i], self.pos[j]);
+        debug_assert!(
+            pi.abs_diff(pj) <= self.band || v == 0.0,
+            "entry ({i}, {j}) outside the plan's band {}",
+            self.band
+        );
         if pi >= pj && pi - pj <= self.band {
             m.add_lower(pi, pj, v);
         }
