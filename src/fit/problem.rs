@@ -144,36 +144,54 @@ impl ProductRun {
 impl GramPattern {
     fn new<S: Shape<K>, const K: usize>(shape: &S) -> Self {
         let m = shape.design_count();
-        let mut nbr: Vec<Vec<u32>> = vec![Vec::new(); m];
-        for c in 0..shape.cell_count() {
-            let sup = shape.support(c);
-            for &a in sup {
-                nbr[a as usize].extend_from_slice(sup);
+        let cells = shape.cell_count();
+        // The cells whose support holds each design point, with its place in the support.
+        let mut cells_of: Vec<Vec<(u32, u32)>> = vec![Vec::new(); m];
+        for c in 0..cells {
+            for (k, &a) in shape.support(c).iter().enumerate() {
+                cells_of[a as usize].push((c as u32, k as u32));
             }
         }
-        for n in &mut nbr {
-            n.sort_unstable();
-            n.dedup();
-        }
+        // Each point's neighbours once (marked as met), then in order. Built before by
+        // appending every support whole and sorting, 7 % of the IEA 3.4 MW search.
+        let mut mark = vec![usize::MAX; m];
+        let nbr: Vec<Vec<u32>> = (0..m)
+            .map(|a| {
+                let mut row = Vec::new();
+                for &(c, _) in &cells_of[a] {
+                    for &b in shape.support(c as usize) {
+                        if mark[b as usize] != a {
+                            mark[b as usize] = a;
+                            row.push(b);
+                        }
+                    }
+                }
+                row.sort_unstable();
+                row
+            })
+            .collect();
         let mut start = Vec::with_capacity(m + 1);
         start.push(0);
         for n in &nbr {
             start.push(start.last().copied().unwrap_or(0) + n.len());
         }
-        let slots = (0..shape.cell_count())
-            .map(|c| {
-                let sup = shape.support(c);
-                sup.iter()
-                    .flat_map(|&a| {
-                        let (row, base) = (&nbr[a as usize], start[a as usize]);
-                        sup.iter().map(move |b| {
-                            // Every pair of a support is in the row by construction.
-                            (base + row.binary_search(b).unwrap_or(0)) as u32
-                        })
-                    })
-                    .collect()
-            })
+        // The slot of every pair of a support, row by row: each neighbour's place in the row.
+        let mut slots: Vec<Vec<u32>> = (0..cells)
+            .map(|c| vec![0; shape.support(c).len().pow(2)])
             .collect();
+        let mut place = vec![0; m];
+        for a in 0..m {
+            for (k, &b) in nbr[a].iter().enumerate() {
+                place[b as usize] = start[a] + k;
+            }
+            for &(c, k) in &cells_of[a] {
+                let sup = shape.support(c as usize);
+                let s = sup.len();
+                for (l, &b) in sup.iter().enumerate() {
+                    slots[c as usize][k as usize * s + l] = place[b as usize] as u32;
+                }
+            }
+        }
         let mirror = (0..m)
             .flat_map(|i| {
                 let (nbr, start) = (&nbr, &start);
