@@ -337,7 +337,8 @@ pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
                 .collect()
         })
         .collect();
-    let mut worst = (0.0_f64, [0.0, 0.0]);
+    // The largest turn is the least cosine: one arc cosine, for it.
+    let mut worst = (1.0_f64, [0.0, 0.0]);
     for i in 0..us.len() {
         for j in 0..vs.len() {
             let Some(a) = units[i][j] else { continue };
@@ -346,14 +347,15 @@ pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
                     continue;
                 }
                 if let Some(b) = units[ni][nj] {
-                    let turn = a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
-                    if turn > worst.0 {
-                        worst = (turn, [us[i], vs[j]]);
+                    let cos = a.dot(b).clamp(-1.0, 1.0);
+                    if cos < worst.0 {
+                        worst = (cos, [us[i], vs[j]]);
                     }
                 }
             }
         }
     }
+    let worst = (worst.0.acos().to_degrees(), worst.1);
     FoldCheck {
         per_patch: per,
         max_turn_deg: worst.0,
