@@ -201,7 +201,8 @@ impl<P: Vector> PatchGrid<P> {
 
     /// The partial derivatives `(S_u, S_v)` at every `(us[a], vs[b])` (row `a`, column `b`):
     /// what [`PatchGrid::partials`] gives there, bit for bit, with each sample's basis along u
-    /// and along v computed once instead of at every pair, and no patch copied out.
+    /// and along v computed once, each net row combined along v once for every v sample,
+    /// and no patch copied out.
     #[must_use]
     pub fn partials_on(&self, us: &[f64], vs: &[f64]) -> Vec<Vec<(P, P)>> {
         let (du, dv) = (self.layout.u.degree(), self.layout.v.degree());
@@ -214,30 +215,38 @@ impl<P: Vector> PatchGrid<P> {
             bernstein_deriv(d, a, &mut db);
             (k, 1.0 / l.segment_length(k), b, db)
         };
-        let cols: Vec<_> = vs.iter().map(|&v| basis(&self.layout.v, dv, v)).collect();
-        us.iter()
-            .map(|&u| {
-                let (i, su, bu, dbu) = basis(&self.layout.u, du, u);
-                cols.iter()
-                    .map(|&(j, sv, bv, dbv)| {
-                        // BezierPatch::weighted's sums, in its order.
-                        let (mut pu, mut pv) = (P::ZERO, P::ZERO);
-                        for r in 0..=du {
-                            let row =
-                                &self.net[(i * du + r) * mv + j * dv..=(i * du + r) * mv + (j + 1) * dv];
-                            let (mut a, mut b) = (P::ZERO, P::ZERO);
-                            for (c, &x) in row.iter().enumerate() {
-                                a += x * bv[c];
-                                b += x * dbv[c];
-                            }
-                            pu += a * dbu[r];
-                            pv += b * bu[r];
-                        }
-                        (pu * su, pv * sv)
-                    })
-                    .collect()
-            })
-            .collect()
+        let rows: Vec<_> = us.iter().map(|&u| basis(&self.layout.u, du, u)).collect();
+        // The net rows the u samples reach.
+        let first = rows.iter().map(|r| r.0 * du).min().unwrap_or(0);
+        let last = rows.iter().map(|r| r.0 * du + du).max().unwrap_or(0);
+        let mut out = vec![Vec::with_capacity(vs.len()); us.len()];
+        let (mut along, mut across) = (Vec::new(), Vec::new());
+        for &v in vs {
+            let (j, sv, bv, dbv) = basis(&self.layout.v, dv, v);
+            // Every reached net row combined along v (BezierPatch::weighted's inner sums,
+            // in its order), with the v basis and with its derivative.
+            along.clear();
+            across.clear();
+            for r in first..=last {
+                let row = &self.net[r * mv + j * dv..=r * mv + (j + 1) * dv];
+                let (mut a, mut b) = (P::ZERO, P::ZERO);
+                for (c, &x) in row.iter().enumerate() {
+                    a += x * bv[c];
+                    b += x * dbv[c];
+                }
+                along.push(a);
+                across.push(b);
+            }
+            for (o, &(i, su, bu, dbu)) in out.iter_mut().zip(&rows) {
+                let (mut pu, mut pv) = (P::ZERO, P::ZERO);
+                for r in 0..=du {
+                    pu += along[i * du + r - first] * dbu[r];
+                    pv += across[i * du + r - first] * bu[r];
+                }
+                o.push((pu * su, pv * sv));
+            }
+        }
+        out
     }
 
     /// The largest relative jump of the cross-border first derivative over every patch border,

@@ -324,7 +324,7 @@ pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
     let per = per_patch.max(1);
     let (us, vs) = (samples(l.u.breaks(), per), samples(l.v.breaks(), per));
     let normals: Vec<Vec<DVec3>> = us
-        .par_chunks(8)
+        .par_chunks(32)
         .flat_map_iter(|rows| grid.partials_on(rows, &vs))
         .map(|row| row.iter().map(|(pu, pv)| pu.cross(*pv)).collect())
         .collect();
