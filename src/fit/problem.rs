@@ -1087,7 +1087,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         // Every parameter but the first held (a sectioned cloud's points move along their
         // section): each point's search runs on the shape's curve through its held values,
         // built once for every run of points that share them.
-        let along_first = K > 1 && !self.held[0] && self.held[1..].iter().all(|&h| h);
+        let along_first = self.along_first();
         let run = |offset: usize, ts: &mut [[f64; K]]| {
             let mut b = Basis::new();
             let mut b1 = Basis::<1>::new();
@@ -1139,12 +1139,35 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     #[must_use]
     pub fn distances(&self, design: &[S::Point], params: &[[f64; K]]) -> Vec<f64> {
         let mut b = Basis::new();
+        let mut b1 = Basis::<1>::new();
         let prepared = self.shape.prepare(design);
+        // As in `project_max`: with every parameter but the first held, each run of points
+        // that share the held values is evaluated on the curve through them.
+        let mut curve: Option<([f64; K], FirstCurve<'_, S::Point>)> = None;
         params
             .iter()
             .zip(self.points)
-            .map(|(&t, &q)| (self.shape.jet_at(&prepared, t, 0, &mut b).point - q).length())
+            .map(|(&t, &q)| {
+                if self.along_first() && curve.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
+                    curve = self
+                        .shape
+                        .first_curve(design, t)
+                        .map(|(shape, row)| (t, (shape, shape.prepare(&row))));
+                }
+                let p = match curve.as_ref().filter(|_| self.along_first()) {
+                    Some((_, (shape, ctrl))) => shape.jet_at(ctrl, [t[0]], 0, &mut b1).point,
+                    None => self.shape.jet_at(&prepared, t, 0, &mut b).point,
+                };
+                (p - q).length()
+            })
             .collect()
+    }
+
+    /// Every parameter but the first held: a sectioned cloud's points, whose searches and
+    /// evaluations run on the shape's curves through their held values
+    /// ([`Shape::first_curve`]).
+    fn along_first(&self) -> bool {
+        K > 1 && !self.held[0] && self.held[1..].iter().all(|&h| h)
     }
 
     /// `Σ w_j |C(t_j) - q_j|²` at the given parameters.
@@ -1951,6 +1974,11 @@ mod tests {
             worst = worst.max(f.dist_sq.sqrt());
         }
         assert!((max - worst).abs() < 1e-12, "{max} against {worst}");
+        // The distances at held v, on the rows, are the grid's.
+        let grid = PatchGrid::new(shape.layout(), design.clone()).unwrap();
+        for ((d, t), q) in p.distances(&design, &moved).iter().zip(&moved).zip(&pts) {
+            assert!((d - (grid.eval(t[0], t[1]) - *q).length()).abs() < 1e-12);
+        }
     }
 
     #[test]
