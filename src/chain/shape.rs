@@ -148,8 +148,16 @@ pub trait Shape<const K: usize>: Sync {
     /// of the cell's support is `first[a] rest[b]`. Returns the cell, `None` (the default)
     /// where the basis is no such product. A least-squares sum over points that share the
     /// other parameters (a section of a sectioned cloud) then adds the first factor's small
-    /// products and expands them once per cell.
-    fn product_basis(&self, _t: [f64; K], _first: &mut Vec<f64>, _rest: &mut Vec<f64>) -> Option<usize> {
+    /// products and expands them once per cell. `same`: the cell of the previous call, whose
+    /// other parameters were these (a run along a section), so that `rest` already holds
+    /// their factor and only the first is computed.
+    fn product_basis(
+        &self,
+        _t: [f64; K],
+        _first: &mut Vec<f64>,
+        _rest: &mut Vec<f64>,
+        _same: Option<usize>,
+    ) -> Option<usize> {
         None
     }
 
@@ -387,15 +395,28 @@ impl<P: Vector> Shape<2> for GridShape<P> {
         vec![(0..nv).flat_map(|j| (0..nu).map(move |i| i * nv + j)).collect()]
     }
 
-    fn product_basis(&self, t: [f64; 2], first: &mut Vec<f64>, rest: &mut Vec<f64>) -> Option<usize> {
+    fn product_basis(
+        &self,
+        t: [f64; 2],
+        first: &mut Vec<f64>,
+        rest: &mut Vec<f64>,
+        same: Option<usize>,
+    ) -> Option<usize> {
         let bu = self.u.basis(t[0], 0);
-        let bv = self.v.basis(t[1], 0);
-        let (nu, nv) = (self.u.support(bu.segment).len(), self.v.support(bv.segment).len());
+        let nu = self.u.support(bu.segment).len();
         first.clear();
         first.extend_from_slice(&bu.value[..nu]);
-        rest.clear();
-        rest.extend_from_slice(&bv.value[..nv]);
-        Some(bu.segment * self.v.segments() + bv.segment)
+        let pv = self.v.segments();
+        let b = match same {
+            Some(cell) => cell % pv,
+            None => {
+                let bv = self.v.basis(t[1], 0);
+                rest.clear();
+                rest.extend_from_slice(&bv.value[..self.v.support(bv.segment).len()]);
+                bv.segment
+            }
+        };
+        Some(bu.segment * pv + b)
     }
 
     /// Row `i` of the curve's design is `Σ_j B_j(v) x_ij` over the v basis at `t[1]`.
@@ -695,13 +716,23 @@ mod tests {
                 let t = [i as f64 / 40.0, j as f64 / 30.0];
                 for t in [t, [0.15, 0.95], [0.6 - 1e-17, 0.7], [1.0, 0.0]] {
                     // The basis is the product of the u and v factors, in the support's order.
-                    let cell = shape.product_basis(t, &mut first, &mut rest).unwrap();
+                    let cell = shape.product_basis(t, &mut first, &mut rest, None).unwrap();
                     shape.basis(t, 0, &mut b);
                     assert_eq!(cell, b.cell, "{t:?}");
                     assert_eq!(first.len() * rest.len(), b.value.len());
                     for (a, &v) in b.value.iter().enumerate() {
                         assert!((first[a / rest.len()] * rest[a % rest.len()] - v).abs() < 1e-15);
                     }
+                    // Along the same v, the other factor is kept and only the first computed.
+                    let next = [(t[0] + 0.37) % 1.0, t[1]];
+                    let kept = shape.product_basis(next, &mut first, &mut rest, Some(cell));
+                    let (mut f2, mut r2) = (Vec::new(), Vec::new());
+                    assert_eq!(
+                        kept,
+                        shape.product_basis(next, &mut f2, &mut r2, None),
+                        "{next:?}"
+                    );
+                    assert_eq!((&first, &rest), (&f2, &r2));
                     // The row through v is the grid along u at that v, with its u derivatives.
                     let (curve, row) = shape.first_curve(grid.design(), t).unwrap();
                     let ctrl = curve.prepare(&row);

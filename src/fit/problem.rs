@@ -1354,10 +1354,16 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             |(ata, atq, b), range| {
                 let mut run = ProductRun::default();
                 let (mut first, mut rest) = (Vec::new(), Vec::new());
+                // The previous point's parameters and cell, for its other factor.
+                let mut prev: Option<([f64; K], usize)> = None;
                 for j in range {
                     let q = self.points[j];
                     let w = self.weight(j);
-                    if let Some(cell) = self.shape.product_basis(params[j], &mut first, &mut rest) {
+                    let t = params[j];
+                    let same = prev.filter(|(p, _)| p[1..] == t[1..]).map(|(_, c)| c);
+                    let product = self.shape.product_basis(t, &mut first, &mut rest, same);
+                    prev = product.map(|c| (t, c));
+                    if let Some(cell) = product {
                         if run.cell != Some(cell) || run.rest != rest {
                             if let Some(c) = run.cell {
                                 run.flush(&pat.slots[c], self.shape.support(c), ata, atq);
