@@ -461,16 +461,21 @@ mod tests {
         assert!(grid.continuity_error() < 1e-9, "{}", grid.continuity_error());
     }
 
-    #[test]
-    fn partial_derivatives_are_continuous_at_a_border() {
-        let u = ChainLayout::with_breaks(3, vec![0.0, 0.3, 1.0], Continuity::C1).unwrap();
-        let v = ChainLayout::with_breaks(2, vec![0.0, 0.6, 1.0], Continuity::C1).unwrap();
+    /// A grid on `u` x `v` whose design point `(i, j)` is `(i, j, ((i nv + j) 7 mod 5) / 10)`.
+    fn stepped(u: ChainLayout, v: ChainLayout) -> PatchGrid<DVec3> {
         let g = GridLayout::new(u, v);
         let (nu, nv) = g.design_shape();
         let design: Vec<DVec3> = (0..nu * nv)
             .map(|i| DVec3::new((i / nv) as f64, (i % nv) as f64, ((i * 7) % 5) as f64 * 0.1))
             .collect();
-        let grid = PatchGrid::new(g, design).unwrap();
+        PatchGrid::new(g, design).unwrap()
+    }
+
+    #[test]
+    fn partial_derivatives_are_continuous_at_a_border() {
+        let u = ChainLayout::with_breaks(3, vec![0.0, 0.3, 1.0], Continuity::C1).unwrap();
+        let v = ChainLayout::with_breaks(2, vec![0.0, 0.6, 1.0], Continuity::C1).unwrap();
+        let grid = stepped(u, v);
         let h = 1e-9;
         for &v in &[0.1, 0.5, 0.9] {
             let (_, a, _) = grid.partials(0.3 - h, v);
@@ -488,12 +493,7 @@ mod tests {
     fn partials_on_a_sample_grid_are_the_partials_bit_for_bit() {
         let u = ChainLayout::with_breaks(4, vec![0.0, 0.2, 0.35, 1.0], Continuity::C2).unwrap();
         let v = ChainLayout::with_breaks(3, vec![0.0, 0.6, 1.0], Continuity::C1).unwrap();
-        let g = GridLayout::new(u, v);
-        let (nu, nv) = g.design_shape();
-        let design: Vec<DVec3> = (0..nu * nv)
-            .map(|i| DVec3::new((i / nv) as f64, (i % nv) as f64, ((i * 7) % 5) as f64 * 0.1))
-            .collect();
-        let grid = PatchGrid::new(g, design).unwrap();
+        let grid = stepped(u, v);
         // Breaks, ends and points between them.
         let us: Vec<f64> = (0..=40).map(|k| k as f64 / 40.0).chain([0.2, 0.35]).collect();
         let vs: Vec<f64> = (0..=25).map(|k| k as f64 / 25.0).chain([0.6]).collect();
