@@ -213,13 +213,17 @@ impl GramPattern {
         }
     }
 
-    /// Row `i`'s entries `(l, value)` of the values `val`.
-    fn row<'v>(&'v self, val: &'v [f64], i: usize) -> impl Iterator<Item = (usize, f64)> + 'v {
-        let r = self.start[i]..self.start[i + 1];
-        self.col[r.clone()]
+    /// Row `i`'s columns: the design points that share a cell with `i` (itself included).
+    fn neighbours(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        self.col[self.start[i]..self.start[i + 1]]
             .iter()
             .map(|&l| l as usize)
-            .zip(val[r].iter().copied())
+    }
+
+    /// Row `i`'s entries `(l, value)` of the values `val`.
+    fn row<'v>(&'v self, val: &'v [f64], i: usize) -> impl Iterator<Item = (usize, f64)> + 'v {
+        self.neighbours(i)
+            .zip(val[self.start[i]..self.start[i + 1]].iter().copied())
     }
 }
 
@@ -324,6 +328,10 @@ pub struct Constraint {
     /// of the data's normal matrix.
     fair: Option<(Vec<SparseRow>, f64)>,
 }
+
+/// A curve through held parameter values ([`FitProblem::held_curve`]): the values, and the
+/// curve's shape with its prepared design.
+type HeldCurve<'s, P, const K: usize> = ([f64; K], FirstCurve<'s, P>);
 
 /// A sparse row: `(unknown, weight)` entries.
 type SparseRow = Vec<(usize, f64)>;
@@ -1084,28 +1092,20 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             "project: one parameter per point"
         );
         let prepared = self.shape.prepare(design);
-        // Every parameter but the first held (a sectioned cloud's points move along their
-        // section): each point's search runs on the shape's curve through its held values,
-        // built once for every run of points that share them.
-        let along_first = self.along_first();
         let run = |offset: usize, ts: &mut [[f64; K]]| {
             let mut b = Basis::new();
             let mut b1 = Basis::<1>::new();
-            // The held values, the curve through them and its prepared design.
-            let mut curve: Option<([f64; K], FirstCurve<'_, S::Point>)> = None;
+            // With every parameter but the first held (a sectioned cloud's points move along
+            // their section), each point's search runs on the curve through its held values.
+            let mut cache = None;
             let (mut sum, mut max) = (0.0, 0.0_f64);
             for (j, t) in ts.iter_mut().enumerate() {
                 let q = self.points[offset + j];
-                if along_first && curve.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
-                    curve = self
-                        .shape
-                        .first_curve(design, *t)
-                        .map(|(shape, row)| (*t, (shape, shape.prepare(&row))));
-                }
+                let curve = self.held_curve(design, *t, &mut cache);
                 let d2 = if self.anchored[offset + j] {
                     self.shape.basis(*t, 0, &mut b);
                     (self.shape.jet(&b, design, 0).point - q).length_squared()
-                } else if let Some((_, (shape, ctrl))) = curve.as_ref().filter(|_| along_first) {
+                } else if let Some((shape, ctrl)) = curve {
                     let f = refine_held(*shape, ctrl, q, [t[0]], [false], &self.foot, &mut b1);
                     t[0] = f.t[0];
                     f.dist_sq
@@ -1141,21 +1141,14 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         let mut b = Basis::new();
         let mut b1 = Basis::<1>::new();
         let prepared = self.shape.prepare(design);
-        // As in `project_max`: with every parameter but the first held, each run of points
-        // that share the held values is evaluated on the curve through them.
-        let mut curve: Option<([f64; K], FirstCurve<'_, S::Point>)> = None;
+        // As in `project_max`: on the curves through the held values, where there are such.
+        let mut cache = None;
         params
             .iter()
             .zip(self.points)
             .map(|(&t, &q)| {
-                if self.along_first() && curve.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
-                    curve = self
-                        .shape
-                        .first_curve(design, t)
-                        .map(|(shape, row)| (t, (shape, shape.prepare(&row))));
-                }
-                let p = match curve.as_ref().filter(|_| self.along_first()) {
-                    Some((_, (shape, ctrl))) => shape.jet_at(ctrl, [t[0]], 0, &mut b1).point,
+                let p = match self.held_curve(design, t, &mut cache) {
+                    Some((shape, ctrl)) => shape.jet_at(ctrl, [t[0]], 0, &mut b1).point,
                     None => self.shape.jet_at(&prepared, t, 0, &mut b).point,
                 };
                 (p - q).length()
@@ -1168,6 +1161,27 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     /// ([`Shape::first_curve`]).
     fn along_first(&self) -> bool {
         K > 1 && !self.held[0] && self.held[1..].iter().all(|&h| h)
+    }
+
+    /// The curve through `t`'s held values ([`Shape::first_curve`]) with its prepared design,
+    /// kept in `cache` and made again only when they change (a run of points of one
+    /// section shares it); `None` unless [`FitProblem::along_first`] and the shape has one.
+    fn held_curve<'c>(
+        &'a self,
+        design: &[S::Point],
+        t: [f64; K],
+        cache: &'c mut Option<HeldCurve<'a, S::Point, K>>,
+    ) -> Option<&'c FirstCurve<'a, S::Point>> {
+        if !self.along_first() {
+            return None;
+        }
+        if cache.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
+            *cache = self
+                .shape
+                .first_curve(design, t)
+                .map(|(shape, row)| (t, (shape, shape.prepare(&row))));
+        }
+        cache.as_ref().map(|c| &c.1)
     }
 
     /// `Σ w_j |C(t_j) - q_j|²` at the given parameters.
@@ -1261,11 +1275,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     fn band_plans(&self, pat: &GramPattern) -> Vec<Option<BandPlan>> {
         let m = self.design_count();
         let dim = S::Point::DIM;
-        let neighbours = |i: usize| {
-            pat.col[pat.start[i]..pat.start[i + 1]]
-                .iter()
-                .map(|&l| l as usize)
-        };
+        let neighbours = |i: usize| pat.neighbours(i);
         // The shape's orders of its design points fit the systems whose unknowns are the
         // design points themselves.
         let orders = self.shape.narrow_orders();
