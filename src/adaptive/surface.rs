@@ -988,27 +988,26 @@ impl<'d, 'a> Search<'d, 'a> {
     /// also passes the fold check, which runs first: it costs less than the checker, and
     /// most of the bulk families' break removals that the checker refuses fold.
     fn met(&self, fam: &Family, c: &Cand) -> bool {
-        if c.fit.measure > self.opts.tol {
-            return false;
-        }
-        let Ok(grid) = encode(self.data, fam, c).grid() else {
-            return false;
-        };
-        if fam.bulk && fold_at(&grid).is_some() {
-            return false;
-        }
-        norm_of(&sampled_offsets(&grid, self.data.points), self.opts.norm) <= self.opts.tol
+        self.checkable(fam, c).is_some_and(|grid| {
+            !(fam.bulk && fold_at(&grid).is_some())
+                && norm_of(&sampled_offsets(&grid, self.data.points), self.opts.norm) <= self.opts.tol
+        })
     }
 
     /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
     /// tolerance, with the grid the stored numbers regenerate (for the fold check); `None`
     /// when they do not.
     fn check(&self, fam: &Family, c: &Cand) -> Option<(Vec<f64>, PatchGrid<DVec3>)> {
-        if c.fit.measure > self.opts.tol {
-            return None;
-        }
-        let grid = encode(self.data, fam, c).grid().ok()?;
+        let grid = self.checkable(fam, c)?;
         Some((sampled_offsets(&grid, self.data.points), grid))
+    }
+
+    /// The grid the stored numbers of a candidate regenerate, when its own offsets meet the
+    /// tolerance (the checker and the fold check look at no other).
+    fn checkable(&self, fam: &Family, c: &Cand) -> Option<PatchGrid<DVec3>> {
+        (c.fit.measure <= self.opts.tol)
+            .then(|| encode(self.data, fam, c).grid().ok())
+            .flatten()
     }
 
     /// The u split: in the segment holding the worst point, at the squared-error-weighted
