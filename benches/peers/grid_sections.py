@@ -21,6 +21,10 @@ section's points cover (each point's foot approximated by the nearest of 200,001
 samples): where the surface leaves the cloud at u below the first foot or above the last one,
 the grid runs past the section's trailing-edge points (an overhang the fit's own offsets do
 not see: no data point is closer to it).
+
+With `--tol T` it also counts, section by section, the points farther than T from the
+surface's curve at their section (v = v_k held, as the fit's own foot points are: the
+distance to the two sample chords either side of the nearest of the 200,001 samples).
 Needs numpy and scipy.
 """
 import argparse
@@ -45,6 +49,7 @@ def main():
     ap.add_argument("report")
     ap.add_argument("cloud")
     ap.add_argument("--top", type=int, default=5)
+    ap.add_argument("--tol", type=float, help="count the points farther than this, by section")
     args = ap.parse_args()
     r = json.load(open(args.report))
     du, dv = r["degree"]
@@ -75,18 +80,31 @@ def main():
         print(f"  sections {k}-{k + 1} (v {vm:.4f}): {dist:.3e} at u {uw:.5f} (the sections {apart:.3e} apart)")
     fine = np.linspace(0, 1, 200001)
     Bf = bu(fine)
-    at = []
+    at, beyond = [], []
     for k in range(len(v)):
         s = (Bf @ np.einsum("j,ijc->ic", bv([v[k]])[0], net))[:, :2]
         a = pts[sec == k][:, :2]
         dist, _ = cKDTree(a).query(s)
         _, foot = cKDTree(s).query(a)
+        if args.tol is not None:
+            off = np.full(len(a), np.inf)
+            for i0 in (np.maximum(foot - 1, 0), foot):
+                p0, d0 = s[i0], s[np.minimum(i0 + 1, len(s) - 1)] - s[i0]
+                t = np.clip(np.sum((a - p0) * d0, axis=1) / np.maximum(np.sum(d0 * d0, axis=1), 1e-300), 0, 1)
+                off = np.minimum(off, np.linalg.norm(a - p0 - t[:, None] * d0, axis=1))
+            beyond.append((k, int(np.sum(off > args.tol)), off.max()))
         w = dist.argmax()
         at.append((dist[w], k, fine[w], fine[foot].min(), fine[foot].max()))
     at.sort(reverse=True)
     print(f"{args.report}: surface at the sections, farthest from the section's own points")
     for dist, k, uw, lo, hi in at[: args.top]:
         print(f"  section {k} (v {v[k]:.4f}): {dist:.3e} at u {uw:.5f} (its points' feet cover u {lo:.5f} to {hi:.5f})")
+    if args.tol is not None:
+        total = sum(n for _, n, _ in beyond)
+        print(f"{args.report}: {total} points farther than {args.tol:.4g} from their section's curve")
+        for k, n, m in beyond:
+            if n:
+                print(f"  section {k}: {n} points, the farthest {m:.3e}")
     fold = r.get("adapt", {}).get("fold")
     if fold:
         print(f"  fold check: {fold['max_turn_deg']:.1f} deg at u {fold['at'][0]:.5f}, v {fold['at'][1]:.5f}")
