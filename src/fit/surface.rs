@@ -323,25 +323,32 @@ pub struct SurfaceFit {
     /// The stages, in order.
     pub stages: Vec<SurfaceStage>,
     /// Iterations and evaluations summed over the stages, wall-clock seconds of the whole fit
-    /// (parameters and final offsets included).
+    /// (parameters and final offsets included), and the stop of the stage that decides how
+    /// the fit ended (see [`SurfaceFit::stopped`]).
     pub report: SolveReport,
     /// The evolutionary run (backend, throughput, stop) for the evolutionary methods.
     pub evolution: Option<EvoSummary>,
 }
 
 impl SurfaceFit {
-    /// The cap that cut the fit short: that of a least-squares stage (a generation limit is the
-    /// evolutionary stage's own end, and the whole-cloud polish after a subsample fit runs its
-    /// fixed number of iterations by design: neither is a cap); `None` when every other stage
-    /// stopped on its own.
+    /// The cap that cut the fit short: that of `report.stop`, the least-squares stage's (an
+    /// evolutionary method's polish included; not the generation limit, nor the whole-cloud
+    /// polish's fixed iterations); `None` when the fit stopped on its own.
     #[must_use]
     pub fn stopped(&self) -> Option<&'static str> {
-        let skip = usize::from(self.evolution.is_some());
-        self.stages[skip..]
-            .iter()
-            .filter(|s| s.name != POLISH_STAGE)
-            .find_map(|s| s.report.cap())
+        self.report.cap()
     }
+}
+
+/// The stage whose end is the fit's: the least-squares stage, an evolutionary method's polish
+/// included. A generation limit is the evolutionary stage's own end, and the whole-cloud
+/// polish after a subsample fit runs its fixed number of iterations by design: neither says
+/// whether the fit converged. `None` for an evolutionary method without a polish.
+fn deciding_stage(stages: &[SurfaceStage], evolution: bool) -> Option<&SurfaceStage> {
+    stages
+        .iter()
+        .skip(usize::from(evolution))
+        .find(|s| s.name != POLISH_STAGE)
 }
 
 /// Initial parameters of a cloud, and the name of the method that made them.
@@ -595,9 +602,7 @@ pub fn fit_surface_with(
     let (iterations, evaluations) = stages.iter().fold((0, 0), |(i, e), s| {
         (i + s.report.iterations, e + s.report.evaluations)
     });
-    // The whole-cloud polish runs a fixed number of iterations: the main stage says whether
-    // the fit converged.
-    let stop = stages.first().map_or(StopReason::Converged, |s| s.report.stop);
+    let stop = deciding_stage(&stages, evolution.is_some()).map_or(StopReason::Converged, |s| s.report.stop);
     Ok(SurfaceFit {
         grid,
         params: feet,
@@ -613,4 +618,47 @@ pub fn fit_surface_with(
         },
         evolution,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stage(name: &'static str, stop: StopReason) -> SurfaceStage {
+        SurfaceStage {
+            name,
+            points: 10,
+            report: SolveReport {
+                iterations: 1,
+                evaluations: 1,
+                seconds: 0.0,
+                stop,
+            },
+        }
+    }
+
+    #[test]
+    fn the_least_squares_stage_decides_how_a_fit_ended() {
+        use StopReason::{Converged, MaxEvaluations, MaxIterations};
+        let stop = |stages: &[SurfaceStage], evo: bool| deciding_stage(stages, evo).map(|s| s.report.stop);
+        // The subsample stage, not the whole-cloud polish that always ends at its cap.
+        let sub = [
+            stage("subsample", MaxEvaluations),
+            stage(POLISH_STAGE, MaxIterations),
+        ];
+        assert_eq!(stop(&sub, false), Some(MaxEvaluations));
+        let sub = [stage("subsample", Converged), stage(POLISH_STAGE, MaxIterations)];
+        assert_eq!(stop(&sub, false), Some(Converged));
+        // An evolutionary method's polish, not its generation limit.
+        let evo = [stage("ga", MaxIterations), stage("lsq", Converged)];
+        assert_eq!(stop(&evo, true), Some(Converged));
+        let evo = [
+            stage("ga", MaxIterations),
+            stage("lsq", MaxEvaluations),
+            stage(POLISH_STAGE, MaxIterations),
+        ];
+        assert_eq!(stop(&evo, true), Some(MaxEvaluations));
+        // Without a polish nothing caps it.
+        assert_eq!(stop(&[stage("ga", MaxIterations)], true), None);
+    }
 }
