@@ -588,7 +588,7 @@ impl<'a> Data<'a> {
 
     /// The initial `u` of every point in the family.
     fn u0(&self, fam: &Family) -> &[f64] {
-        match (&self.u0_te, fam.te) {
+        match (&self.u0_te, fam.te()) {
             (Some(u), true) => u,
             _ => &self.u0,
         }
@@ -866,16 +866,34 @@ struct Family {
     ov: usize,
     /// Breaks split at data-driven positions (stored) instead of equal.
     split: bool,
-    /// A bulk family ([`Search::grow_bulk`]): the sections' ends anchored, a break between
-    /// every two sections, u grown by splitting every bad segment at once, and the fold
-    /// check part of meeting the tolerance.
-    bulk: bool,
-    /// A trailing-edge family of the chord rule: a bulk family whose chordwise law carries
-    /// the trailing-edge term, with span fairness.
-    te: bool,
+    growth: Growth,
+}
+
+/// How a family grows and what it must pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Growth {
+    /// One break at a time, where it buys the most accuracy per stored scalar.
+    Greedy,
+    /// [`Search::grow_bulk`]: the sections' ends anchored, a break between every two
+    /// sections, u grown by splitting every bad segment at once, and the fold check part of
+    /// meeting the tolerance.
+    Bulk,
+    /// A bulk family of the chord rule whose chordwise law carries the trailing-edge term,
+    /// with span fairness.
+    TrailingEdge,
 }
 
 impl Family {
+    /// A bulk family (trailing-edge families included).
+    fn bulk(&self) -> bool {
+        self.growth != Growth::Greedy
+    }
+
+    /// A trailing-edge family.
+    fn te(&self) -> bool {
+        self.growth == Growth::TrailingEdge
+    }
+
     fn name(&self) -> String {
         format!(
             "d{}x{} C{}xC{} {}{}",
@@ -884,12 +902,10 @@ impl Family {
             self.ou,
             self.ov,
             if self.split { "split" } else { "uniform" },
-            if self.te {
-                " trailing-edge"
-            } else if self.bulk {
-                " bulk"
-            } else {
-                ""
+            match self.growth {
+                Growth::TrailingEdge => " trailing-edge",
+                Growth::Bulk => " bulk",
+                Growth::Greedy => "",
             }
         )
     }
@@ -935,7 +951,7 @@ impl<'d, 'a> Search<'d, 'a> {
             self.data.axes.len()
         };
         let frames = if self.data.blade.is_some() {
-            Chordwise::frame_len_for(fam.du, fam.te) * lv.design_count()
+            Chordwise::frame_len_for(fam.du, fam.te()) * lv.design_count()
         } else {
             0
         };
@@ -949,7 +965,7 @@ impl<'d, 'a> Search<'d, 'a> {
         let lv = fam.layout(fam.dv, fam.ov, bv)?;
         // The bulk families have a span a section, so dv more columns than sections: the chord
         // rule's span fairness holds them, and without it the ridge of a singular solve.
-        let limit_v = self.data.sections + if fam.bulk { fam.dv } else { 0 };
+        let limit_v = self.data.sections + if fam.bulk() { fam.dv } else { 0 };
         if lu.design_count() > self.limit_u || lv.design_count() > limit_v {
             return None;
         }
@@ -959,7 +975,7 @@ impl<'d, 'a> Search<'d, 'a> {
         }
         self.fits.fetch_add(1, Ordering::Relaxed);
         *count += 1;
-        let ends: Option<Vec<(usize, f64)>> = fam.bulk.then(|| {
+        let ends: Option<Vec<(usize, f64)>> = fam.bulk().then(|| {
             (0..self.data.sections)
                 .flat_map(|k| [(k * self.data.per, 0.0), ((k + 1) * self.data.per - 1, 1.0)])
                 .collect()
@@ -989,7 +1005,7 @@ impl<'d, 'a> Search<'d, 'a> {
     /// most of the bulk families' break removals that the checker refuses fold.
     fn met(&self, fam: &Family, c: &Cand) -> bool {
         self.checkable(fam, c).is_some_and(|grid| {
-            !(fam.bulk && fold_at(&grid).is_some())
+            !(fam.bulk() && fold_at(&grid).is_some())
                 && norm_of(&sampled_offsets(&grid, self.data.points), self.opts.norm) <= self.opts.tol
         })
     }
@@ -1206,7 +1222,7 @@ impl<'d, 'a> Search<'d, 'a> {
         };
         let mut nfits = 0;
         let mut closest: Option<Cand> = None;
-        if fam.bulk {
+        if fam.bulk() {
             let winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
             return self.finish(fam, winner, closest, nfits, trace);
         }
@@ -1311,7 +1327,7 @@ impl<'d, 'a> Search<'d, 'a> {
         mut trace: SurfaceFamilyTrace,
     ) -> (Option<Cand>, Option<Cand>, SurfaceFamilyTrace) {
         let winner = winner.map(|mut w| {
-            if fam.bulk {
+            if fam.bulk() {
                 // One sweep over the breaks, each tried once (the greedy families' repeated
                 // sweeps took 100 s on the IEA 15 MW cloud).
                 for dir in 0..2 {
@@ -1381,7 +1397,11 @@ fn store(data: &Data<'_>, fam: &Family, bu: &[f64], bv: &[f64], design: &[DVec3]
             let lu = fam.layout(fam.du, fam.ou, bu)?;
             let lv = fam.layout(fam.dv, fam.ov, bv)?;
             let frames = ColumnFrames::new(&lv, &data.v, sections);
-            frames.store(&Chordwise::new(&lu, fam.te), [data.axes[0], data.axes[1]], design)
+            frames.store(
+                &Chordwise::new(&lu, fam.te()),
+                [data.axes[0], data.axes[1]],
+                design,
+            )
         }
         None => Some(
             design
@@ -1411,7 +1431,7 @@ fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding {
         breaks_v: stored(&c.bv),
         span_rule: data.span,
         chord_rule: data.blade.is_some(),
-        te_term: data.blade.is_some() && Chordwise::carries(fam.du, fam.te),
+        te_term: data.blade.is_some() && Chordwise::carries(fam.du, fam.te()),
         coords,
     }
 }
@@ -1613,8 +1633,7 @@ fn run_families(
                         ou,
                         ov: dv - 1,
                         split,
-                        bulk: false,
-                        te: false,
+                        growth: Growth::Greedy,
                     });
                 }
             }
@@ -1631,8 +1650,7 @@ fn run_families(
                     ou: du - 1,
                     ov: dv - 1,
                     split: true,
-                    bulk: true,
-                    te,
+                    growth: if te { Growth::TrailingEdge } else { Growth::Bulk },
                 });
             }
         }
@@ -1649,7 +1667,7 @@ fn run_families(
             .iter()
             .copied()
             .enumerate()
-            .filter(|(_, f)| f.bulk == bulk)
+            .filter(|(_, f)| f.bulk() == bulk)
             .collect();
         picked
             .par_iter()
@@ -1707,7 +1725,7 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
         lv,
         &points,
         kept.iter().map(|&p| v[p]).collect(),
-        fam.bulk.then_some(&ends[..]),
+        fam.bulk().then_some(&ends[..]),
     )?;
     let u0: Vec<f64> = kept.iter().map(|&p| data.u0(fam)[p]).collect();
     let fit = f.fit(&u0, opts)?;
