@@ -8,8 +8,10 @@ For every point with three neighbours on either side, the seven points are fitte
 least-squares sense by one cubic per coordinate over their chord-length parameter, and the
 point's *residual* is its distance from that fit. On a smooth contour sampled at spacing h
 the residual is of order h^4 times the fourth derivative: far below the tolerances of
-interest. Digitising noise of amplitude s gives residuals of order s, and a corner gives one
-large residual. A fit of low-degree pieces (or any smooth surface) cannot follow a point
+interest where the spacing is fine for the curvature, but not at a coarsely sampled leading
+edge (NACA 4413 at 82 points: 5.1e-4 chords there). Digitising noise of amplitude s gives
+residuals of order s, and a corner gives one large residual: read the residuals beside a
+fit of the same contour. A fit of low-degree pieces (or any smooth surface) cannot follow a point
 whose residual is larger than the tolerance without a break next to it.
 
 `cloud`: a sectioned cloud from `bezchain blade` (columns x,y,z,section,index; sections are
