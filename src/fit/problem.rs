@@ -13,7 +13,7 @@ use super::band::{BandMatrix, BandPlan};
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
 use super::population::Frame;
-use super::shape::{Basis, CurveShape, FirstCurve, GridShape, Shape};
+use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
 use crate::closest::{closest_all, refine_held, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
@@ -329,9 +329,15 @@ pub struct Constraint {
     fair: Option<(Vec<SparseRow>, f64)>,
 }
 
-/// A curve through held parameter values ([`FitProblem::held_curve`]): the values, and the
-/// curve's shape with its prepared design.
-type HeldCurve<'s, P, const K: usize> = ([f64; K], FirstCurve<'s, P>);
+/// A curve through held parameter values ([`FitProblem::held_curve`]).
+struct HeldCurve<'s, P, const K: usize> {
+    /// The parameters it was made for (`t[1..]` held; `t[0]` runs along it).
+    t: [f64; K],
+    /// The curve's shape.
+    shape: &'s CurveShape<P>,
+    /// Its design, prepared for evaluation ([`Shape::prepare`]).
+    ctrl: Vec<P>,
+}
 
 /// A sparse row: `(unknown, weight)` entries.
 type SparseRow = Vec<(usize, f64)>;
@@ -1105,8 +1111,8 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                 let d2 = if self.anchored[offset + j] {
                     self.shape.basis(*t, 0, &mut b);
                     (self.shape.jet(&b, design, 0).point - q).length_squared()
-                } else if let Some((shape, ctrl)) = curve {
-                    let f = refine_held(*shape, ctrl, q, [t[0]], [false], &self.foot, &mut b1);
+                } else if let Some(h) = curve {
+                    let f = refine_held(h.shape, &h.ctrl, q, [t[0]], [false], &self.foot, &mut b1);
                     t[0] = f.t[0];
                     f.dist_sq
                 } else {
@@ -1148,7 +1154,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
             .zip(self.points)
             .map(|(&t, &q)| {
                 let p = match self.held_curve(design, t, &mut cache) {
-                    Some((shape, ctrl)) => shape.jet_at(ctrl, [t[0]], 0, &mut b1).point,
+                    Some(h) => h.shape.jet_at(&h.ctrl, [t[0]], 0, &mut b1).point,
                     None => self.shape.jet_at(&prepared, t, 0, &mut b).point,
                 };
                 (p - q).length()
@@ -1171,17 +1177,18 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         design: &[S::Point],
         t: [f64; K],
         cache: &'c mut Option<HeldCurve<'a, S::Point, K>>,
-    ) -> Option<&'c FirstCurve<'a, S::Point>> {
+    ) -> Option<&'c HeldCurve<'a, S::Point, K>> {
         if !self.along_first() {
             return None;
         }
-        if cache.as_ref().is_none_or(|c| c.0[1..] != t[1..]) {
-            *cache = self
-                .shape
-                .first_curve(design, t)
-                .map(|(shape, row)| (t, (shape, shape.prepare(&row))));
+        if cache.as_ref().is_none_or(|c| c.t[1..] != t[1..]) {
+            *cache = self.shape.first_curve(design, t).map(|(shape, row)| HeldCurve {
+                t,
+                shape,
+                ctrl: shape.prepare(&row),
+            });
         }
-        cache.as_ref().map(|c| &c.1)
+        cache.as_ref()
     }
 
     /// `Σ w_j |C(t_j) - q_j|²` at the given parameters.
