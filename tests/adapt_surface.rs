@@ -470,13 +470,9 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 #[test]
 #[ignore = "half a minute in release; run with --release -- --ignored"]
 fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
-    let (points, grid) = lofted("data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml", Some(30));
-    let chord = grid.largest_chord(&points);
-    assert!((chord - 5.765).abs() < 1e-3, "largest chord {chord}");
-    let tol = 1e-3 * chord;
-    let r = met_with_defaults(&points, grid, tol, "IEA 15 MW at 1e-3");
+    let path = "data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml";
+    let r = meets_issue_12_at_1e3(path, Some(30), 5.765, 1629, "IEA 15 MW at 1e-3");
     assert!(r.encoding.te_term, "{}", r.family);
-    assert_meets_issue_12(&r, tol, 1629);
 }
 
 /// The IEA 3.4 MW AeroDyn 15 blade (30 stations of 160 points), at 1e-3 of its largest
@@ -486,16 +482,9 @@ fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
 #[test]
 #[ignore = "a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
-    let (points, grid) = lofted(
-        "data/blades/iea-3.4-130-rwt/openfast/IEA-3.4-130-RWT_AeroDyn15.dat",
-        None,
-    );
-    let chord = grid.largest_chord(&points);
-    assert!((chord - 4.2889).abs() < 1e-3, "largest chord {chord}");
-    let tol = 1e-3 * chord;
-    let r = met_with_defaults(&points, grid, tol, "IEA 3.4 MW at 1e-3");
+    let path = "data/blades/iea-3.4-130-rwt/openfast/IEA-3.4-130-RWT_AeroDyn15.dat";
+    let r = meets_issue_12_at_1e3(path, None, 4.2889, 2611, "IEA 3.4 MW at 1e-3");
     assert!(r.family.ends_with(" bulk"), "{}", r.family);
-    assert_meets_issue_12(&r, tol, 2611);
 }
 
 /// The same IEA 3.4 MW blade from its windIO v1 file (30 sections of 160 points): within
@@ -503,16 +492,28 @@ fn the_iea_3_4mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
 #[test]
 #[ignore = "a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_windio_v1_cloud_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
-    let (points, grid) = lofted(
-        "data/blades/iea-3.4-130-rwt/windio/IEA-3.4-130-RWT.yaml",
-        Some(30),
-    );
-    let chord = grid.largest_chord(&points);
-    assert!((chord - 4.2902).abs() < 1e-3, "largest chord {chord}");
-    let tol = 1e-3 * chord;
-    let r = met_with_defaults(&points, grid, tol, "IEA 3.4 MW windIO v1 at 1e-3");
+    let path = "data/blades/iea-3.4-130-rwt/windio/IEA-3.4-130-RWT.yaml";
+    let r = meets_issue_12_at_1e3(path, Some(30), 4.2902, 2373, "IEA 3.4 MW windIO v1 at 1e-3");
     assert!(r.family.ends_with(" bulk"), "{}", r.family);
-    assert_meets_issue_12(&r, tol, 2373);
+}
+
+/// A reference blade lofted to 160 points a section (`sections` sections), its largest chord
+/// `chord` (to 1e-3), searched with the default options at 1e-3 of that chord and held to
+/// issue 12's bars against `scipy` coefficients ([`assert_meets_issue_12`]).
+fn meets_issue_12_at_1e3(
+    path: &str,
+    sections: Option<usize>,
+    chord: f64,
+    scipy: usize,
+    label: &str,
+) -> AdaptedSurface {
+    let (points, grid) = lofted(path, sections);
+    let largest = grid.largest_chord(&points);
+    assert!((largest - chord).abs() < 1e-3, "largest chord {largest}");
+    let tol = 1e-3 * largest;
+    let r = met_with_defaults(&points, grid, tol, label);
+    assert_meets_issue_12(&r, tol, scipy);
+    r
 }
 
 /// A reference blade file lofted to 160 points a section (and `sections` sections).
