@@ -878,6 +878,7 @@ struct Family {
     ov: usize,
     /// Breaks split at data-driven positions (stored) instead of equal.
     split: bool,
+    /// How it grows ([`Growth`]).
     growth: Growth,
 }
 
