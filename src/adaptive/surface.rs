@@ -1170,7 +1170,8 @@ impl<'d, 'a> Search<'d, 'a> {
             }
             // Split where the offsets exceed half the largest (and 0.9 of the tolerance): on
             // the IEA 15 MW at 1e-3 this met it with 448 stored scalars where splitting every
-            // segment beyond 0.9 of the tolerance stopped at 538, and at 1e-4 it got to
+            // segment beyond 0.9 of the tolerance stopped at 538 (both with the reduction in
+            // break order, before `sweep_bulk`), and at 1e-4 it got to
             // 1.2e-3 before the data's limit, where the other reached it at 2.9e-3.
             let aim = (0.5 * norm_of(&err, Norm::Max)).max(0.9 * tol);
             // u: the segments holding a point beyond the aim.
@@ -1690,9 +1691,10 @@ fn run_families(
             }
             // The bulk families: under the chord rule the trailing-edge families, from the
             // degree that carries the term (round and blunt root sections, bulging ends);
-            // without it every degree. On the IEA 3.4 MW cloud at 1e-3 the plain bulk d4x3
-            // met the tolerance with 1,238 stored scalars where no greedy plain family met it
-            // (their closest layouts overhung, the checker's max 13.6 times the fit's own).
+            // without it every degree. On the IEA 3.4 MW cloud at 1e-3 the plain bulk d4x2
+            // meets the tolerance with 1,194 stored scalars where no greedy plain family meets
+            // it (their closest layouts overhung, the checker's max 13.6 times the fit's own,
+            // when this was measured at stop 24).
             let te = data.u0_te.is_some() && du >= TE_DEGREE;
             if te || data.blade.is_none() {
                 families.push(Family {
@@ -1710,7 +1712,7 @@ fn run_families(
     // scalars those met the tolerance with (as the curve search prunes by the batches before,
     // with a bound fixed while a batch runs, so the result does not depend on thread timing).
     // On the IEA 15 MW at 1e-3 the greedy chord-rule families spent 80 fits each beyond the
-    // trailing-edge families' 448 without meeting it.
+    // trailing-edge families' count (448 then) without meeting it.
     // Each result with its family's place in `families`, which orders the trace.
     let done = AtomicUsize::new(0);
     let run = |bulk: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
