@@ -3,10 +3,10 @@
 //! joint method replaces. Run with `cargo bench --bench fit`.
 
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::fit::{
-    fit_curve, lsq, CurveProblem, FitOptions, LsqHooks, LsqMethod, LsqOptions, Method, Metric, Start,
-};
+use bezchain::fit::{fit_curve, FitOptions, Method};
 use bezchain::geometry::{Naca, NacaOptions};
+use bezchain::optim::{lsq, LsqHooks, LsqMethod, LsqOptions, Start};
+use bezchain::problem::{CurveProblem, Metric};
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
 use glam::DVec2;
 

@@ -1,6 +1,6 @@
 //! Criterion benchmark of population evaluation (`cargo bench --bench population`): a 2 x 2
 //! bicubic grid, 4096 points, 1024 individuals, newton 0 and 2, on every CPU kernel set and
-//! the GPU; and the idea of issue 14 measured against it: at fixed parameters each
+//! the GPU; and the quadratic-form shortcut measured against it: at fixed parameters each
 //! individual's sum of squares is a quadratic form of its design.
 //!
 //! **The quadratic form.** With the points' design-basis matrix `B` (N × n design points, the

@@ -12,7 +12,8 @@
 //! for any outside checker). `--repeat N` runs each case N times and reports the median seconds.
 
 use anyhow::{bail, Context, Result};
-use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptReport};
+use bezchain::adaptive::{adapt_curve, AdaptOptions};
+use bezchain::export::AdaptReport;
 use bezchain::export::InputInfo;
 use bezchain::geometry::read_curve;
 use std::collections::HashMap;

@@ -13,7 +13,9 @@
 //! - [`closest`]: the one closest-point search on chains and grids (f64, global seeding,
 //!   clamped Newton across cell borders), with its accuracy contract.
 //! - [`geometry`]: aerofoil generators, `.dat`/CSV/XYZ readers and writers, blade lofting.
-//! - [`fit`]: offset metrics, foot points, least squares, Nelder-Mead, BFGS, GA, CMA-ES.
+//! - [`problem`]: the fitting problem every solver consumes, offset metrics, foot-point starts.
+//! - [`optim`]: Nelder-Mead, BFGS, Levenberg-Marquardt, GA, CMA-ES, hybrids, checkpoints.
+//! - [`fit`]: fitting chains and grids to data with those optimisers.
 //! - [`adaptive`]: the fewest stored scalars that meet a tolerance (the paper's Figs. 7, 8).
 //! - [`eval`]: population evaluation on the CPU (rayon) and the GPU (wgpu).
 //! - [`export`]: JSON reports, SVG plots, meshes and renders.
@@ -30,5 +32,7 @@ pub mod export;
 pub mod fit;
 pub mod geometry;
 mod keyword;
+pub mod optim;
+pub mod problem;
 
 pub use error::{Error, Result};

@@ -8,9 +8,9 @@ mod common;
 
 use bezchain::adaptive::{
     adapt_surface, sampled_offsets, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions,
-    SurfaceAdaptReport,
 };
 use bezchain::chain::PatchGrid;
+use bezchain::export::SurfaceAdaptReport;
 use bezchain::geometry::{Blade, Grid, LoftOptions};
 use common::check::{check_surface_report, IndependentGrid};
 use common::{bin, crate_root, scratch};
@@ -462,7 +462,7 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
     r
 }
 
-/// Issue 12's real blade: the IEA 15 MW windIO v2 blade lofted to 30 sections of 160 points
+/// A real blade: the IEA 15 MW windIO v2 blade lofted to 30 sections of 160 points
 /// (`benches/peers/README.md`), at 1e-3 of its largest chord. The trailing-edge families meet
 /// the tolerance by the exact offsets and by the checker's within 10 %, with at most half the
 /// 1,629 coefficients of three scipy `RectBivariateSpline`s measured on the same cloud, a
@@ -471,7 +471,7 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 #[ignore = "half a minute in release; run with --release -- --ignored"]
 fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
     let path = "data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml";
-    let r = meets_issue_12_at_1e3(path, Some(30), 5.765, 1629, "IEA 15 MW at 1e-3");
+    let r = meets_blade_bars_at_1e3(path, Some(30), 5.765, 1629, "IEA 15 MW at 1e-3");
     assert!(r.encoding.te_term, "{}", r.family);
 }
 
@@ -483,7 +483,7 @@ fn the_iea_15mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
 #[ignore = "a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
     let path = "data/blades/iea-3.4-130-rwt/openfast/IEA-3.4-130-RWT_AeroDyn15.dat";
-    let r = meets_issue_12_at_1e3(path, None, 4.2889, 2611, "IEA 3.4 MW at 1e-3");
+    let r = meets_blade_bars_at_1e3(path, None, 4.2889, 2611, "IEA 3.4 MW at 1e-3");
     assert!(r.family.ends_with(" bulk"), "{}", r.family);
 }
 
@@ -493,14 +493,14 @@ fn the_iea_3_4mw_blade_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
 #[ignore = "a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_windio_v1_cloud_meets_1e3_of_its_chord_in_half_the_scipy_coefficients() {
     let path = "data/blades/iea-3.4-130-rwt/windio/IEA-3.4-130-RWT.yaml";
-    let r = meets_issue_12_at_1e3(path, Some(30), 4.2902, 2373, "IEA 3.4 MW windIO v1 at 1e-3");
+    let r = meets_blade_bars_at_1e3(path, Some(30), 4.2902, 2373, "IEA 3.4 MW windIO v1 at 1e-3");
     assert!(r.family.ends_with(" bulk"), "{}", r.family);
 }
 
 /// A reference blade lofted to 160 points a section (`sections` sections), its largest chord
 /// `chord` (to 1e-3), searched with the default options at 1e-3 of that chord and held to
-/// issue 12's bars against `scipy` coefficients ([`assert_meets_issue_12`]).
-fn meets_issue_12_at_1e3(
+/// the blade-fit bars against `scipy` coefficients ([`assert_meets_blade_bars`]).
+fn meets_blade_bars_at_1e3(
     path: &str,
     sections: Option<usize>,
     chord: f64,
@@ -512,7 +512,7 @@ fn meets_issue_12_at_1e3(
     assert!((largest - chord).abs() < 1e-3, "largest chord {largest}");
     let tol = 1e-3 * largest;
     let r = met_with_defaults(&points, grid, tol, label);
-    assert_meets_issue_12(&r, tol, scipy);
+    assert_meets_blade_bars(&r, tol, scipy);
     r
 }
 
@@ -529,10 +529,10 @@ fn lofted(path: &str, sections: Option<usize>) -> (Vec<DVec3>, Grid) {
     (cloud.points, cloud.grid.unwrap())
 }
 
-/// Issue 12's bars on a met result: at most half of `scipy` (the coefficients three scipy
+/// The blade-fit bars on a met result: at most half of `scipy` (the coefficients three scipy
 /// `RectBivariateSpline`s need on the same cloud), the checker within 10 % of the exact
 /// offsets, no fold, a held-out max within 3 times the tolerance.
-fn assert_meets_issue_12(r: &AdaptedSurface, tol: f64, scipy: usize) {
+fn assert_meets_blade_bars(r: &AdaptedSurface, tol: f64, scipy: usize) {
     assert!(2 * r.count.total <= scipy, "{} stored scalars", r.count.total);
     assert!(r.agreement <= 1.1, "checker/exact {}", r.agreement);
     assert!(r.fold.passes && r.fold.max_turn_deg <= 90.0, "{:?}", r.fold);

@@ -5,11 +5,10 @@
 
 mod common;
 
-use bezchain::adaptive::{
-    adapt_curve, chain_of, AdaptOptions, AdaptReport, Breaks, Encoding, Mode, Norm, XStore,
-};
+use bezchain::adaptive::{adapt_curve, chain_of, AdaptOptions, Breaks, Encoding, Mode, Norm, XStore};
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::error::Error;
+use bezchain::export::AdaptReport;
 use bezchain::export::InputInfo;
 use common::check::independent_offsets;
 use common::naca4413;

@@ -10,8 +10,8 @@ use bezchain::aero::{
     Paneling,
 };
 use bezchain::eval::Backend;
-use bezchain::fit::evo::Checkpoint;
 use bezchain::geometry::{Naca, NacaOptions};
+use bezchain::optim::evo::Checkpoint;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -90,7 +90,7 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
             assert_eq!(resumed.evaluations, whole.evaluations, "{method} at {at}");
             assert_eq!(resumed.reasons, whole.reasons, "{method} at {at}");
             let best =
-                |h: &[bezchain::fit::evo::Progress]| h.iter().map(|p| p.best.to_bits()).collect::<Vec<_>>();
+                |h: &[bezchain::optim::evo::Progress]| h.iter().map(|p| p.best.to_bits()).collect::<Vec<_>>();
             assert_eq!(best(&resumed.history), best(&whole.history), "{method} at {at}");
         }
         // NACA 0012 at 4° has CL 0.48; every method finds more within 8 generations.

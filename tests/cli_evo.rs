@@ -6,7 +6,7 @@ mod common;
 
 use common::cli::{assert_user_error, json, run, stderr};
 
-use bezchain::fit::evo::Checkpoint;
+use bezchain::optim::evo::Checkpoint;
 use common::check::check_curve_report;
 use common::{bin, crate_root, naca4413, scratch};
 use std::path::Path;

@@ -183,7 +183,7 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
         vertices.len()
     );
     for v in vertices.iter().step_by(97) {
-        // Meshes come from the dense evaluator (issue 11): f32 about the grid's centre, within
+        // Meshes come from the dense evaluator: f32 about the grid's centre, within
         // about 4 · 2⁻²⁴ of its extent of the f64 surface (2.2e-7 measured on this blade).
         assert!(check.distance(*v) < 1e-6, "OBJ vertex {v} off the surface");
     }

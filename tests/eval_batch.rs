@@ -96,7 +96,7 @@ fn bad_population_files_are_input_errors() {
 
 #[test]
 fn case_1_far_from_the_origin_gives_the_sums_it_gives_at_the_origin() {
-    // Issue 11: case 1's data, design and population moved by +1000 in x and y. With absolute
+    // Case 1's data, design and population moved by +1000 in x and y. With absolute
     // f32 coordinates `bezchain eval` gave 1.15e-7 instead of 1.468e-8 on both backends; the
     // door now reads rows in f64 and measures every individual against the first in f64.
     use bezchain::chain::ChainLayout;

@@ -7,10 +7,11 @@ mod eval_support;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
 use bezchain::eval::Backend;
-use bezchain::fit::evo::{
+use bezchain::fit::{fit_curve, FitOptions, Method};
+use bezchain::optim::evo::{
     evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, EvoResult, EvoStop, Evolution, PopulationObjective,
 };
-use bezchain::fit::{fit_curve, offset_stats, CurveProblem, FitOptions, Method, Metric};
+use bezchain::problem::{offset_stats, CurveProblem, Metric};
 use bezchain::Error;
 use glam::DVec2;
 
@@ -359,7 +360,7 @@ fn fit_curve_runs_the_hybrids_to_the_least_squares_optimum() {
         evo.stages[0].report.iterations + evo.stages[1].report.iterations
     );
     opts.method = Method::Cmaes;
-    opts.metric = bezchain::fit::Metric::Corresponding;
+    opts.metric = bezchain::problem::Metric::Corresponding;
     assert!(matches!(
         fit_curve(&points, layout, &opts),
         Err(Error::Invalid(_))
@@ -399,7 +400,7 @@ fn cpu_and_gpu_reach_the_same_best_offset() {
     }
 }
 
-/// Issues 11 and 14: case 1 (degree 3, 5 segments) moved 1000 chords from the origin (+1000 in
+/// Case 1 (degree 3, 5 segments) moved 1000 chords from the origin (+1000 in
 /// x and y) evolves as it does at the origin. The problem is centred on its box and the
 /// evaluator anchored at the best design, so the two runs see the same f32 numbers up to the
 /// rounding of the data's move: CMA-ES (λ = 128, to its flatness stop, in a minimum of
@@ -458,7 +459,7 @@ fn backends() -> Vec<Backend> {
     b
 }
 
-/// Issue 11: case 3 (degree 5, 3 segments) by CMA-ES with P 1024 reaches the minimum the
+/// Case 3 (degree 5, 3 segments) by CMA-ES with P 1024 reaches the minimum the
 /// build before the redesign reached (4.05e-8 on lavapipe), now that the evaluator is anchored
 /// at the mean: 2.27e-8 (anchored at a stale best it stopped at 6.6e-6). Release: a few
 /// seconds on the CPU, about 15 on lavapipe (`cargo test --release -- --ignored`).
@@ -472,7 +473,7 @@ fn case_3_cmaes_reaches_the_minimum() {
     }
 }
 
-/// Issue 11: case 2 (degree 4, 3 segments) has two minima, 1.310e-7 and 2.511e-7 (where
+/// Case 2 (degree 4, 3 segments) has two minima, 1.310e-7 and 2.511e-7 (where
 /// BFGS ends). CMA-ES with P 1024, seed 1, reaches the second on the CPU (seeds 1-8: 7 of 8
 /// reach the first; the build before the redesign 6 of 8, seed 1 among them); restarting while
 /// the 500 generations last (what `bezchain compare` does) reaches the first. Release, about
@@ -503,7 +504,7 @@ fn case_2_cmaes_restarts_reach_the_better_minimum() {
     }
 }
 
-/// Issue 14: case 1 (degree 3, 5 segments) by the GA, P 1024, 500 generations, on the CPU.
+/// Case 1 (degree 3, 5 segments) by the GA, P 1024, 500 generations, on the CPU.
 /// The bar is 1e-6 on seed 1, which the covariance mutation meets (seed 1: 3.0e-7 on the CPU
 /// and on lavapipe; seeds 1-6 median 3.8e-7). This test keeps the earlier, looser guard on the
 /// median over seeds 1-12 (tournaments of 4, SBX with η 15 variable by variable and 1 %

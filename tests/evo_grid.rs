@@ -3,10 +3,12 @@
 
 use bezchain::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use bezchain::eval::Backend;
-use bezchain::fit::evo::{
-    evolve, fit_grid_evo, Algorithm, Checkpoint, EvoHooks, EvoOptions, Evolution, PopulationObjective,
+use bezchain::fit::fit_grid_evo;
+use bezchain::optim::evo::{
+    evolve, Algorithm, Checkpoint, EvoHooks, EvoOptions, Evolution, PopulationObjective,
 };
-use bezchain::fit::{GridProblem, LsqOptions, Metric};
+use bezchain::optim::LsqOptions;
+use bezchain::problem::{GridProblem, Metric};
 use glam::DVec3;
 
 /// A grid problem: points, their uniform start parameters, the layout and the start net.

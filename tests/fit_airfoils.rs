@@ -4,7 +4,8 @@
 mod common;
 
 use bezchain::chain::{ChainLayout, Continuity, CurveChain};
-use bezchain::fit::{fit_curve, offset_stats, FitOptions};
+use bezchain::fit::{fit_curve, FitOptions};
+use bezchain::problem::offset_stats;
 use common::check::independent_offsets;
 use common::read_airfoil as read_dat;
 use glam::DVec2;

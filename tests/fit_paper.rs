@@ -4,9 +4,9 @@
 mod common;
 
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::fit::{
-    fit_curve, lsq, CurveProblem, FitOptions, LsqHooks, LsqMethod, LsqOptions, Method, Metric, Start,
-};
+use bezchain::fit::{fit_curve, FitOptions, Method};
+use bezchain::optim::{lsq, LsqHooks, LsqMethod, LsqOptions, Start};
+use bezchain::problem::{CurveProblem, Metric};
 use common::check::independent_offsets;
 use common::naca4413;
 

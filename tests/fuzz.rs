@@ -28,8 +28,8 @@
 mod common;
 
 use bezchain::export::{CadShape, Report};
-use bezchain::fit::evo::Checkpoint;
 use bezchain::geometry::{read_cloud, read_curve, read_points, Blade};
+use bezchain::optim::evo::Checkpoint;
 use proptest::prelude::*;
 use std::io::Read;
 use std::path::{Path, PathBuf};

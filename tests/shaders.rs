@@ -100,7 +100,7 @@ fn every_wgsl_file_validates_as_written() {
 #[test]
 fn the_embedded_sources_are_the_files() {
     let embedded = [
-        bezchain::eval::gpu::AERO,
+        bezchain::aero::batch::gpu::SOURCE,
         source::BASIS,
         source::CONFIG,
         source::DENSE_GRID,

@@ -58,14 +58,14 @@ fn a_cloud_sampled_from_a_known_grid_is_recovered() {
     };
     let layout = SurfaceLayout::from(truth.layout());
     let opts = SurfaceOptions {
-        lsq: bezchain::fit::LsqOptions {
+        lsq: bezchain::optim::LsqOptions {
             ftol: 1e-12,
             window: 10,
             max_iterations: 3000,
             ..SurfaceOptions::default().lsq
         },
         // The sheet runs along its own v; blade-aware axes do not apply.
-        blade: bezchain::fit::BladeParamOptions {
+        blade: bezchain::problem::BladeParamOptions {
             span: None,
             ..Default::default()
         },

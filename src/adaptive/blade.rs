@@ -37,13 +37,13 @@
 //! `P_ij = O⁰_j + (α_j + x_i c_j) d_j + s_ij d_j⊥`. The remaining two numbers of each frame are
 //! a gauge (a rotation or a thickness-direction shift of the frame is absorbed by the `y`),
 //! so fixing them from the data loses nothing. The one least-squares solver fits it as a
-//! coupled linear constraint ([`crate::fit::Constraint::coupled`]). The stored numbers are
+//! coupled linear constraint ([`crate::problem::Constraint::coupled`]). The stored numbers are
 //! `O_j = O⁰_j + α_j d_j`, `θ_j`, `c_j` and `y_ij = s_ij`. A section collapsed to a point (a
 //! blade tip) is a column of zero chord and zero thickness, which this form represents.
 
 use super::engine::rule_rows;
 use crate::chain::ChainLayout;
-use crate::fit::Constraint;
+use crate::problem::Constraint;
 use glam::{DVec2, DVec3};
 
 /// A section's leading-edge frame, in the two in-plane axes.

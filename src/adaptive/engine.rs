@@ -1,5 +1,5 @@
 //! The fits of the adaptive search: a candidate parameterisation (a layout and how x is
-//! stored) is fitted through the library's one least-squares solver ([`crate::fit::lsq`]) on
+//! stored) is fitted through the library's one least-squares solver ([`crate::optim::lsq`]) on
 //! the one fitting problem ([`FitProblem`]: ends anchored, the aerofoil rule a linear
 //! constraint on x), with the search's effort limits as an observer, and an optional
 //! minimax polish by Lawson's reweighting (the problem's weights).
@@ -9,14 +9,13 @@
 //! Newton search from each point's previous foot point, each the distance to *some* point of
 //! the curve, so never below the true closest distance, and a tolerance met by them is met
 //! by the true offsets. The design a search returns is re-measured with the global
-//! closest-point search ([`crate::fit::offset_stats`]) before it is reported.
+//! closest-point search ([`crate::problem::offset_stats`]) before it is reported.
 
 use crate::chain::{ChainLayout, CurveShape};
 use crate::closest::FootOptions;
 use crate::error::{Error, Result};
-use crate::fit::{
-    lsq, Constraint, CoordRule, DampingScale, FitProblem, LsqHooks, LsqIterate, LsqOptions, Metric, Start,
-};
+use crate::optim::{lsq, DampingScale, LsqHooks, LsqIterate, LsqOptions, Start};
+use crate::problem::{Constraint, CoordRule, FitProblem, Metric};
 use glam::DVec2;
 
 /// How the x coordinates of the design points are stored.

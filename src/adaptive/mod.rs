@@ -5,8 +5,6 @@
 //!   counted, and the control points regenerated from them.
 //! - `engine`: the fast warm-started closest-point fit the search runs on every candidate.
 //! - `search`: growth by splitting, reduction, break tuning, the parallel outer search.
-//! - [`report`]: the JSON reports: the curve and surface reports with an `adapt` block
-//!   (`docs/ARCHITECTURE.md` §5.6, §5.7).
 //! - [`surface`]: [`adapt_surface`], the same search for patch grids fitted to sectioned clouds.
 //!
 //! The search runs *families* in parallel (Fig. 8): a degree, a continuity of the joins
@@ -23,7 +21,7 @@
 //!
 //! The tolerance is judged on the fit's own foot-point distances (local Newton searches,
 //! never below the true distances); the result is re-measured with the global closest-point
-//! search of [`crate::fit::offset_stats`].
+//! search of [`crate::problem::offset_stats`].
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
@@ -32,13 +30,11 @@
 mod blade;
 pub mod encoding;
 mod engine;
-pub mod report;
 mod search;
 pub mod surface;
 
 pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
-pub use report::{AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport};
 pub use surface::{
     adapt_surface, adapt_surface_with, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule,
     SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress,
@@ -46,8 +42,8 @@ pub use surface::{
 
 use crate::chain::CurveChain;
 use crate::error::{Error, Result};
-use crate::fit::{chord_length_params, offset_stats, OffsetStats};
 use crate::keyword::keywords;
+use crate::problem::{chord_length_params, offset_stats, OffsetStats};
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

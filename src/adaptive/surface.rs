@@ -49,18 +49,18 @@ use super::encoding::Breaks;
 use super::{HeldOut, Norm};
 use crate::chain::{ChainLayout, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-pub use crate::fit::checker::{fold_check, sampled_offsets, FoldCheck};
+pub use crate::problem::checker::{fold_check, sampled_offsets, FoldCheck};
 
 /// Samples a patch in each direction of the result's fold check.
 pub const FOLD_SAMPLES: usize = 16;
 
 /// Equal u segments the bulk families start from (a break at the leading edge).
 const BULK_START: usize = 8;
-use crate::fit::{
-    lsq, shape_offsets, Constraint, CoordRule, FitProblem, FootOptions, GridProblem, GridShape, LsqHooks,
-    LsqIterate, LsqMethod, LsqOptions, Metric, OffsetStats, Start,
-};
+use crate::chain::GridShape;
+use crate::closest::FootOptions;
 use crate::geometry::Grid;
+use crate::optim::{lsq, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Start};
+use crate::problem::{shape_offsets, Constraint, CoordRule, FitProblem, GridProblem, Metric, OffsetStats};
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -839,7 +839,7 @@ fn norm_of(err: &[f64], norm: Norm) -> f64 {
 
 /// Closest-point offsets of `points` from `grid`: every point's distance to the nearest of
 /// the surface points found by the library's global search
-/// ([`crate::fit::grid_offset_stats`]'s), by the checker's (`checked`, from
+/// ([`crate::problem::grid_offset_stats`]'s), by the checker's (`checked`, from
 /// [`sampled_offsets`]) and, when given, the fit's own foot points (`own`). Each search ends
 /// on a point of the surface, so each is an upper bound of the true distance and so is their
 /// minimum; near a collapsed edge (a blade tip) any one of them can stop in a local minimum.
@@ -1693,8 +1693,7 @@ fn run_families(
             // degree that carries the term (round and blunt root sections, bulging ends);
             // without it every degree. On the IEA 3.4 MW cloud at 1e-3 the plain bulk d4x2
             // meets the tolerance with 1,194 stored scalars where no greedy plain family meets
-            // it (their closest layouts overhung, the checker's max 13.6 times the fit's own,
-            // when this was measured at stop 24).
+            // it (their closest layouts overhung, the checker's max 13.6 times the fit's own).
             let te = data.u0_te.is_some() && du >= TE_DEGREE;
             if te || data.blade.is_none() {
                 families.push(Family {

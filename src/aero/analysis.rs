@@ -127,26 +127,4 @@ impl AeroReport {
                 .collect(),
         }
     }
-
-    /// The picture: Cp against x at every angle above the shape.
-    #[must_use]
-    pub fn plot(&self, title: &str) -> super::plot::CpPlot {
-        let nodes: Vec<DVec2> = self.node_points.iter().map(|&p| DVec2::from_array(p)).collect();
-        super::plot::CpPlot {
-            title: title.into(),
-            curves: self
-                .pressure
-                .iter()
-                .zip(&self.polar)
-                .map(|(p, c)| super::plot::CpCurve {
-                    label: format!("α = {}°: CL {:.4}, CM {:.4}", p.alpha, c.cl, c.cm),
-                    points: nodes.iter().zip(&p.cp).map(|(n, &cp)| (n.x, cp)).collect(),
-                })
-                .collect(),
-            outlines: vec![super::plot::Outline {
-                label: format!("{} ({} nodes)", self.input.path, self.nodes),
-                nodes,
-            }],
-        }
-    }
 }

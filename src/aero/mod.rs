@@ -7,7 +7,6 @@
 //!   CM about the quarter chord, Cp at every node).
 //! - [`contour`]: [`Contour`] (a chain, a spline through raw coordinates) and
 //!   [`panel_params`], XFOIL's `PANE` node placement as fixed parameters on a contour.
-//! - [`plot`]: [`CpPlot`], Cp against x above the shapes, as SVG.
 //! - [`design`]: [`DesignSpace`], an adapted encoding's stored numbers as bounded offsets,
 //!   and their linear map to panel nodes.
 //! - [`batch`]: [`AeroBatch`], the panel method for populations: a node map linear in the
@@ -29,7 +28,6 @@ pub mod design;
 pub mod karman_trefftz;
 pub mod optimise;
 pub mod panel;
-pub mod plot;
 
 pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
 pub use batch::{
@@ -41,4 +39,3 @@ pub use design::{DesignSpace, Hold};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
 pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
-pub use plot::{CpCurve, CpPlot, Outline};

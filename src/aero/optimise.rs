@@ -1,4 +1,4 @@
-//! Aerodynamic shape optimisation: the GA and CMA-ES of [`crate::fit::evo`] on an
+//! Aerodynamic shape optimisation: the GA and CMA-ES of [`crate::optim::evo`] on an
 //! [`AeroProblem`] (an adapted encoding's stored numbers as bounded offsets, [`DesignSpace`]),
 //! a [`PopulationObjective`] whose every generation is one call of the panel-method evaluator
 //! ([`AeroBatch`] on the GPU or the CPU). The run is the project's one evolutionary driver,
@@ -20,11 +20,11 @@ use super::batch::{build_aero_evaluator, flags, AeroBatch, AeroEval, AeroEvaluat
 use super::design::DesignSpace;
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo, GpuOptions};
-use crate::fit::evo::{
+use crate::keyword::keywords;
+use crate::optim::evo::{
     default_lambda, Algorithm, Checkpoint, CmaesOptions, EvoOptions, EvoStop, Evolution, Fnv, GaOptions,
     PopulationObjective, Progress, Score, Scorer,
 };
-use crate::keyword::keywords;
 use serde::Serialize;
 
 /// An optimisation method.

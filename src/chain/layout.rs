@@ -694,6 +694,19 @@ const fn binomials() -> [[f64; MAX_SUPPORT]; MAX_SUPPORT] {
     t
 }
 
+/// The sample parameters of one direction: `per` steps in every segment between `breaks`
+/// (the breaks themselves exact).
+pub fn samples(breaks: &[f64], per: usize) -> Vec<f64> {
+    let mut t = Vec::with_capacity((breaks.len() - 1) * per + 1);
+    for w in breaks.windows(2) {
+        for k in 0..per {
+            t.push(w[0] + (w[1] - w[0]) * k as f64 / per as f64);
+        }
+    }
+    t.push(breaks[breaks.len() - 1]);
+    t
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,7 +12,7 @@ mod patch_grid;
 pub mod shape;
 
 pub use curve_chain::CurveChain;
-pub use layout::{ChainLayout, Continuity, SpanBasis, MAX_DEGREE, MAX_SUPPORT};
+pub use layout::{samples, ChainLayout, Continuity, SpanBasis, MAX_DEGREE, MAX_SUPPORT};
 pub use map::ExtractionMap;
 pub use patch_grid::{GridLayout, PatchGrid};
 pub use shape::{Basis, CurveShape, GridShape, Jet, Shape};

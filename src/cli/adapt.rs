@@ -5,10 +5,8 @@ use super::export::{CadArgs, CadOutputs};
 use super::output::{Output, Outputs};
 use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
-use bezchain::adaptive::{
-    adapt_curve, AdaptOptions, AdaptOutcome, AdaptReport, AdaptedCurve, Breaks, HeldOut, Mode, Norm,
-    SurfaceAdaptReport, XStore,
-};
+use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore};
+use bezchain::export::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
 use bezchain::export::{CadShape, CurvePlot, FitInfo, InputInfo, OffsetReport};
 use bezchain::geometry::read_curve;
 use clap::ValueEnum;
@@ -428,11 +426,11 @@ pub fn run(args: Args) -> Result<()> {
         outs.say(&summary(&name, points.len(), opts.tol, opts.norm, r));
     }
     if let (Some(o), Some((opts, r))) = (svg, results.last()) {
-        let offsets = bezchain::fit::shape_offsets(
-            &bezchain::fit::CurveShape::new(r.chain.layout().clone()),
+        let offsets = bezchain::problem::shape_offsets(
+            &bezchain::chain::CurveShape::new(r.chain.layout().clone()),
             r.chain.design(),
             points,
-            &bezchain::fit::FootOptions {
+            &bezchain::closest::FootOptions {
                 samples: 48,
                 ..Default::default()
             },

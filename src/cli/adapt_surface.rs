@@ -7,10 +7,10 @@ use super::progress::Generations;
 use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::adaptive::{
-    adapt_surface_with, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceAdaptReport,
-    SurfaceProgress,
+    adapt_surface_with, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceProgress,
 };
 use bezchain::export::InputInfo;
+use bezchain::export::SurfaceAdaptReport;
 use bezchain::geometry::read_cloud;
 use std::fmt::Write as _;
 use std::path::PathBuf;

@@ -5,7 +5,7 @@ use super::output::Outputs;
 use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
-use bezchain::export::Report;
+use bezchain::export::{CpPlot, Report};
 use bezchain::geometry::read_curve;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -92,9 +92,11 @@ pub fn run(args: Args) -> Result<()> {
     // Everything is made before anything is written.
     let svg = match &args.svg {
         Some(_) => Some(
-            report
-                .plot(&format!("{path_text}: inviscid Cp, {} panel nodes", report.nodes))
-                .to_svg()?,
+            CpPlot::of_report(
+                &report,
+                &format!("{path_text}: inviscid Cp, {} panel nodes", report.nodes),
+            )
+            .to_svg()?,
         ),
         None => None,
     };

@@ -7,7 +7,7 @@ use super::{bounded, parse_word};
 use anyhow::Result;
 use bezchain::eval::bench::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
-use bezchain::fit::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
+use bezchain::optim::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
 use std::path::PathBuf;
 
 /// Which kernel `bench` times.

@@ -6,10 +6,10 @@ use super::{bounded, usage};
 use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::Backend;
-use bezchain::fit::evo::{
+use bezchain::fit::{fit_curve, FitOptions, Method, PAPER_CASES};
+use bezchain::optim::evo::{
     CmaesOptions, EvoOptions, GA_GENERATIONS, GA_POPULATION, MAX_GENERATIONS, MAX_POPULATION,
 };
-use bezchain::fit::{fit_curve, FitOptions, Method, PAPER_CASES};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;

@@ -7,8 +7,8 @@ use super::progress::{Checkpoints, Generations};
 use super::usage;
 use anyhow::Result;
 use bezchain::eval::Backend;
-use bezchain::fit::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
-use bezchain::fit::SolveReport;
+use bezchain::optim::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
+use bezchain::optim::SolveReport;
 use std::path::{Path, PathBuf};
 
 /// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).

@@ -7,9 +7,10 @@ use super::{usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::export::{CurvePlot, CurveReport, InputInfo};
-use bezchain::fit::evo::{EvoHooks, Evolution};
-use bezchain::fit::{fit_curve_with, point_offsets, CurveFit, FitOptions, Method, Metric};
+use bezchain::fit::{fit_curve_with, CurveFit, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
+use bezchain::optim::evo::{EvoHooks, Evolution};
+use bezchain::problem::{point_offsets, Metric};
 use glam::DVec2;
 use std::path::{Path, PathBuf};
 

@@ -7,13 +7,13 @@ use super::{parse_pair, usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
 use bezchain::export::{render, render_svg, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
-use bezchain::fit::evo::{Checkpoint, EvoHooks, Evolution};
 use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
     SurfaceProgress,
 };
 use bezchain::geometry::{read_cloud, Blade};
+use bezchain::optim::evo::{Checkpoint, EvoHooks, Evolution};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -175,7 +175,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     // Layouts that do not depend on the cloud are checked now, not after a long read.
     if !matches!(layout.breaks_v, Breaks::Span(_)) {
-        let unit = bezchain::fit::SpanAxis {
+        let unit = bezchain::problem::SpanAxis {
             dir: DVec3::Z,
             lo: 0.0,
             hi: 1.0,
@@ -357,7 +357,7 @@ pub fn run(args: Args) -> Result<()> {
 
 /// The design net of `layout` on a unit span (its shape does not depend on the span).
 fn design_net(layout: &SurfaceLayout) -> Option<(usize, usize)> {
-    let unit = bezchain::fit::SpanAxis {
+    let unit = bezchain::problem::SpanAxis {
         dir: DVec3::Z,
         lo: 0.0,
         hi: 1.0,

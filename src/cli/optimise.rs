@@ -9,16 +9,16 @@ use anyhow::Result;
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Encoding};
 use bezchain::aero::batch::flags;
 use bezchain::aero::{
-    AeroBatch, AeroEval, AeroProblem, Analysis, Constraints, CpCurve, CpPlot, DesignSpace, Hold, Method,
-    Objective, Optimisation, OptimiseOptions, OptimiseResult, Outline, PanelSolution, Paneling, Reasons,
-    TargetCp, DEFAULT_NODES,
+    AeroBatch, AeroEval, AeroProblem, Analysis, Constraints, DesignSpace, Hold, Method, Objective,
+    Optimisation, OptimiseOptions, OptimiseResult, PanelSolution, Paneling, Reasons, TargetCp, DEFAULT_NODES,
 };
 use bezchain::chain::CurveChain;
 use bezchain::eval::Backend;
+use bezchain::export::{CpCurve, CpPlot, Outline};
 use bezchain::export::{CurveReport, FitInfo, InputInfo, Report};
-use bezchain::fit::evo::Checkpoint;
-use bezchain::fit::offset_stats;
 use bezchain::geometry::{read_curve, write_selig_to};
+use bezchain::optim::evo::Checkpoint;
+use bezchain::problem::offset_stats;
 use glam::DVec2;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -470,7 +470,7 @@ fn build_report(
     result: &OptimiseResult,
     chain: &CurveChain<DVec2>,
     start_eval: &AeroEval,
-    offsets: &bezchain::fit::OffsetStats<DVec2>,
+    offsets: &bezchain::problem::OffsetStats<DVec2>,
     offsets_from: &str,
     offset_points: &[DVec2],
 ) -> OptimiseReport {
@@ -530,7 +530,7 @@ fn summary(
     args: &Args,
     start: &AeroEval,
     result: &OptimiseResult,
-    offsets: &bezchain::fit::OffsetStats<DVec2>,
+    offsets: &bezchain::problem::OffsetStats<DVec2>,
     offsets_from: &str,
     elapsed: f64,
 ) -> String {

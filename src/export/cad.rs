@@ -9,7 +9,8 @@
 //! surface is the fitted one, to the rounding of its coefficients (printed in shortest
 //! round-trip form).
 
-use crate::adaptive::{AdaptReport, Encoding, SurfaceAdaptReport, SurfaceEncoding};
+use super::{AdaptReport, SurfaceAdaptReport};
+use crate::adaptive::{Encoding, SurfaceEncoding};
 use crate::chain::{CurveChain, PatchGrid};
 use crate::error::{Error, Result};
 use crate::export::{CurveReport, SurfaceReport};

@@ -1,7 +1,7 @@
 //! Triangle meshes of patch grids, sampled by the dense evaluator ([`crate::eval::dense`]),
 //! written as OBJ text or binary STL.
 
-use crate::chain::PatchGrid;
+use crate::chain::{samples, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::dense::dense_grid;
 use crate::eval::Backend;
@@ -27,19 +27,6 @@ pub struct SurfaceMesh {
     /// Triangles as vertex indices, counter-clockwise about their normal; triangles with two
     /// corners at one point (at collapsed edges) are left out.
     pub triangles: Vec<[u32; 3]>,
-}
-
-/// The sample parameters of one direction: `per` steps in every segment between `breaks`
-/// (the breaks themselves exact).
-pub(crate) fn samples(breaks: &[f64], per: usize) -> Vec<f64> {
-    let mut t = Vec::with_capacity((breaks.len() - 1) * per + 1);
-    for w in breaks.windows(2) {
-        for k in 0..per {
-            t.push(w[0] + (w[1] - w[0]) * k as f64 / per as f64);
-        }
-    }
-    t.push(breaks[breaks.len() - 1]);
-    t
 }
 
 /// Vertices that are one point: the sets of a union-find over grid neighbours closer than a

@@ -1,6 +1,8 @@
 //! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders and STEP/IGES B-splines.
 
+mod adapt_report;
 mod cad;
+mod cp_plot;
 mod iges;
 mod mesh;
 mod render;
@@ -8,9 +10,12 @@ mod report;
 mod step;
 mod svg;
 
+pub use adapt_report::{
+    AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport, COUNTING,
+};
 pub use cad::{distinct_knots, utc_now, write_cad, BsplineCurve, BsplineSurface, CadShape, CadUnit};
+pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
-pub(crate) use mesh::samples;
 pub use mesh::SurfaceMesh;
 pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
@@ -19,4 +24,3 @@ pub use render::{
 pub use report::{backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
 pub use svg::CurvePlot;
-pub(crate) use svg::{draw_xy_mesh, plot_err};

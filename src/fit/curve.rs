@@ -1,18 +1,21 @@
 //! `fit_curve`: one call from data points and a chain layout to a fitted chain, by any method
 //! and metric, with the offsets and the solver's effort (what the CLI's `fit` reports).
 
-use super::bfgs::{bfgs, BfgsOptions};
-use super::evo::{evolve_then_polish, Algorithm, EvoHooks, EvoOptions, EvoSummary, Stage};
-use super::lsq::{lsq, pick, Guard, HasReport, LsqFit, LsqHooks, LsqOptions, Start};
-use super::nelder_mead::{nelder_mead, NelderMeadOptions};
-use super::objective::SolveReport;
-use super::offset::{corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats};
-use super::problem::CurveProblem;
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
 use crate::closest::FootOptions;
 use crate::error::{Error, Result};
 use crate::keyword::keywords;
+use crate::optim::bfgs::{bfgs, BfgsOptions};
+use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::hybrid::{evolve_then_polish, EvoSummary, Stage};
+use crate::optim::lsq::{lsq, pick, Guard, HasReport, LsqFit, LsqHooks, LsqOptions, Start};
+use crate::optim::nelder_mead::{nelder_mead, NelderMeadOptions};
+use crate::optim::report::SolveReport;
+use crate::problem::offset::{
+    corresponding_stats, exponent_params, offset_stats, span_ratio, Metric, OffsetStats,
+};
+use crate::problem::CurveProblem;
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

@@ -18,8 +18,6 @@
 //! individual's small difference from it (see [`crate::eval::kernel`]), and
 //! [`Scorer::resolution`] reports the rounding that leaves, which CMA-ES's flatness stop uses.
 
-use super::evo::{EvoOptions, Fnv, PopulationObjective, Score, Scorer};
-use super::problem::FitProblem;
 use crate::bezier::Vector;
 use crate::chain::shape::{CurveShape, GridShape, Shape};
 use crate::chain::{ChainLayout, GridLayout};
@@ -30,60 +28,9 @@ use crate::eval::{
     build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, Gene, GpuOptions,
     PopulationEvaluator, Targets,
 };
+use crate::optim::evo::{EvoOptions, Fnv, PopulationObjective, Score, Scorer};
+use crate::problem::FitProblem;
 use glam::{DVec2, DVec3};
-
-/// The frame the evolutionary methods see a fitting problem in: its variables are the flat
-/// design coordinates less [`origin`](Self::origin), the centre of the bounds' box. An f32
-/// coordinate 1000 chords from the origin is good to 6e-5 chords only; measured from the
-/// centre, to about 2⁻²⁴ of the box wherever the data sit.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Frame {
-    origin: Vec<f64>,
-    start: Vec<f64>,
-    bounds: Vec<[f64; 2]>,
-}
-
-impl Frame {
-    /// The frame of a flat `start` inside the flat `bounds` (the same box repeated for every
-    /// design point) of points with `dim` coordinates; without bounds it is not moved.
-    pub(crate) fn new(start: &[f64], bounds: &[[f64; 2]], dim: usize) -> Self {
-        let origin: Vec<f64> = match bounds.get(..dim) {
-            Some(b) => b.iter().map(|[lo, hi]| 0.5 * (lo + hi)).collect(),
-            None => vec![0.0; dim],
-        };
-        let start = start
-            .iter()
-            .enumerate()
-            .map(|(k, x)| x - origin[k % dim])
-            .collect();
-        let bounds = bounds
-            .iter()
-            .enumerate()
-            .map(|(k, [lo, hi])| [lo - origin[k % dim], hi - origin[k % dim]])
-            .collect();
-        Frame {
-            origin,
-            start,
-            bounds,
-        }
-    }
-
-    /// The centre, one value per coordinate.
-    #[must_use]
-    pub fn origin(&self) -> &[f64] {
-        &self.origin
-    }
-
-    /// `x` (flat, in the frame) in model coordinates.
-    #[must_use]
-    pub fn absolute(&self, x: &[f64]) -> Vec<f64> {
-        let dim = self.origin.len();
-        x.iter()
-            .enumerate()
-            .map(|(k, v)| v + self.origin[k % dim])
-            .collect()
-    }
-}
 
 /// Shapes the population evaluator can score: plane chains and patch grids in space.
 pub trait EvalShape<const K: usize>: Shape<K> {
@@ -210,12 +157,12 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
 
     /// The start in the problem's [`Frame`].
     fn start(&self) -> &[f64] {
-        &self.frame().start
+        self.frame().start()
     }
 
     /// The bounds in the problem's [`Frame`].
     fn bounds(&self) -> &[[f64; 2]] {
-        &self.frame().bounds
+        self.frame().bounds()
     }
 
     fn absolute(&self, x: &[f64]) -> Vec<f64> {
@@ -290,7 +237,7 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
                 }
                 p
             }
-            None => self.project_points(&frame.start, &pts, options.samples).0,
+            None => self.project_points(frame.start(), &pts, options.samples).0,
         };
         if params.len() != free.len() {
             return Err(Error::invalid(format!(
@@ -304,7 +251,7 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
             &S::targets(&pts, &params)?,
             &EvalOptions::crossing(options.backend, options.newton, &options.gpu),
         )?;
-        evaluator.set_reference(&frame.start)?;
+        evaluator.set_reference(frame.start())?;
         // The anchored points in the frame too, indexed 0.. in `anchors`.
         let anchors = self.anchors();
         Ok(Box::new(FitScorer {
@@ -559,8 +506,8 @@ fn run<T: Gene>(
 mod tests {
     use super::*;
     use crate::chain::Continuity;
-    use crate::fit::evo::PopulationObjective;
-    use crate::fit::{CurveProblem, Metric};
+    use crate::optim::evo::PopulationObjective;
+    use crate::problem::{CurveProblem, Metric};
 
     /// The frame centres start and bounds on the bounds' box, `absolute` moves designs back,
     /// and the objective measured in model coordinates is the same wherever the data sit.

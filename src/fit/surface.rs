@@ -11,16 +11,18 @@
 //! reported offsets are true closest-point distances, found by a global search warm-started
 //! from the final parameters.
 
-use super::evo::{fit_grid_evo, Algorithm, EvoHooks, EvoOptions, EvoSummary};
-use super::lsq::{lsq, LsqFit, LsqHooks, LsqIterate, LsqOptions, Start};
-use super::objective::{SolveReport, StopReason};
-use super::offset::{Metric, OffsetStats};
-use super::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
-use super::problem::GridProblem;
+use super::grid_evo::fit_grid_evo;
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use crate::keyword::keywords;
+use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::hybrid::EvoSummary;
+use crate::optim::lsq::{lsq, LsqFit, LsqHooks, LsqIterate, LsqOptions, Start};
+use crate::optim::report::{SolveReport, StopReason};
+use crate::problem::offset::{Metric, OffsetStats};
+use crate::problem::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
+use crate::problem::GridProblem;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

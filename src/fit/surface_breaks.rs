@@ -9,12 +9,12 @@
 //! [`super::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
 //! runs at all) and [`check_fit`] the one of the projection check after a fit.
 
-use super::checker::{projection_check, ProjectionCheck};
 use super::surface::{
     fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions, SurfaceProgress,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
+use crate::problem::checker::{projection_check, ProjectionCheck};
 use glam::DVec3;
 use rayon::prelude::*;
 

@@ -19,7 +19,6 @@
 // The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
 #![allow(clippy::needless_range_loop)]
 
-pub(crate) mod aero;
 pub(crate) mod basis;
 pub(crate) mod dense_grid;
 pub(crate) mod eval_patch;

@@ -9,9 +9,7 @@ use crate::error::{Error, Result};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
-pub(crate) mod aero;
 mod unroll;
-pub use aero::SOURCE as AERO;
 pub use unroll::unroll;
 
 /// The WGSL sources, embedded; `tests/shaders.rs` validates them as they stand and specialised.

@@ -2,7 +2,7 @@
 //! variables with a start, scored a whole population at a time through a [`Scorer`]), and
 //! the [`Score`] they rank individuals by.
 //!
-//! The fitting problem is one such objective ([`crate::fit::FitProblem`], scored on the
+//! The fitting problem is one such objective ([`crate::problem::FitProblem`], scored on the
 //! population evaluator, see [`crate::fit::population`]); any other (an aerodynamic
 //! coefficient of the shape the variables encode, say) implements the same two traits.
 

@@ -10,9 +10,9 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::Simd;
-use crate::aero::batch::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult};
+use super::kernel::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult};
 use crate::error::Result;
+use crate::eval::Simd;
 use crate::eval::{Backend, BackendInfo};
 use rayon::prelude::*;
 
@@ -1053,43 +1053,6 @@ impl AeroEvaluator for CpuAero {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The AVX2 build and the portable build compute the same values.
-    #[test]
-    fn every_build_of_the_kernels_gives_the_same_bits() {
-        let pts = crate::geometry::Naca::parse("4412")
-            .unwrap()
-            .contour(&crate::geometry::NacaOptions::default())
-            .unwrap();
-        let a = crate::aero::Analysis::of_points(&pts, &crate::aero::Paneling::with_nodes(48)).unwrap();
-        let base = a.solution.nodes().to_vec();
-        let k = a.solution.chord().le_node;
-        // One variable lifting the upper surface.
-        let col = (0..base.len())
-            .map(|i| {
-                if i < k {
-                    glam::DVec2::new(0.0, base[i].x * (1.0 - base[i].x))
-                } else {
-                    glam::DVec2::ZERO
-                }
-            })
-            .collect();
-        let map = crate::aero::NodeMap {
-            base,
-            columns: vec![col],
-        };
-        let b =
-            crate::aero::AeroBatch::new(map, 3.0, crate::aero::Objective::MaxCl, Default::default()).unwrap();
-        let pop: Vec<f32> = (0..20).map(|i| 0.002 * i as f32 - 0.02).collect();
-        let mut fast = vec![AeroResult::default(); 20];
-        let mut portable = fast.clone();
-        CpuAero::new(b.kernel()).evaluate(&pop, &mut fast).unwrap();
-        CpuAero::new_portable(b.kernel())
-            .evaluate(&pop, &mut portable)
-            .unwrap();
-        assert_eq!(fast, portable);
-        assert!(fast.iter().all(|r| r.flags == 0 && r.cl > 0.5));
-    }
 
     #[test]
     fn ln_and_atan2_match_the_library_to_f32_rounding() {

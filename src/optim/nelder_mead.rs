@@ -1,7 +1,8 @@
 //! Nelder-Mead downhill simplex with dimension-adaptive coefficients (Gao and Han 2012) and
 //! restarts, for any [`Objective`].
 
-use super::objective::{Objective, SolveReport, StopReason};
+use super::report::{SolveReport, StopReason};
+use crate::problem::Objective;
 use std::time::Instant;
 
 /// Options of the Nelder-Mead minimiser.
@@ -205,7 +206,7 @@ fn keep_best(simplex: &[Vec<f64>], values: &[f64], b: usize, best_x: &mut Vec<f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::objective::testing::Rosenbrock;
+    use crate::problem::objective::testing::Rosenbrock;
 
     #[test]
     fn finds_the_rosenbrock_minimum() {

@@ -4,10 +4,11 @@
 //! evaluation is the kernel's plan ([`AeroKernel::plan`]): a few dozen dispatches in one
 //! submission, each reading its phase and range from its own slice of a uniform buffer.
 
-use super::{GpuContext, GpuOptions, WORKGROUP};
-use crate::aero::batch::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, MAX_GPU_NODES};
+use super::kernel::{AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, MAX_GPU_NODES};
 use crate::error::{Error, Result};
+use crate::eval::gpu::WORKGROUP;
 use crate::eval::BackendInfo;
+use crate::eval::{GpuContext, GpuOptions};
 
 /// `shaders/aero.wgsl`.
 pub const SOURCE: &str = include_str!("../../../shaders/aero.wgsl");

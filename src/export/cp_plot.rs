@@ -1,8 +1,9 @@
 //! SVG pictures of pressure distributions: Cp against x (suction up, as aerodynamicists draw
 //! it) above the shapes that carry them, drawn to equal scales.
 
+use super::svg::{draw_xy_mesh, plot_err};
+use crate::aero::AeroReport;
 use crate::error::Result;
-use crate::export::{draw_xy_mesh, plot_err};
 use glam::DVec2;
 use plotters::prelude::*;
 
@@ -146,6 +147,30 @@ impl CpPlot {
             root.present().map_err(plot_err)?;
         }
         Ok(out)
+    }
+}
+
+impl CpPlot {
+    /// The picture: Cp against x at every angle above the shape.
+    #[must_use]
+    pub fn of_report(report: &AeroReport, title: &str) -> CpPlot {
+        let nodes: Vec<DVec2> = report.node_points.iter().map(|&p| DVec2::from_array(p)).collect();
+        CpPlot {
+            title: title.into(),
+            curves: report
+                .pressure
+                .iter()
+                .zip(&report.polar)
+                .map(|(p, c)| CpCurve {
+                    label: format!("α = {}°: CL {:.4}, CM {:.4}", p.alpha, c.cl, c.cm),
+                    points: nodes.iter().zip(&p.cp).map(|(n, &cp)| (n.x, cp)).collect(),
+                })
+                .collect(),
+            outlines: vec![Outline {
+                label: format!("{} ({} nodes)", report.input.path, report.nodes),
+                nodes,
+            }],
+        }
     }
 }
 

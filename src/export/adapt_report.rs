@@ -4,13 +4,13 @@
 //! patch grid (the surface report with an `adapt` block). Formats: `docs/ARCHITECTURE.md`
 //! §5.6 and §5.7.
 
-use super::encoding::{Encoding, ScalarCount};
-use super::surface::{
+use super::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
+use crate::adaptive::encoding::{Encoding, ScalarCount};
+use crate::adaptive::surface::{
     AdaptedSurface, CheckedOffsets, FoldCheck, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding,
     SurfaceFamilyTrace,
 };
-use super::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
-use crate::export::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
+use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
 use serde::{Deserialize, Serialize};
 
 /// How the stored scalars are counted, as the report states it.

@@ -41,14 +41,14 @@
 //! paper's cases both took about as many iterations and more often stopped in a worse local
 //! minimum.
 
-use super::band::{rcm_order, BandMatrix, BAND_MIN};
-use super::objective::{SolveReport, StopReason};
-use super::offset::Metric;
-use super::problem::{chunked_sum, Constraint, FitProblem};
-use super::shape::{Basis, Shape};
+use super::report::{SolveReport, StopReason};
 use crate::bezier::Vector;
+use crate::chain::shape::{Basis, Shape};
 use crate::closest::{clamp01, free_params, solve_spd, PARALLEL_MIN};
 use crate::error::{Error, Result};
+use crate::problem::band::{rcm_order, BandMatrix, BAND_MIN};
+use crate::problem::fit_problem::{chunked_sum, Constraint, FitProblem};
+use crate::problem::offset::Metric;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -1233,7 +1233,7 @@ fn alternate<S: Shape<K>, const K: usize>(
 mod tests {
     use super::*;
     use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
-    use crate::fit::problem::CurveProblem;
+    use crate::problem::CurveProblem;
     use glam::{DVec2, DVec3};
 
     /// The fit from the problem's own parameters.

@@ -5,16 +5,16 @@
 //! the box bounds; it gives the objective (sum of squared offsets), its gradient, the
 //! per-point residual blocks and linear least squares.
 //!
-//! The solvers: [`lsq`](super::lsq::lsq) (the residual structure), Nelder-Mead and BFGS (the
+//! The solvers: [`lsq`](crate::optim::lsq::lsq) (the residual structure), Nelder-Mead and BFGS (the
 //! [`Objective`] of [`FitProblem::objective_fn`]), the GA and CMA-ES (the population
-//! objective of [`super::population`]).
+//! objective of [`crate::fit::population`]).
 
 use super::band::{BandMatrix, BandPlan};
+use super::frame::Frame;
 use super::objective::Objective;
 use super::offset::{check_points, chord_length_params, corresponding_offsets, Metric, OffsetStats};
-use super::population::Frame;
-use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
+use crate::chain::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::chain::{ChainLayout, CurveChain, GridLayout, PatchGrid};
 use crate::closest::{closest_all, refine_held, Foot, FootOptions, SampleGrid, CHUNK, PARALLEL_MIN};
 use crate::error::{Error, Result};
@@ -1704,9 +1704,9 @@ pub fn increment_start<P: Vector>(points: &[P], count: usize) -> Result<Vec<P>> 
 
 #[cfg(test)]
 mod tests {
+    use super::super::objective::testing::assert_gradient_matches;
     use super::*;
     use crate::chain::Continuity;
-    use crate::fit::objective::testing::assert_gradient_matches;
     use glam::{DVec2, DVec3};
 
     fn sample_chain() -> (CurveChain<DVec2>, Vec<DVec2>) {
@@ -1918,7 +1918,7 @@ mod tests {
         let layout = GridLayout::new(u, v);
         let (nu, nv) = layout.design_shape();
         let m = nu * nv;
-        assert!(m >= crate::fit::band::BAND_MIN);
+        assert!(m >= crate::problem::band::BAND_MIN);
         let (mut pts, mut at_breaks, mut inside) = (Vec::new(), Vec::new(), Vec::new());
         for k in 0..31 {
             let v = k as f64 / 30.0;

@@ -1,8 +1,8 @@
 //! Offset metrics (`docs/ARCHITECTURE.md` §2.4): the distance of every data point to a chain or grid, and the
 //! summary figures reports carry (`sum_sq`, `sum`, `rms`, `max`, `max_at`).
 
-use super::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::bezier::Vector;
+use crate::chain::shape::{Basis, CurveShape, GridShape, Shape};
 use crate::chain::{CurveChain, PatchGrid};
 use crate::closest::{Foot, FootOptions};
 use crate::error::{Error, Result};

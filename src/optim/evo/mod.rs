@@ -30,16 +30,10 @@ pub use objective::{Fnv, PopulationObjective, Score, Scorer};
 use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};
 use self::rng::Streams;
-use super::lsq::{lsq, Guard, LsqHooks, LsqOptions, Start};
-use super::objective::{SolveReport, StopReason};
-use super::offset::{grid_offset_stats, OffsetStats};
-use super::problem::{FitProblem, GridProblem};
-use super::shape::Shape;
-use crate::chain::{GridLayout, PatchGrid};
+use super::report::{SolveReport, StopReason};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo, GpuOptions};
 use crate::keyword::keywords;
-use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::time::Instant;
@@ -661,13 +655,23 @@ impl<'p> Evolution<'p> {
 
     /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step (an
     /// error from it ends the run with that error). Returns the reason.
+    ///
+    /// A run resumed from a checkpoint that had already stopped (its generations spent, its
+    /// step size underflowed) takes no step: `on_generation` is called once on the resumed
+    /// state, so that the run's outputs (history, checkpoint) are written from it.
     pub fn run(&mut self, mut on_generation: impl FnMut(&Evolution<'_>) -> Result<()>) -> Result<EvoStop> {
+        if let Some(why) = self.stop() {
+            if !self.history.is_empty() {
+                on_generation(self)?;
+            }
+            return Ok(why);
+        }
         loop {
+            self.step()?;
+            on_generation(self)?;
             if let Some(why) = self.stop() {
                 return Ok(why);
             }
-            self.step()?;
-            on_generation(self)?;
         }
     }
 
@@ -926,142 +930,6 @@ pub fn evolve(
     run.finish(stop)
 }
 
-/// One stage of a fit, for reports.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Stage {
-    /// `ga`, `cmaes` or `lsq`.
-    pub method: String,
-    /// Its effort.
-    pub report: SolveReport,
-}
-
-/// What an evolutionary fit adds to a fit's report.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EvoSummary {
-    /// The evolutionary run.
-    pub run: EvoResult,
-    /// The stages: the evolutionary one, then the least-squares polish when asked for.
-    pub stages: Vec<Stage>,
-    /// For a curve hybrid's polish (which also tries the least-squares method's own starts):
-    /// whether the fit polished from the evolved design won. `None` without a polish.
-    pub polish_from_evolved: Option<bool>,
-}
-
-/// The least-squares polish: [`lsq`](crate::fit::lsq::lsq) on `problem` from `design` and its
-/// foot points, kept where `guard` admits once it holds. Returns the polished design and the
-/// solver's report.
-pub fn polish<S: Shape<K>, const K: usize>(
-    problem: &FitProblem<'_, S, K>,
-    design: Vec<S::Point>,
-    opts: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-) -> Result<(Vec<S::Point>, SolveReport)> {
-    let params: Vec<[f64; K]> = problem.feet(&design, None).iter().map(|f| f.t).collect();
-    let hooks = LsqHooks { guard, observe: None };
-    let fit = lsq(problem, &[Start::Design(design, params)], opts, hooks)?
-        .into_iter()
-        .next()
-        .ok_or_else(|| Error::Numerical("lsq: the polish produced no fit".into()))?;
-    Ok((fit.design, fit.report))
-}
-
-/// The evolutionary stage on `evo`, then (with `polish_after`) the least-squares polish on
-/// `problem` under `guard`: the design, the combined report and the summary.
-#[allow(clippy::too_many_arguments)]
-pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
-    evo: &dyn PopulationObjective,
-    problem: &FitProblem<'_, S, K>,
-    algorithm: Algorithm,
-    polish_after: bool,
-    options: &EvoOptions,
-    lsq: &LsqOptions,
-    guard: Option<Guard<'_, S::Point, K>>,
-    hooks: &mut EvoHooks<'_>,
-) -> Result<(Vec<S::Point>, SolveReport, EvoSummary)> {
-    let run = evolve(evo, algorithm, options, hooks)?;
-    let clock = Instant::now();
-    let mut design = FitProblem::<S, K>::from_flat(&run.design);
-    let mut stages = vec![Stage {
-        method: algorithm.name().to_string(),
-        report: run.report,
-    }];
-    let mut report = run.report;
-    if polish_after {
-        let (polished, r) = polish(problem, design, lsq, guard)?;
-        design = polished;
-        stages.push(Stage {
-            method: "lsq".to_string(),
-            report: r,
-        });
-        report.iterations += r.iterations;
-        report.evaluations += r.evaluations;
-        report.stop = r.stop;
-    }
-    // The run's seconds (with those before a checkpoint it resumed from), then the polish.
-    report.seconds = run.report.seconds + clock.elapsed().as_secs_f64();
-    let polish_from_evolved = polish_after.then_some(true);
-    Ok((
-        design,
-        report,
-        EvoSummary {
-            run,
-            stages,
-            polish_from_evolved,
-        },
-    ))
-}
-
-/// A patch grid fitted by an evolutionary method.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GridEvoFit {
-    /// The fitted grid.
-    pub grid: PatchGrid<DVec3>,
-    /// Its closest-point offsets, re-measured in f64.
-    pub closest: OffsetStats<DVec3>,
-    /// Generations and evaluations of every stage, total seconds.
-    pub report: SolveReport,
-    /// The evolutionary run and the stages.
-    pub summary: EvoSummary,
-}
-
-/// Fit a patch grid of `layout` to `points` by `algorithm` from the design net `start`, then
-/// (with `polish_after`) polish by least squares. `params` (one `(u, v)` per point) start the
-/// least-squares problem's foot points and serve no other purpose.
-#[allow(clippy::too_many_arguments)]
-pub fn fit_grid_evo(
-    points: &[DVec3],
-    params: Vec<[f64; 2]>,
-    layout: GridLayout,
-    start: &[DVec3],
-    algorithm: Algorithm,
-    polish_after: bool,
-    options: &EvoOptions,
-    lsq: &LsqOptions,
-    hooks: &mut EvoHooks<'_>,
-) -> Result<GridEvoFit> {
-    let problem = GridProblem::grid(layout, points, params, super::offset::Metric::Closest)?
-        .with_start(start.to_vec())?
-        .with_bounds(options.margin)?;
-    let (design, report, summary) = evolve_then_polish(
-        &problem,
-        &problem,
-        algorithm,
-        polish_after,
-        options,
-        lsq,
-        None,
-        hooks,
-    )?;
-    let grid = problem.patch_grid(&design)?;
-    let closest = grid_offset_stats(&grid, points)?;
-    Ok(GridEvoFit {
-        grid,
-        closest,
-        report,
-        summary,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1162,7 +1030,7 @@ mod tests {
         x.iter().map(|x| (x - 0.3).powi(2)).sum()
     }
 
-    /// Issue 11: CMA-ES re-anchors its scorer at its mean, around which each generation is
+    /// CMA-ES re-anchors its scorer at its mean, around which each generation is
     /// sampled (anchored at a stale best, case 3 stopped at 1.7e-5 instead of 2.3e-8); the GA
     /// at its best design, an elite of the population.
     #[test]

@@ -2,7 +2,8 @@
 //! with a gradient.
 
 use super::nelder_mead::Minimum;
-use super::objective::{Objective, SolveReport, StopReason};
+use super::report::{SolveReport, StopReason};
+use crate::problem::Objective;
 use std::time::Instant;
 
 /// Options of the BFGS minimiser.
@@ -264,7 +265,7 @@ pub fn bfgs<O: Objective>(f: &mut O, x0: &[f64], opts: &BfgsOptions) -> Minimum 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::objective::testing::Rosenbrock;
+    use crate::problem::objective::testing::Rosenbrock;
 
     #[test]
     fn finds_the_rosenbrock_minimum_superlinearly() {

@@ -14,8 +14,8 @@
 //! the surface normal turns between neighbouring samples (an exact evaluation through
 //! [`PatchGrid::partials`], not an emulation).
 
+use crate::chain::samples;
 use crate::chain::{PatchGrid, MAX_DEGREE};
-use crate::export::samples;
 use glam::DVec3;
 use rayon::prelude::*;
 
