@@ -2,9 +2,8 @@
 //! cycle, direct or through others), and inside every folder the files form one too, except a
 //! shader mirror and the driver that share their `#[repr(C)]` types through one file.
 //!
-//! A reference is every path that starts with `crate::`, `super::` or `self::` outside
-//! comments (doc links included: a link is a dependency a reader follows), resolved to the
-//! longest module path that names a file of `src/`. `src/main.rs` and `src/cli/` are the
+//! A reference is every path in code (not in comments or strings) that starts with `crate::`,
+//! `super::` or `self::`, resolved to the longest module path that names a file of `src/`. `src/main.rs` and `src/cli/` are the
 //! shell on top and may use anything.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -59,22 +58,11 @@ fn sources() -> Vec<Source> {
         .collect()
 }
 
-/// The text without `//` line comments (doc links `[...](crate::x)` and ``[`crate::x`]`` are
-/// kept: they are written inside `///` lines, so those lines keep their bracketed paths) and
-/// without string literals' contents.
+/// The code of a text: without comments (doc comments included: a doc link to a module
+/// above is a pointer for the reader, not a dependency) and without string literals' contents.
 fn strip_comments(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for line in text.lines() {
-        let trimmed = line.trim_start();
-        if trimmed.starts_with("///") || trimmed.starts_with("//!") {
-            // Keep only the intra-doc link targets of a doc line.
-            for link in doc_links(trimmed) {
-                out.push_str(&link);
-                out.push(' ');
-            }
-            out.push('\n');
-            continue;
-        }
         let code = match line.find("//") {
             Some(k) if !line[..k].contains('"') => &line[..k],
             _ => line,
@@ -92,14 +80,6 @@ fn strip_comments(text: &str) -> String {
         out.push('\n');
     }
     out
-}
-
-/// The paths inside backticks of a doc line that start with `crate::`, `super::` or `self::`.
-fn doc_links(line: &str) -> Vec<String> {
-    line.split(['`', '(', ')', '[', ']'])
-        .filter(|s| s.starts_with("crate::") || s.starts_with("super::") || s.starts_with("self::"))
-        .map(|s| s.trim_start_matches("mod@").to_string())
-        .collect()
 }
 
 /// Every path a text names from `crate::`, `super::` or `self::`, with `use` groups expanded,
@@ -187,15 +167,20 @@ fn parse_tree(text: &str, mut j: usize, prefix: &[String], out: &mut Vec<Vec<Str
 
 /// The dependency graph of `nodes` (module paths), each file's references resolved to the
 /// longest node that prefixes them, self-references left out.
-fn graph(files: &[Source], node_of: impl Fn(&[String]) -> Option<Vec<String>>) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
-    let mut g: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+/// Each edge keeps one of the references that make it, `file: path`, for the messages.
+type Graph = BTreeMap<Vec<String>, BTreeMap<Vec<String>, String>>;
+
+fn graph(files: &[Source], node_of: impl Fn(&[String]) -> Option<Vec<String>>) -> Graph {
+    let mut g = Graph::new();
     for f in files {
         let Some(from) = node_of(&f.module) else { continue };
         let targets = g.entry(from.clone()).or_default();
         for r in references(&f.text, &f.module) {
             if let Some(to) = node_of(&r) {
                 if to != from {
-                    targets.insert(to);
+                    targets
+                        .entry(to)
+                        .or_insert_with(|| format!("{}: {}", f.path.display(), r.join("::")));
                 }
             }
         }
@@ -203,14 +188,27 @@ fn graph(files: &[Source], node_of: impl Fn(&[String]) -> Option<Vec<String>>) -
     g
 }
 
+/// The edges of `g` inside `component`, with their evidence, one a line.
+fn explain(g: &Graph, component: &[Vec<String>]) -> String {
+    let mut out = String::new();
+    for from in component {
+        for (to, why) in g.get(from).into_iter().flatten() {
+            if component.contains(to) {
+                out.push_str(&format!("\n  {} -> {}   ({why})", from.join("/"), to.join("/")));
+            }
+        }
+    }
+    out
+}
+
 /// The cycles of `g`: its strongly connected components of more than one node.
-fn cycles(g: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Vec<Vec<Vec<String>>> {
+fn cycles(g: &Graph) -> Vec<Vec<Vec<String>>> {
     // Reachability by depth-first search from every node (the graphs are small).
     let reach = |from: &Vec<String>| -> BTreeSet<Vec<String>> {
         let mut seen = BTreeSet::new();
         let mut stack = vec![from.clone()];
         while let Some(n) = stack.pop() {
-            for m in g.get(&n).into_iter().flatten() {
+            for m in g.get(&n).into_iter().flat_map(|t| t.keys()) {
                 if seen.insert(m.clone()) {
                     stack.push(m.clone());
                 }
@@ -246,19 +244,29 @@ fn the_top_level_modules_form_layers_without_cycles() {
     let g = graph(&files, |m| (!is_shell(m)).then(|| m[..1].to_vec()));
     let layer = |m: &str| LAYERS.iter().position(|l| l.contains(&m));
     for node in g.keys() {
-        assert!(layer(&node[0]).is_some(), "src/{}: a top-level module no layer names", node[0]);
+        assert!(
+            layer(&node[0]).is_some(),
+            "src/{}: a top-level module no layer names",
+            node[0]
+        );
     }
-    let cycles = cycles(&g);
-    assert!(cycles.is_empty(), "import cycles between top-level modules: {cycles:?}");
+    let cycles: String = cycles(&g).iter().map(|c| explain(&g, c)).collect();
+    assert!(
+        cycles.is_empty(),
+        "import cycles between top-level modules:{cycles}"
+    );
     let mut upward = Vec::new();
     for (from, tos) in &g {
-        for to in tos {
+        for (to, why) in tos {
             if layer(&to[0]) > layer(&from[0]) {
-                upward.push(format!("{} -> {}", from[0], to[0]));
+                upward.push(format!("{} -> {} ({why})", from[0], to[0]));
             }
         }
     }
-    assert!(upward.is_empty(), "modules that use a layer above their own: {upward:?}");
+    assert!(
+        upward.is_empty(),
+        "modules that use a layer above their own: {upward:?}"
+    );
 }
 
 #[test]
@@ -270,30 +278,33 @@ fn the_files_of_every_folder_form_a_dag() {
         if is_shell(path) {
             return None;
         }
-        (1..=path.len()).rev().map(|n| path[..n].to_vec()).find(|p| modules.contains(p))
+        (1..=path.len())
+            .rev()
+            .map(|n| path[..n].to_vec())
+            .find(|p| modules.contains(p))
     };
     let g = graph(&files, node_of);
     // Only edges between siblings and between a folder's files and their folder's children
     // matter here; the top-level test covers edges across folders. A folder's `mod.rs`
     // declares and re-exports its children, so the edges into a folder's own root are left out.
-    let mut inside: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+    let mut inside = Graph::new();
     for (from, tos) in &g {
         let entry = inside.entry(from.clone()).or_default();
-        for to in tos {
-            let same_folder = from.len() >= 2 && to.len() >= 2 && from[..from.len() - 1] == to[..to.len() - 1];
+        for (to, why) in tos {
+            let same_folder =
+                from.len() >= 2 && to.len() >= 2 && from[..from.len() - 1] == to[..to.len() - 1];
             let into_child = to.len() > from.len() && to.starts_with(from);
             if same_folder && !into_child {
-                entry.insert(to.clone());
+                entry.insert(to.clone(), why.clone());
             }
         }
     }
-    let cycles: Vec<String> = cycles(&inside)
-        .into_iter()
-        .map(|c| c.iter().map(|m| format!("src/{}", m.join("/"))).collect::<Vec<_>>().join(" <-> "))
-        .collect();
-    let names: Vec<_> = files.iter().map(|f| f.path.display().to_string()).collect();
-    assert!(!names.is_empty());
-    assert!(cycles.is_empty(), "files in one folder that import each other: {cycles:#?}");
+    assert!(files.len() > 50, "the sources were not found");
+    let cycles: String = cycles(&inside).iter().map(|c| explain(&inside, c)).collect();
+    assert!(
+        cycles.is_empty(),
+        "files in one folder that import each other:{cycles}"
+    );
 }
 
 #[test]
@@ -312,11 +323,19 @@ fn the_reference_parser_reads_groups_and_relative_paths() {
     .map(|v| v.iter().map(|s| s.to_string()).collect())
     .collect();
     assert_eq!(refs, want);
-    let cyclic: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = [
-        (vec!["a".to_string()], [vec!["b".to_string()]].into()),
-        (vec!["b".to_string()], [vec!["c".to_string()]].into()),
-        (vec!["c".to_string()], [vec!["a".to_string()]].into()),
-    ]
-    .into();
-    assert_eq!(cycles(&cyclic).len(), 1);
+    let edge = |a: &str, b: &str| {
+        (
+            vec![a.to_string()],
+            BTreeMap::from([(vec![b.to_string()], String::new())]),
+        )
+    };
+    let cyclic: Graph = [edge("a", "b"), edge("b", "c"), edge("c", "a"), edge("d", "a")].into();
+    assert_eq!(
+        cycles(&cyclic),
+        vec![vec![
+            vec!["a".to_string()],
+            vec!["b".to_string()],
+            vec!["c".to_string()]
+        ]]
+    );
 }

@@ -12,4 +12,4 @@ mod point;
 pub use basis::{bernstein, bernstein_deriv, binomial};
 pub use curve::BezierCurve;
 pub use patch::BezierPatch;
-pub use point::Vector;
+pub use point::{same_points, Vector};

@@ -86,3 +86,9 @@ impl Vector for DVec3 {
         DVec3::new(c[0], c[1], c[2])
     }
 }
+
+/// True when `a` and `b` are the same points to `1e-9` of their largest coordinate.
+pub fn same_points<P: Vector>(a: &[P], b: &[P]) -> bool {
+    let scale = b.iter().fold(1.0_f64, |m, p| m.max(p.max_abs()));
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (*x - *y).max_abs() <= 1e-9 * scale)
+}

@@ -128,19 +128,13 @@ impl<P: Vector> CurveChain<P> {
             .map(|(_, &p)| p)
             .collect();
         let chain = CurveChain::new(c1, design)?;
-        if !same_points(chain.ctrl(), &self.ctrl) {
+        if !crate::bezier::same_points(chain.ctrl(), &self.ctrl) {
             return Err(Error::Numerical(
                 "the chain's joins are not C1 (internal inconsistency)".into(),
             ));
         }
         Ok(chain)
     }
-}
-
-/// True when `a` and `b` are the same points to `1e-9` of their largest coordinate.
-pub(crate) fn same_points<P: Vector>(a: &[P], b: &[P]) -> bool {
-    let scale = b.iter().fold(1.0_f64, |m, p| m.max(p.max_abs()));
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (*x - *y).max_abs() <= 1e-9 * scale)
 }
 
 #[cfg(test)]

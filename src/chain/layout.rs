@@ -859,7 +859,7 @@ mod tests {
         let smooth = CurveChain::new(l.clone(), c).unwrap();
         let c1 = smooth.to_c1().unwrap();
         assert_eq!(c1.layout().continuity(), Continuity::C1);
-        assert!(crate::chain::curve_chain::same_points(c1.ctrl(), smooth.ctrl()));
+        assert!(crate::bezier::same_points(c1.ctrl(), smooth.ctrl()));
         assert!(c1.continuity_error(1) < 1e-12);
         let g = l.greville();
         assert_eq!((g[0], g[g.len() - 1]), (0.0, 1.0));

@@ -4,9 +4,11 @@
 
 mod aerodyn;
 mod blade;
+mod blade_read;
 mod dat;
 mod interp;
 mod io;
+mod lednicer;
 mod loft;
 mod naca;
 mod points;

@@ -1,8 +1,8 @@
 //! Point files in every supported layout (Selig and Lednicer `.dat`, CSV, XYZ), detected by
 //! content and validated, plus the CSV writers for curves and clouds.
 
-use super::dat;
 use super::io::{self, BadNumber};
+use super::lednicer;
 use super::scale::{check_scale, Precision};
 use crate::bezier::Vector;
 use crate::error::{Error, Result};
@@ -537,7 +537,7 @@ impl Table {
         let mut header: Option<Header> = None;
         // Raw fields per row when there is no header (fixed by the first row).
         let mut row_fields = 0;
-        let mut counts: Option<dat::LednicerCounts> = None;
+        let mut counts: Option<lednicer::LednicerCounts> = None;
         // Lednicer: rows before each blank line that follows some rows.
         let mut blocks: Vec<usize> = Vec::new();
         let mut fields: Vec<&str> = Vec::with_capacity(8);
@@ -630,7 +630,7 @@ impl Table {
                     }
                 }
                 State::AfterName => {
-                    if let Some(c) = dat::LednicerCounts::detect(&fields) {
+                    if let Some(c) = lednicer::LednicerCounts::detect(&fields) {
                         if want == Want::Three {
                             return Err(perr(
                                 no,
@@ -713,7 +713,7 @@ impl Table {
                 blocks.pop();
             }
             c.check(n, &blocks).map_err(|m| perr(c.line, m))?;
-            let (values, lines) = dat::lednicer_to_selig(&t.values, &t.lines, c.upper);
+            let (values, lines) = lednicer::lednicer_to_selig(&t.values, &t.lines, c.upper);
             t.values = values;
             t.lines = lines;
         }
@@ -1104,24 +1104,6 @@ mod tests {
         );
         let err = parse_curve("x,y,note\n0,0,\"open\n", p()).unwrap_err();
         assert!(err.to_string().contains("unclosed quote"), "{err}");
-    }
-
-    #[test]
-    fn names_written_by_the_selig_writer_read_back_as_names() {
-        for name in [
-            "NACA 4413",
-            "x,y",
-            "station,point",
-            "S1223 (Selig, high lift)",
-            "x y",
-        ] {
-            let header_like = !reads_as_name(name);
-            let mut buf = Vec::new();
-            super::dat::write_selig_to(&mut buf, name, &[DVec2::X, DVec2::ZERO]).unwrap();
-            let back = parse_curve(std::str::from_utf8(&buf).unwrap(), p()).unwrap();
-            assert_eq!(back.format, Format::Selig, "{name}");
-            assert_eq!(back.name.starts_with("aerofoil: "), header_like, "{name}");
-        }
     }
 
     #[test]
