@@ -3,6 +3,7 @@
 //! - [`fit_problem`]: [`FitProblem`], data points, a shape (chain or grid layout), a metric,
 //!   anchors, weights, held directions, linear constraints, start and bounds; its objective,
 //!   gradient, residual blocks and linear least squares.
+//! - [`constraint`]: [`Constraint`], linear rules on the design (aerofoil rule, span rule).
 //! - [`offset`]: the metrics ([`Metric`]), [`OffsetStats`], chord-length parameters.
 //! - [`objective`]: [`Objective`], what a general-purpose minimiser sees of a problem.
 //! - [`frame`]: [`Frame`], the problem's coordinates as the f32 population methods see them.
@@ -17,15 +18,15 @@
 
 pub mod band;
 pub mod checker;
+pub mod constraint;
 pub mod fit_problem;
 pub mod frame;
 pub mod objective;
 pub mod offset;
 pub mod param;
 
-pub use fit_problem::{
-    increment_start, Constraint, CoordRule, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual,
-};
+pub use constraint::{Constraint, CoordRule};
+pub use fit_problem::{increment_start, CurveProblem, FitProblem, GridProblem, ProblemObjective, Residual};
 pub use frame::Frame;
 pub use objective::Objective;
 pub use offset::{
