@@ -1,0 +1,200 @@
+//! The sectioned cloud a surface search runs on: its points, sections, span parameters, the
+//! blade's chord rule and trailing-edge data, and the held-out split.
+
+use super::super::blade::{section_frame, section_params, SectionFrame};
+use super::SpanRule;
+use crate::error::{Error, Result};
+use crate::geometry::Grid;
+use glam::DVec3;
+
+/// The cloud's sections, their span parameters and initial point parameters.
+pub(super) struct Data<'a> {
+    pub(super) points: &'a [DVec3],
+    /// Points of section `k`: `k * per ..(k + 1) * per`.
+    pub(super) per: usize,
+    pub(super) sections: usize,
+    /// `v_k`.
+    pub(super) v: Vec<f64>,
+    pub(super) span: Option<SpanRule>,
+    /// The coordinates fitted (all three, or the two besides the span axis).
+    pub(super) axes: Vec<usize>,
+    /// Initial `u` of every point.
+    pub(super) u0: Vec<f64>,
+    /// Initial `u` of every point in the trailing-edge families (with the chord rule).
+    pub(super) u0_te: Option<Vec<f64>>,
+    /// Every section's frame, when the chord rule is used.
+    pub(super) blade: Option<Vec<SectionFrame>>,
+}
+
+pub(super) fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
+    let mut acc = vec![0.0];
+    for w in pts.windows(2) {
+        acc.push(acc.last().copied().unwrap_or(0.0) + (w[1] - w[0]).length());
+    }
+    let total = *acc.last()?;
+    (total > 0.0).then(|| acc.iter().map(|a| a / total).collect())
+}
+
+impl<'a> Data<'a> {
+    pub(super) fn new(points: &'a [DVec3], grid: Grid, span_rule: bool, chord_rule: bool) -> Result<Self> {
+        let (sections, per) = (grid.sections, grid.per_section);
+        if sections < 2 || per < 4 || sections * per != points.len() {
+            return Err(Error::invalid(format!(
+                "adapt-surface: needs a grid of at least 2 sections of 4 points ({} x {} for {} points)",
+                sections,
+                per,
+                points.len()
+            )));
+        }
+        let extent = points.iter().fold(0.0_f64, |m, p| m.max(p.abs().max_element()));
+        let sec = |k: usize| &points[k * per..(k + 1) * per];
+        // A span axis: a coordinate constant within every section, strictly monotone across.
+        let span = span_rule
+            .then(|| {
+                (0..3).find_map(|a| {
+                    let s: Vec<f64> = (0..sections).map(|k| sec(k)[0][a]).collect();
+                    let planar = (0..sections).all(|k| {
+                        sec(k)
+                            .iter()
+                            .all(|p| (p[a] - s[k]).abs() <= 1e-12 * extent.max(1e-300))
+                    });
+                    let up = s.windows(2).all(|w| w[1] > w[0]);
+                    let down = s.windows(2).all(|w| w[1] < w[0]);
+                    (planar && (up || down)).then(|| SpanRule {
+                        axis: a,
+                        ends: [s[0], s[sections - 1]],
+                    })
+                })
+            })
+            .flatten();
+        let v: Vec<f64> = match span {
+            Some(r) => (0..sections)
+                .map(|k| (sec(k)[0][r.axis] - r.ends[0]) / (r.ends[1] - r.ends[0]))
+                .collect(),
+            None => {
+                let c: Vec<DVec3> = (0..sections)
+                    .map(|k| sec(k).iter().copied().sum::<DVec3>() / per as f64)
+                    .collect();
+                chord_params(&c)
+                    .ok_or_else(|| Error::invalid("adapt-surface: every section has the same centroid"))?
+            }
+        };
+        let axes: Vec<usize> = (0..3).filter(|&a| span.is_none_or(|r| r.axis != a)).collect();
+        // Initial u per section: the aerofoil rule's parameters in the section's plane when
+        // the section looks like an aerofoil, chord length otherwise; a section collapsed to a
+        // point borrows the nearest other section's.
+        let mut per_sec: Vec<Option<Vec<f64>>> = (0..sections)
+            .map(|k| {
+                let s = sec(k);
+                let flat: Vec<glam::DVec2> = s
+                    .iter()
+                    .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                    .collect();
+                let aero = if span.is_some() {
+                    super::super::aerofoil_params(&flat)
+                } else {
+                    None
+                };
+                aero.or_else(|| chord_params(s))
+            })
+            .collect();
+        if per_sec.iter().all(Option::is_none) {
+            return Err(Error::invalid("adapt-surface: every section is a single point"));
+        }
+        for k in 0..sections {
+            if per_sec[k].is_none() {
+                let near = (0..sections)
+                    .filter(|&o| per_sec[o].is_some())
+                    .min_by_key(|&o| o.abs_diff(k))
+                    .unwrap_or(0);
+                per_sec[k] = per_sec[near].clone();
+            }
+        }
+        let mut u0: Vec<f64> = per_sec.into_iter().flatten().flatten().collect();
+        let mut u0_te = None;
+        // The chord rule: every section's own leading-edge frame, and its points' parameters
+        // in that frame.
+        let blade = (chord_rule && span.is_some())
+            .then(|| {
+                let flat = |k: usize| -> Vec<glam::DVec2> {
+                    sec(k)
+                        .iter()
+                        .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                        .collect()
+                };
+                // A section collapsed to a point (a blade tip) is a frame of zero chord
+                // there.
+                let frames = (0..sections)
+                    .map(|k| {
+                        let f = flat(k);
+                        let size = f.iter().fold(0.0_f64, |m, p| m.max((*p - f[0]).length()));
+                        if size <= 1e-12 * extent.max(1e-300) {
+                            Some(SectionFrame {
+                                le: f[0],
+                                chord: glam::DVec2::ZERO,
+                                le_index: per / 2,
+                                te: 0.0,
+                            })
+                        } else {
+                            section_frame(&f)
+                        }
+                    })
+                    .collect::<Option<Vec<SectionFrame>>>()?;
+                frames
+                    .iter()
+                    .any(|f| f.chord != glam::DVec2::ZERO)
+                    .then_some(frames)
+            })
+            .flatten();
+        if let Some(frames) = &blade {
+            // Each section's parameters in its own frame; a collapsed one borrows the
+            // nearest other section's.
+            let params = |te: bool| -> Vec<f64> {
+                let own: Vec<Option<Vec<f64>>> = (0..sections)
+                    .map(|k| {
+                        let flat: Vec<glam::DVec2> = sec(k)
+                            .iter()
+                            .map(|p| glam::DVec2::new(p[axes[0]], p[axes[1]]))
+                            .collect();
+                        (frames[k].chord != glam::DVec2::ZERO).then(|| section_params(&flat, &frames[k], te))
+                    })
+                    .collect();
+                (0..sections)
+                    .flat_map(|k| {
+                        (0..sections)
+                            .filter(|&o| own[o].is_some())
+                            .min_by_key(|&o| o.abs_diff(k))
+                            .and_then(|o| own[o].clone())
+                            .unwrap_or_default()
+                    })
+                    .collect()
+            };
+            u0 = params(false);
+            u0_te = Some(params(true));
+        }
+        Ok(Data {
+            points,
+            per,
+            sections,
+            v,
+            span,
+            axes,
+            u0,
+            u0_te,
+            blade,
+        })
+    }
+
+    /// The initial `u` of every point, for a trailing-edge family (`te`) or another.
+    pub(super) fn u0(&self, te: bool) -> &[f64] {
+        match (&self.u0_te, te) {
+            (Some(u), true) => u,
+            _ => &self.u0,
+        }
+    }
+
+    /// The span parameter `v_k` of every point.
+    pub(super) fn point_v(&self) -> Vec<f64> {
+        (0..self.points.len()).map(|p| self.v[p / self.per]).collect()
+    }
+}
