@@ -12,8 +12,8 @@
 //! Newton steps. The group times building `G` and the sums of a population, and checks them
 //! against the evaluator.
 
+use bezchain::bench::population::{problem, BenchOptions};
 use bezchain::bezier::bernstein;
-use bezchain::eval::bench::{problem, BenchOptions};
 use bezchain::eval::{
     build_evaluator, Backend, CpuEvaluator, EvalLayout, EvalOptions, Fitness, PopulationEvaluator, Simd,
 };

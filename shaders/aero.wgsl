@@ -3,8 +3,8 @@
 // nodes; the (N+1)² stream-function system is assembled and solved for the two unit free
 // streams (α = 0°, 90°); CL, CM, the thickness, the objective and the score come out.
 //
-// CPU mirror: src/eval/cpu/aero.rs (same name, same bindings, the same f32 arithmetic line for
-// line). The f64 reference is src/aero/panel.rs with src/aero/batch.rs.
+// CPU mirror: src/aero/batch/cpu.rs (same name, same bindings, the same f32 arithmetic line for
+// line). The f64 reference is src/aero/panel.rs with src/aero/batch/mod.rs.
 //
 // Each individual's working set lives in `work`, interleaved: element `e` of individual `i` at
 // `e * config.stride + i`, so neighbouring invocations touch neighbouring words. Elements:
@@ -23,7 +23,7 @@
 // logarithmic single layer, near symmetric definite on unit-chord shapes); the last 2 × 2 block
 // is solved directly.
 
-// Must be kept in sync with `AeroConfig` in src/aero/batch.rs.
+// Must be kept in sync with `AeroConfig` in src/aero/batch/kernel.rs.
 struct AeroConfig {
     population: u32,
     stride: u32,
@@ -39,7 +39,7 @@ struct AeroConfig {
     cm_min: f32,
 }
 
-// One dispatch of the plan. Must be kept in sync with `AeroStep` in src/aero/batch.rs.
+// One dispatch of the plan. Must be kept in sync with `AeroStep` in src/aero/batch/kernel.rs.
 struct AeroStep {
     phase: u32,
     first: u32,
@@ -47,7 +47,7 @@ struct AeroStep {
     _pad0: u32,
 }
 
-// Must be kept in sync with `AeroResult` in src/aero/batch.rs.
+// Must be kept in sync with `AeroResult` in src/aero/batch/kernel.rs.
 struct AeroResult {
     cl: f32,
     cm: f32,

@@ -23,6 +23,7 @@
 
 pub mod adaptive;
 pub mod aero;
+pub mod bench;
 pub mod bezier;
 pub mod chain;
 pub mod closest;

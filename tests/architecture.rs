@@ -19,7 +19,7 @@ const LAYERS: &[&[&str]] = &[
     &["optim"],
     &["adaptive"],
     &["fit", "aero"],
-    &["export"],
+    &["export", "bench"],
 ];
 
 /// A source file and the module path it defines (`["fit", "curve"]` for `src/fit/curve.rs`).

@@ -12,7 +12,6 @@
 //! - [`batch`]: [`AeroBatch`], the panel method for populations: a node map linear in the
 //!   design offsets, the objective and constraints, the f32 kernel's data and evaluators
 //!   (`shaders/aero.wgsl` and its CPU mirror), and the f64 reference.
-//! - [`bench`]: the `bezchain bench --kernel aero` benchmark.
 //! - [`optimise`]: [`Optimisation`], the GA and CMA-ES over a design space, every generation
 //!   one call of the panel-method evaluator, with checkpoints.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
@@ -22,7 +21,6 @@
 
 pub mod analysis;
 pub mod batch;
-pub mod bench;
 pub mod contour;
 pub mod design;
 pub mod karman_trefftz;

@@ -5,7 +5,7 @@
 use super::output::Outputs;
 use super::{bounded, parse_word};
 use anyhow::Result;
-use bezchain::eval::bench::{run as run_bench, BenchOptions};
+use bezchain::bench::population::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
 use bezchain::optim::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
 use std::path::PathBuf;
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> Result<()> {
                 bezchain::aero::batch::MAX_GPU_NODES
             )));
         }
-        let report = bezchain::aero::bench::run(&bezchain::aero::bench::AeroBenchOptions {
+        let report = bezchain::bench::aero::run(&bezchain::bench::aero::AeroBenchOptions {
             population: args.population,
             nodes: args.panels,
             backend: args.backend,

@@ -23,12 +23,10 @@
 //! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
 //! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
 
-pub mod bench;
 pub mod cpu;
 pub mod dense;
 pub mod gpu;
 pub mod kernel;
-pub mod peak;
 
 pub use cpu::{CpuEvaluator, Simd};
 pub use gpu::{GpuContext, GpuEvaluator, GpuOptions};

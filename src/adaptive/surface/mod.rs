@@ -528,8 +528,8 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::fitter::span_maxima;
+    use super::*;
     use crate::adaptive::Breaks;
 
     #[test]

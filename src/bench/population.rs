@@ -30,10 +30,10 @@
 //! runs them.
 
 use super::peak::{measure_fma, process_cpu_seconds, CpuPeak, FmaRate, FmaSet};
-use super::{build_evaluator, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
-use super::{Backend, CpuEvaluator, PopulationEvaluator, Simd};
 use crate::chain::{Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
+use crate::eval::{build_evaluator, BackendInfo, EvalLayout, EvalOptions, Fitness, GpuOptions, Targets};
+use crate::eval::{Backend, CpuEvaluator, PopulationEvaluator, Simd};
 use glam::{DVec2, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -2,10 +2,10 @@
 //! around NACA 4412 (its adapted encoding at 1e-4, offsets of up to ±0.2 % of the chord),
 //! solved at 4° with the max-CL objective and a thickness constraint, timed per population.
 
-use super::batch::{build_aero_evaluator, AeroBatch, AeroResult, Constraints, Objective};
-use super::contour::Paneling;
-use super::design::DesignSpace;
 use crate::adaptive::{adapt_curve, AdaptOptions};
+use crate::aero::batch::{build_aero_evaluator, AeroBatch, AeroResult, Constraints, Objective};
+use crate::aero::contour::Paneling;
+use crate::aero::design::DesignSpace;
 use crate::error::{Error, Result};
 use crate::eval::{Backend, GpuOptions};
 use crate::geometry::{Naca, NacaOptions};
@@ -35,7 +35,7 @@ impl Default for AeroBenchOptions {
     fn default() -> Self {
         AeroBenchOptions {
             population: 1024,
-            nodes: super::DEFAULT_NODES,
+            nodes: crate::aero::DEFAULT_NODES,
             backend: Backend::Auto,
             runs: 7,
             seed: 1,
@@ -98,7 +98,7 @@ pub fn run(options: &AeroBenchOptions) -> Result<AeroBenchReport> {
         &adapted.encoding,
         &Paneling::with_nodes(options.nodes),
         0.1,
-        super::Hold::ChordLine,
+        crate::aero::Hold::ChordLine,
     )?;
     let batch = AeroBatch::new(
         space.map().clone(),
@@ -144,7 +144,7 @@ pub fn run(options: &AeroBenchOptions) -> Result<AeroBenchReport> {
         mean_cl: out.iter().map(|r| f64::from(r.cl)).sum::<f64>() / out.len() as f64,
         invalid: out
             .iter()
-            .filter(|r| r.flags & super::batch::flags::GEOMETRY != 0)
+            .filter(|r| r.flags & crate::aero::batch::flags::GEOMETRY != 0)
             .count(),
     })
 }

@@ -1,0 +1,7 @@
+//! The workloads of `bezchain bench`, apart from the library's core: the population
+//! evaluator's throughput against the machine's measured peak ([`population`], [`peak`]) and
+//! the batched panel method's ([`aero`]).
+
+pub mod aero;
+pub mod peak;
+pub mod population;
