@@ -228,11 +228,39 @@ fn the_command_writes_a_curve_report_a_selig_file_and_a_picture() {
             "cpu",
             "--resume",
             "o.ckpt",
+            "--checkpoint",
+            "o2.ckpt",
         ],
         d,
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("35 generations"));
+    // Resumed from a checkpoint whose generations are spent: the outputs come from it.
+    let o = bezchain(
+        &[
+            "optimise",
+            "n0012.dat",
+            "--objective",
+            "inverse:n4412.dat",
+            "--tol",
+            "1e-3",
+            "--panels",
+            "60",
+            "--generations",
+            "35",
+            "--backend",
+            "cpu",
+            "--resume",
+            "o2.ckpt",
+            "--json",
+            "o3.json",
+            "--checkpoint",
+            "o3.ckpt",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(d.join("o3.json").exists() && d.join("o3.ckpt").exists());
 }
 
 #[test]

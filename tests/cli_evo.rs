@@ -95,6 +95,19 @@ fn ga_reports_history_and_checkpoints_and_resumes_bit_identically() {
             .collect::<Vec<_>>()
     };
     assert_eq!(cols(&text), cols(&std::fs::read_to_string(&rest_h).unwrap()));
+    // Resumed from the finished run's checkpoint: nothing is left to do, and every output is
+    // written from the checkpoint (exit 0), not refused.
+    let (done, done_ck, done_h) = (p("done.json"), p("done.ckpt"), p("done.csv"));
+    let mut c = common.to_vec();
+    c.extend_from_slice(&["--generations", "12", "--resume", &ck, "--json", &done]);
+    c.extend_from_slice(&["--checkpoint", &done_ck, "--history", &done_h]);
+    let out = fit("ga", &c);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let again = json(Path::new(&done));
+    assert_eq!(again["design_points"], full["design_points"]);
+    assert_eq!(again["fit"]["iterations"], 12);
+    assert_eq!(Checkpoint::read(Path::new(&done_ck)).unwrap().generation, 12);
+    assert_eq!(cols(&text), cols(&std::fs::read_to_string(&done_h).unwrap()));
 }
 
 #[test]

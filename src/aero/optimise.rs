@@ -474,13 +474,22 @@ impl<'p> Optimisation<'p> {
     }
 
     /// Step until [`stop`](Self::stop) says why, calling `on_generation` after each step.
+    ///
+    /// A run resumed from a checkpoint that had already stopped takes no step:
+    /// `on_generation` is called once on the resumed state, so that its outputs are written.
     pub fn run(&mut self, mut on_generation: impl FnMut(&Optimisation<'_>) -> Result<()>) -> Result<EvoStop> {
+        if let Some(why) = self.stop() {
+            if !self.history().is_empty() {
+                on_generation(self)?;
+            }
+            return Ok(why);
+        }
         loop {
+            self.step()?;
+            on_generation(self)?;
             if let Some(why) = self.stop() {
                 return Ok(why);
             }
-            self.step()?;
-            on_generation(self)?;
         }
     }
 
