@@ -1,6 +1,6 @@
 //! The crate's layering, checked from its source: the top-level modules form a DAG (no import
-//! cycle, direct or through others), and inside every folder the files form one too, except a
-//! shader mirror and the driver that share their `#[repr(C)]` types through one file.
+//! cycle, direct or through others), and inside every module the files form one too (a folder's
+//! `mod.rs`, which declares and re-exports the files below it, aside).
 //!
 //! A reference is every path in code (not in comments or strings) that starts with `crate::`,
 //! `super::` or `self::`, resolved to the longest module path that names a file of `src/`. `src/main.rs` and `src/cli/` are the
@@ -270,7 +270,7 @@ fn the_top_level_modules_form_layers_without_cycles() {
 }
 
 #[test]
-fn the_files_of_every_folder_form_a_dag() {
+fn the_files_of_every_module_form_a_dag() {
     let files = sources();
     let modules: BTreeSet<Vec<String>> = files.iter().map(|f| f.module.clone()).collect();
     // A file's node is itself; a reference's node is the longest file module prefixing it.
@@ -284,17 +284,16 @@ fn the_files_of_every_folder_form_a_dag() {
             .find(|p| modules.contains(p))
     };
     let g = graph(&files, node_of);
-    // Only edges between siblings and between a folder's files and their folder's children
-    // matter here; the top-level test covers edges across folders. A folder's `mod.rs`
-    // declares and re-exports its children, so the edges into a folder's own root are left out.
+    // Edges inside one top-level module, less those between a folder's root (`mod.rs`, which
+    // declares and re-exports its files) and the files below it; the top-level test covers
+    // the edges between modules.
     let mut inside = Graph::new();
     for (from, tos) in &g {
         let entry = inside.entry(from.clone()).or_default();
         for (to, why) in tos {
-            let same_folder =
-                from.len() >= 2 && to.len() >= 2 && from[..from.len() - 1] == to[..to.len() - 1];
-            let into_child = to.len() > from.len() && to.starts_with(from);
-            if same_folder && !into_child {
+            let same_module = from[0] == to[0];
+            let nested = to.starts_with(from) || from.starts_with(to);
+            if same_module && !nested {
                 entry.insert(to.clone(), why.clone());
             }
         }
@@ -303,7 +302,7 @@ fn the_files_of_every_folder_form_a_dag() {
     let cycles: String = cycles(&inside).iter().map(|c| explain(&inside, c)).collect();
     assert!(
         cycles.is_empty(),
-        "files in one folder that import each other:{cycles}"
+        "files of one module that import each other:{cycles}"
     );
 }
 

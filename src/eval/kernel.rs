@@ -31,8 +31,7 @@
 //!
 //! [`PopulationEvaluator::set_reference`]: super::PopulationEvaluator::set_reference
 
-use super::cpu::basis::bernstein;
-use super::cpu::Unfused;
+use super::basis::{bernstein, Unfused};
 use super::{EvalLayout, Fitness, PopulationEvaluator, Targets};
 use crate::bezier::bernstein as bernstein_f64;
 use crate::chain::ChainLayout;
@@ -195,8 +194,7 @@ pub(crate) const NONE: u32 = u32::MAX;
 
 pub use crate::chain::MAX_DEGREE;
 
-/// Basis arrays hold up to this many values (degree [`MAX_DEGREE`]).
-pub(crate) const NB: usize = MAX_DEGREE + 1;
+pub(crate) use super::basis::NB;
 
 /// The largest error Newton steps may let the reference's Taylor polynomial make, as a
 /// fraction of the targets' extent (see [`Problem::refresh`]).

@@ -23,6 +23,7 @@
 //! Environment: `BEZCHAIN_NO_GPU=1` makes every GPU request behave as if no adapter existed
 //! (so `Backend::Auto` takes the CPU and says why); `RAYON_NUM_THREADS` sets the CPU threads.
 
+mod basis;
 pub mod cpu;
 pub mod dense;
 pub mod gpu;

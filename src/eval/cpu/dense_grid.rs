@@ -1,8 +1,8 @@
 //! CPU mirror of `shaders/dense_grid.wgsl`: a patch grid sampled on a tensor grid of
 //! parameters, with the cross product of its tangents.
 
-use super::basis::basis;
 use super::{Arith, Lanes};
+use crate::eval::basis::basis;
 use crate::eval::kernel::{Config, Sample, Vertex};
 
 /// `main` of `dense_grid.wgsl` for sample `(iu, iv)` of the design in lane `lane` of the

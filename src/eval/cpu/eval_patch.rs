@@ -13,8 +13,8 @@
 //! The SIMD paths run the fixed-parameter loop in [`super::fixed`] instead (the same sums,
 //! fused) and the Newton steps here, fused.
 
-use super::basis::{basis_lanes, bernstein_lanes, BasisWork, LaneBasis};
 use super::{Arith, Lanes, Point, LANES};
+use crate::eval::basis::{basis_lanes, bernstein_lanes, BasisWork, LaneBasis};
 use crate::eval::kernel::{Config, Partial, RefJet, Target, NONE};
 
 /// The shader's `SINGULAR`.

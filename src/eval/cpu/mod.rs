@@ -2,7 +2,7 @@
 //! structure-of-arrays (`value[lane]`) so the kernels vectorise over individuals.
 //!
 //! Every file here mirrors the shader of the same name in `shaders/`, operation for operation
-//! (`basis.rs` mirrors `basis.wgsl`, spliced into the shaders). The shaders' `fma(a, b, c)` is
+//! (`../basis.rs` mirrors `basis.wgsl`, spliced into the shaders). The shaders' `fma(a, b, c)` is
 //! [`Arith::fma`] here, in two forms:
 //!
 //! - [`Unfused`]: a multiply, then an add. That is what Mesa lavapipe computes for it
@@ -19,7 +19,6 @@
 // The mirrors index as their shaders do (`for k in 0..j { out[k] … }`), line for line.
 #![allow(clippy::needless_range_loop)]
 
-pub(crate) mod basis;
 pub(crate) mod dense_grid;
 pub(crate) mod eval_patch;
 pub(crate) mod expand;
@@ -34,39 +33,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt;
 
-/// Individuals per block: one lane each (one AVX-512 register, two AVX2 registers).
-pub(crate) const LANES: usize = 16;
-/// One value per lane of a block.
-pub(crate) type Lanes = [f32; LANES];
 /// The coordinates of one point for every lane (the third unused for curves).
 pub(crate) type Point = [Lanes; 3];
 
-/// How the kernels compute the shaders' `fma(a, b, c)`.
-pub(crate) trait Arith {
-    /// `a * b + c`.
-    fn fma(a: f32, b: f32, c: f32) -> f32;
-}
-
-/// `a * b + c` rounded twice, as lavapipe computes `fma`.
-pub(crate) struct Unfused;
-
-impl Arith for Unfused {
-    #[inline(always)]
-    fn fma(a: f32, b: f32, c: f32) -> f32 {
-        a * b + c
-    }
-}
-
-/// `a * b + c` rounded once. Only inside functions compiled with the `fma` feature (elsewhere
-/// `mul_add` is a library call).
-pub(crate) struct Fused;
-
-impl Arith for Fused {
-    #[inline(always)]
-    fn fma(a: f32, b: f32, c: f32) -> f32 {
-        a.mul_add(b, c)
-    }
-}
+pub(crate) use super::basis::{Arith, Fused, Lanes, Unfused, LANES};
 
 /// A set of CPU kernels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]

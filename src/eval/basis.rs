@@ -1,9 +1,44 @@
-//! CPU mirror of `shaders/basis.wgsl`: the Bernstein basis with its first and second
+//! The f32 mirror of `shaders/basis.wgsl`: the Bernstein basis with its first and second
 //! derivatives, for one parameter ([`bernstein`], [`basis`]) or one per lane
-//! ([`bernstein_lanes`], [`basis_lanes`]).
+//! ([`bernstein_lanes`], [`basis_lanes`]), in the shaders' arithmetic ([`Arith`]: the
+//! multiply-add as lavapipe computes it, or fused). The data preparation of [`super::kernel`]
+//! and the CPU mirrors of [`super::cpu`] both compute with it.
 
-use super::{Arith, Lanes, LANES};
-use crate::eval::kernel::NB;
+use crate::chain::MAX_DEGREE;
+
+/// Basis arrays hold up to this many values (degree [`MAX_DEGREE`]).
+pub(crate) const NB: usize = MAX_DEGREE + 1;
+
+/// Individuals per block: one lane each (one AVX-512 register, two AVX2 registers).
+pub(crate) const LANES: usize = 16;
+/// One value per lane of a block.
+pub(crate) type Lanes = [f32; LANES];
+/// How the kernels compute the shaders' `fma(a, b, c)`.
+pub(crate) trait Arith {
+    /// `a * b + c`.
+    fn fma(a: f32, b: f32, c: f32) -> f32;
+}
+
+/// `a * b + c` rounded twice, as lavapipe computes `fma`.
+pub(crate) struct Unfused;
+
+impl Arith for Unfused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a * b + c
+    }
+}
+
+/// `a * b + c` rounded once. Only inside functions compiled with the `fma` feature (elsewhere
+/// `mul_add` is a library call).
+pub(crate) struct Fused;
+
+impl Arith for Fused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a.mul_add(b, c)
+    }
+}
 
 /// `bernstein`: the degree-n Bernstein polynomials at t.
 #[inline(always)]
@@ -165,7 +200,6 @@ pub(crate) fn basis_lanes<A: Arith>(n: usize, t: &Lanes, work: &mut BasisWork, o
 
 #[cfg(test)]
 mod tests {
-    use super::super::Unfused;
     use super::*;
     use crate::bezier::{bernstein as bernstein_f64, bernstein_deriv};
 
