@@ -32,7 +32,7 @@ pub enum Method {
     /// BFGS with the analytic gradient from the paper's start.
     Bfgs,
     /// The genetic algorithm on the population evaluator, from a population around the
-    /// paper's start (see [`super::evo`]).
+    /// paper's start (see [`crate::optim::evo`]).
     Ga,
     /// CMA-ES on the population evaluator, from the paper's start.
     Cmaes,
@@ -86,7 +86,7 @@ pub struct FitOptions {
     pub metric: Metric,
     /// Anchor the first and last data points at the chain's ends (`t = 0` and `t = 1`) in
     /// the objective, so the chain spans the data instead of running past it (see
-    /// [`FitProblem`](super::FitProblem)). Reported offsets are true closest-point offsets
+    /// [`FitProblem`](crate::problem::FitProblem)). Reported offsets are true closest-point offsets
     /// either way. Default true.
     pub anchor_ends: bool,
     /// The least-squares method starts from a linear solve at each of these
@@ -174,7 +174,7 @@ impl<P: Vector> CurveFit<P> {
 /// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the
 /// paper's start, and keeps the best loop-free fit (see [`FitOptions::max_span_ratio`]).
 /// `nelder-mead` and `bfgs` start as the paper does, from design points picked from the data
-/// at an even increment ([`super::increment_start`]), and minimise the metric's sum of squares
+/// at an even increment ([`crate::problem::increment_start`]), and minimise the metric's sum of squares
 /// over the flattened design points `x0, y0, x1, y1, …`. With `anchor_ends` (the default) all
 /// three minimise the closest-point sum with the first and last data points tied to the
 /// chain's ends; the reported offsets are always true closest-point offsets.
@@ -186,7 +186,7 @@ pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions
 /// progress and checkpoints, a checkpoint to resume from); the other methods ignore them.
 ///
 /// `ga` and `cmaes` minimise the closest-point sum of squares on the population evaluator
-/// (see [`super::evo`]), with the first and last data points tied to the chain's ends when
+/// (see [`crate::optim::evo`]), with the first and last data points tied to the chain's ends when
 /// `anchor_ends` is set, and start from the paper's start (the GA: a population spread around
 /// it). They fit plane points only, and the closest-point metric only.
 pub fn fit_curve_with<P: Vector>(

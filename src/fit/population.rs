@@ -10,7 +10,7 @@
 //! they are tied to, in f64. A run's result is re-measured in f64 with the global search.
 //!
 //! **Precision.** The evolutionary methods carry their populations in f32, so they see the
-//! problem in a [`Frame`] centred on its search box: their variables are the design
+//! problem in a [`Frame`](crate::problem::Frame) centred on its search box: their variables are the design
 //! coordinates less that centre, and the evaluator's targets are moved with them; a shape is
 //! then resolved as finely wherever its data sit. Every generation the evaluator's reference
 //! design is re-anchored where the population lies (the GA's best design so far, CMA-ES's
@@ -155,12 +155,12 @@ impl<S: EvalShape<K>, const K: usize> PopulationObjective for FitProblem<'_, S, 
         FitProblem::dim(self)
     }
 
-    /// The start in the problem's [`Frame`].
+    /// The start in the problem's [`Frame`](crate::problem::Frame).
     fn start(&self) -> &[f64] {
         self.frame().start()
     }
 
-    /// The bounds in the problem's [`Frame`].
+    /// The bounds in the problem's [`Frame`](crate::problem::Frame).
     fn bounds(&self) -> &[[f64; 2]] {
         self.frame().bounds()
     }

@@ -6,7 +6,7 @@
 //! time over a grid of candidate positions (every candidate fitted in full, in parallel) and
 //! keeps the fit with the smallest sum of squares among those that pass the
 //! [`projection_check`] (the emulation of a plain outside tool's closest-point search, see
-//! [`super::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
+//! [`crate::problem::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
 //! runs at all) and [`check_fit`] the one of the projection check after a fit.
 
 use super::surface::{

@@ -31,7 +31,7 @@ pub struct EvoSummary {
     pub polish_from_evolved: Option<bool>,
 }
 
-/// The least-squares polish: [`lsq`](super::lsq::lsq) on `problem` from `design` and its
+/// The least-squares polish: [`lsq`] on `problem` from `design` and its
 /// foot points, kept where `guard` admits once it holds. Returns the polished design and the
 /// solver's report.
 pub fn polish<S: Shape<K>, const K: usize>(

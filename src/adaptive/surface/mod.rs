@@ -2,7 +2,7 @@
 //! from a sectioned 3D cloud meet a tolerance (the paper's Fig. 8 for surfaces).
 //!
 //! The cloud is a grid of sections (a blade's stations: `section,index` columns). Each
-//! direction of the tensor-product spline has its own [`ChainLayout`]: u around the sections,
+//! direction of the tensor-product spline has its own [`ChainLayout`](crate::chain::ChainLayout): u around the sections,
 //! v along the span. The section `k` sits at span parameter `v_k`; every data point has its own
 //! `u`. A candidate is fitted by alternating a linear least-squares solve for the design net
 //! (all points at their `(u, v_k)`) with a Newton correction of each point's `u` on the section

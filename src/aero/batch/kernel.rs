@@ -198,7 +198,7 @@ impl AeroKernel {
     }
 }
 
-/// Evaluates populations of an [`AeroBatch`]'s kernel on one backend.
+/// Evaluates populations of an [`AeroBatch`](super::AeroBatch)'s kernel on one backend.
 pub trait AeroEvaluator: Send {
     /// Evaluate the rows of `population` (`n_vars` offsets each) into `out`, in order.
     fn evaluate(&mut self, population: &[f32], out: &mut [AeroResult]) -> Result<()>;

@@ -7,9 +7,9 @@
 //!   point offsets on the population evaluator), any other objective can be.
 //! - [`Evolution`]: one run, generation by generation ([`Evolution::step`]), with
 //!   [`Evolution::checkpoint`] / [`Evolution::resume`] that continue bit-identically.
-//! - [`evolve`]: a whole run with a per-generation callback; [`polish`] runs the
+//! - [`evolve`]: a whole run with a per-generation callback; [`polish`](crate::optim::hybrid::polish) runs the
 //!   least-squares fit from its result (the `ga+lsq` and `cmaes+lsq` methods);
-//!   [`fit_grid_evo`] does both for a patch grid (curves: [`crate::fit::fit_curve`]).
+//!   [`fit_grid_evo`](crate::fit::fit_grid_evo) does both for a patch grid (curves: [`crate::fit::fit_curve`]).
 //!
 //! **Reproducibility.** Random numbers come from ChaCha8 streams fixed by the seed, the
 //! generation and the individual; sorting breaks ties by index; sums over individuals run in

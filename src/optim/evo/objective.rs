@@ -52,7 +52,7 @@ pub trait PopulationObjective: Sync {
     /// The variables `x` as the design a run hands back and [`measure`](Self::measure)
     /// takes. Populations are carried in f32, so an objective may define its variables in a
     /// frame of its own (the fitting problem: the design less the centre of its box, see
-    /// [`crate::fit::population::Frame`]); start, bounds and the rows scored are in that
+    /// [`crate::problem::Frame`]); start, bounds and the rows scored are in that
     /// frame. Default: the variables themselves.
     fn absolute(&self, x: &[f64]) -> Vec<f64> {
         x.to_vec()
