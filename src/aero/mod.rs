@@ -29,6 +29,7 @@ pub mod karman_trefftz;
 pub mod optimise;
 pub mod panel;
 
+pub use crate::optim::Method;
 pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
 pub use batch::{
     build_aero_evaluator, AeroBatch, AeroEval, AeroEvaluator, AeroKernel, AeroResult, Constraints, NodeMap,
@@ -37,5 +38,5 @@ pub use batch::{
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
 pub use design::{DesignSpace, Hold};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
-pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
+pub use optimise::{AeroProblem, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};

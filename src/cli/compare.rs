@@ -20,7 +20,7 @@ pub struct Args {
     /// The contour (the paper used NACA 4413 with 82 points: `data/naca4413.dat`).
     pub input: PathBuf,
     /// Methods to compare, in table order (also ga+lsq, cmaes+lsq).
-    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = super::parse_word::<Method>)]
+    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = super::curve_method)]
     pub methods: Vec<Method>,
     /// Individuals per generation of the GA and CMA-ES.
     #[arg(long, default_value_t = GA_POPULATION as i64, allow_negative_numbers = true)]

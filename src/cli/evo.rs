@@ -7,7 +7,11 @@ use super::progress::{Checkpoints, Generations};
 use super::usage;
 use anyhow::Result;
 use bezchain::eval::Backend;
-use bezchain::optim::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
+use bezchain::optim::evo::{
+    check_generation_size, default_population, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS,
+    MAX_POPULATION,
+};
+use bezchain::optim::Method;
 use bezchain::optim::SolveReport;
 use std::path::{Path, PathBuf};
 
@@ -108,16 +112,14 @@ impl EvoArgs {
 
     /// Refuse, before the run, a population whose generation would not fit in memory for
     /// `n` design variables of `algorithm` (`None`: not evolutionary).
-    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Algorithm>, n: usize) -> Result<()> {
-        match algorithm {
-            Some(a) => opts.check_size(a, n).map_err(|e| {
-                usage(format!(
-                    "--population {}: {e}; ask for fewer individuals or a smaller layout",
-                    opts.size(a, n)
-                ))
-            }),
-            None => Ok(()),
-        }
+    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Method>, n: usize) -> Result<()> {
+        let Some(a) = algorithm else { return Ok(()) };
+        let size = opts.population.unwrap_or_else(|| default_population(a, n));
+        check_generation_size(size, n).map_err(|e| {
+            usage(format!(
+                "--population {size}: {e}; ask for fewer individuals or a smaller layout"
+            ))
+        })
     }
 
     /// The flags given, by name (to refuse them for methods that do not use them).

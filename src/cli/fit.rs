@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, default_value = "c1", value_parser = super::parse_word::<Continuity>)]
     pub continuity: Continuity,
     /// Method: lsq, nelder-mead, bfgs, ga, cmaes, ga+lsq or cmaes+lsq.
-    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<Method>)]
+    #[arg(long, default_value = "lsq", value_parser = super::curve_method)]
     pub method: Method,
     /// Offset metric minimised and reported: closest or corresponding.
     #[arg(long, default_value = "closest", value_parser = super::parse_word::<Metric>)]

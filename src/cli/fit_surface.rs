@@ -9,8 +9,8 @@ use bezchain::chain::Continuity;
 use bezchain::export::{render, render_svg, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
 use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
-    fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
-    SurfaceProgress,
+    fit_surface_with, parse_surface_method, Breaks, Method, ParamSource, SurfaceFit, SurfaceLayout,
+    SurfaceOptions, SurfaceProgress,
 };
 use bezchain::geometry::{read_cloud, Blade};
 use bezchain::optim::evo::{Checkpoint, EvoHooks, Evolution};
@@ -49,8 +49,8 @@ pub struct Args {
     pub breaks_v: String,
     /// Method: lsq, ga, cmaes, ga+lsq or cmaes+lsq (the evolutionary ones on the population
     /// evaluator, from the linear least-squares start, on the subsample of a large cloud).
-    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<SurfaceMethod>)]
-    pub method: SurfaceMethod,
+    #[arg(long, default_value = "lsq", value_parser = |s: &str| parse_surface_method(s).map_err(|e| e.to_string()))]
+    pub method: Method,
     /// Initial parameters: auto (sections when the cloud has them, else blade-aware), sections
     /// or blade.
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<ParamSource>)]

@@ -19,6 +19,7 @@ pub mod progress;
 pub mod sample;
 
 use anyhow::Result;
+use bezchain::optim::Method;
 use std::path::Path;
 
 /// An error in the user's arguments that clap cannot see (exit status 2).
@@ -73,6 +74,11 @@ pub fn one_line(e: &anyhow::Error) -> String {
 /// own `FromStr`, whose error lists the accepted words.
 pub fn parse_word<T: std::str::FromStr<Err = bezchain::Error>>(s: &str) -> std::result::Result<T, String> {
     s.parse().map_err(|e: bezchain::Error| e.to_string())
+}
+
+/// clap parser for `--method` of a chain fit ([`Method::CURVE`]).
+pub fn curve_method(s: &str) -> std::result::Result<Method, String> {
+    Method::parse_among(s, Method::CURVE).map_err(|e| e.to_string())
 }
 
 /// clap parser for `AxB` pairs of positive integers (degrees, patch counts).

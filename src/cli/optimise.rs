@@ -40,7 +40,7 @@ pub struct Args {
     pub alpha: f64,
     /// Method: ga, cmaes or ga+cmaes (the GA for half the generations, then CMA-ES from its
     /// best).
-    #[arg(long, default_value = "cmaes", value_parser = super::parse_word::<Method>)]
+    #[arg(long, default_value = "cmaes", value_parser = |s: &str| Method::parse_among(s, Method::AERO).map_err(|e| e.to_string()))]
     pub method: Method,
     /// Individuals per generation [default: 256 for ga, 4 + 3 ln n for cmaes].
     #[arg(long)]
@@ -389,7 +389,7 @@ pub fn run(args: Args) -> Result<()> {
         seed: args.seed,
         backend: args.backend,
         spread: args.spread,
-        stall: args.stall,
+        stall_generations: args.stall,
         ..OptimiseOptions::default()
     };
     outs.say(&format!(

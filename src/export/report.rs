@@ -5,7 +5,8 @@ use crate::bezier::Vector;
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo};
-use crate::fit::{CurveFit, SurfaceFit, SurfaceMethod};
+use crate::fit::{CurveFit, SurfaceFit};
+use crate::optim::Method;
 use crate::problem::OffsetStats;
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
@@ -143,7 +144,7 @@ impl FitInfo {
     /// The `fit` block of a surface fit by `method`: every stage, the evolutionary one (the
     /// first, when there is one) with the backend and the evaluator's throughput.
     #[must_use]
-    pub fn of_surface(fit: &SurfaceFit, method: SurfaceMethod) -> Self {
+    pub fn of_surface(fit: &SurfaceFit, method: Method) -> Self {
         let evo_backend = fit.evolution.as_ref().map(|e| backend_label(&e.run.backend));
         let rate = fit.evolution.as_ref().map(|e| e.run.evals_per_second);
         let stages = fit
@@ -349,7 +350,7 @@ impl SurfaceReport {
 
     /// The report of a finished surface fit by `method` of the cloud described by `input`.
     #[must_use]
-    pub fn from_fit(fit: &SurfaceFit, method: SurfaceMethod, input: InputInfo) -> Self {
+    pub fn from_fit(fit: &SurfaceFit, method: Method, input: InputInfo) -> Self {
         SurfaceReport::new(
             &fit.grid,
             OffsetReport::from(&fit.stats),

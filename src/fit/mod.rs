@@ -20,10 +20,11 @@ pub mod population;
 pub mod surface;
 pub mod surface_breaks;
 
-pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions, Method};
+pub use crate::optim::Method;
+pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions};
 pub use grid_evo::{fit_grid_evo, GridEvoFit};
 pub use paper::{PaperCase, PAPER_CASES};
 pub use surface::{
-    fit_surface, fit_surface_with, initial_params, Breaks, ParamSource, SurfaceFit, SurfaceLayout,
-    SurfaceMethod, SurfaceOptions, SurfaceProgress, SurfaceStage,
+    fit_surface, fit_surface_with, initial_params, parse_surface_method, Breaks, ParamSource, SurfaceFit,
+    SurfaceLayout, SurfaceOptions, SurfaceProgress, SurfaceStage,
 };

@@ -16,9 +16,10 @@ use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use crate::keyword::keywords;
-use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::evo::{EvoHooks, EvoOptions};
 use crate::optim::hybrid::EvoSummary;
 use crate::optim::lsq::{lsq, LsqFit, LsqHooks, LsqIterate, LsqOptions, Start};
+use crate::optim::method::Method;
 use crate::optim::report::{SolveReport, StopReason};
 use crate::problem::offset::{Metric, OffsetStats};
 use crate::problem::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
@@ -26,62 +27,17 @@ use crate::problem::GridProblem;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::str::FromStr;
 use std::time::Instant;
 
-/// A surface-fitting method: least squares, or an evolutionary method on the population
-/// evaluator (GPU where present) from the least-squares start, optionally polished by least
-/// squares.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum SurfaceMethod {
-    /// Joint Levenberg-Marquardt over the design net and the foot points. The default.
-    #[default]
-    Lsq,
-    /// The genetic algorithm around the linear least-squares start (see [`super::evo`]).
-    Ga,
-    /// CMA-ES from the linear least-squares start.
-    Cmaes,
-    /// The genetic algorithm, then the least-squares polish from its best net.
-    GaLsq,
-    /// CMA-ES, then the least-squares polish from its best net.
-    CmaesLsq,
-}
-
-impl SurfaceMethod {
-    /// The evolutionary algorithm and whether least squares polishes its result; `None` for
-    /// least squares.
-    #[must_use]
-    pub fn evolutionary(self) -> Option<(Algorithm, bool)> {
-        match self {
-            SurfaceMethod::Ga => Some((Algorithm::Ga, false)),
-            SurfaceMethod::Cmaes => Some((Algorithm::Cmaes, false)),
-            SurfaceMethod::GaLsq => Some((Algorithm::Ga, true)),
-            SurfaceMethod::CmaesLsq => Some((Algorithm::Cmaes, true)),
-            SurfaceMethod::Lsq => None,
-        }
-    }
-}
-
-keywords!(SurfaceMethod, "method", {
-    Lsq => "lsq",
-    Ga => "ga",
-    Cmaes => "cmaes" | "cma-es",
-    GaLsq => "ga+lsq",
-    CmaesLsq => "cmaes+lsq" | "cma-es+lsq",
-}, parse = manual);
-
-impl FromStr for SurfaceMethod {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        if matches!(
-            s.parse::<super::Method>(),
-            Ok(super::Method::NelderMead | super::Method::Bfgs)
-        ) {
-            return Err(Error::invalid(format!(
-                "method '{s}' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
-            )));
-        }
-        crate::keyword::parse(s, "method", Self::KEYWORDS)
+/// `--method` of a surface fit: one of [`Method::SURFACE`]; a method of curve fits alone is
+/// refused by saying so.
+pub fn parse_surface_method(s: &str) -> Result<Method> {
+    match Method::parse_among(s, Method::CURVE) {
+        Ok(m) if !Method::SURFACE.contains(&m) => Err(Error::invalid(format!(
+            "method '{s}' is for curves only (surfaces: {})",
+            Method::names(Method::SURFACE).join(", ")
+        ))),
+        _ => Method::parse_among(s, Method::SURFACE),
     }
 }
 
@@ -220,8 +176,8 @@ keywords!(ParamSource, "parameterisation", { Auto => "auto", Sections => "sectio
 /// Everything [`fit_surface`] needs besides the data and the layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
-    /// The method. Default least squares.
-    pub method: SurfaceMethod,
+    /// The method, one of [`Method::SURFACE`]. Default least squares.
+    pub method: Method,
     /// Where the initial parameters come from. Default [`ParamSource::Auto`].
     pub params: ParamSource,
     /// Options of the blade-aware parameterisation.
@@ -247,7 +203,7 @@ pub struct SurfaceOptions {
 impl Default for SurfaceOptions {
     fn default() -> Self {
         SurfaceOptions {
-            method: SurfaceMethod::Lsq,
+            method: Method::Lsq,
             params: ParamSource::Auto,
             blade: BladeParamOptions::default(),
             lsq: LsqOptions {
@@ -537,6 +493,12 @@ pub fn fit_surface_with(
     hooks: &mut EvoHooks<'_>,
 ) -> Result<SurfaceFit> {
     let clock = Instant::now();
+    if !Method::SURFACE.contains(&opts.method) {
+        return Err(Error::invalid(format!(
+            "{} is not a method of surface fits",
+            opts.method
+        )));
+    }
     if let Some(j) = points.iter().position(|p| !p.is_finite()) {
         return Err(Error::invalid(format!(
             "data point {j} has a non-finite coordinate"
