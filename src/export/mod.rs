@@ -6,10 +6,12 @@ mod cp_plot;
 mod iges;
 mod mesh;
 mod render;
-mod report;
 mod step;
 mod svg;
 
+pub use crate::fit::report::{
+    backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport,
+};
 pub use adapt_report::{
     AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport, COUNTING,
 };
@@ -21,6 +23,5 @@ pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
     DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
-pub use report::{backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
 pub use svg::CurvePlot;

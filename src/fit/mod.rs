@@ -8,6 +8,8 @@
 //! - [`surface_breaks`]: the span-break search of fitted grids.
 //! - [`grid_evo`]: a patch grid fitted by the GA or CMA-ES, polished by least squares.
 //! - [`paper`]: the paper's three NACA 4413 cases.
+//! - [`report`]: the JSON reports of fitted curves and surfaces, and the one reader of saved
+//!   reports.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
 // also true for NaN.
@@ -17,6 +19,7 @@ pub mod curve;
 pub mod grid_evo;
 pub mod paper;
 pub mod population;
+pub mod report;
 pub mod surface;
 pub mod surface_breaks;
 
@@ -24,6 +27,10 @@ pub use crate::optim::Method;
 pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions};
 pub use grid_evo::{fit_grid_evo, GridEvoFit};
 pub use paper::{PaperCase, PAPER_CASES};
+pub use report::{
+    backend_label, is_report, read_report, read_reports, CurveReport, FitInfo, InputInfo, OffsetReport,
+    Report, Saved, SurfaceReport,
+};
 pub use surface::{
     fit_surface, fit_surface_with, initial_params, parse_surface_method, Breaks, ParamSource, SurfaceFit,
     SurfaceLayout, SurfaceOptions, SurfaceProgress, SurfaceStage,

@@ -1,11 +1,17 @@
-//! The JSON fit reports of curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written by
-//! `fit` and `fit-surface` and read back by `eval`.
+//! The JSON reports of fitted curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written
+//! by `fit`, `fit-surface`, `adapt`, `adapt-surface` and `optimise`, and the one reader of saved
+//! reports ([`read_reports`], [`read_report`], [`Report::read`]) that `eval`, `sample`, `aero`,
+//! `optimise` and `export` read them back with: each report's shape and, for an adapt report,
+//! the encoding its `adapt` block stores.
 
+use super::curve::CurveFit;
+use super::surface::SurfaceFit;
+use crate::adaptive::{Encoding, SurfaceEncoding};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo};
-use crate::fit::{CurveFit, SurfaceFit};
+use crate::geometry::{from_json_value, parse_json, read_text};
 use crate::optim::Method;
 use crate::problem::OffsetStats;
 use glam::{DVec2, DVec3};
@@ -420,25 +426,139 @@ fn check_expanded(
 }
 
 impl Report {
-    /// Read a report (either kind) from a JSON file.
+    /// Read the one report (either kind) of a JSON file ([`read_report`], the encoding of an
+    /// adapt report left out).
     pub fn read(path: &Path) -> Result<Report> {
-        let text = crate::geometry::read_text(path)?;
-        let value: serde_json::Value = crate::geometry::parse_json(&text, path, "not JSON")?;
-        let kind = value
-            .get("kind")
-            .and_then(|k| k.as_str())
-            .unwrap_or_default()
-            .to_string();
+        Ok(match read_report(path)? {
+            Saved::Curve(r, _) => Report::Curve(r),
+            Saved::Surface(r, _) => Report::Surface(r),
+        })
+    }
+}
+
+/// One report of a saved file: its shape's report and, for an adapt report, the encoding its
+/// `adapt` block stores (`docs/ARCHITECTURE.md` §5.6, §5.7).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Saved {
+    /// A curve report (of `fit`, `adapt` or `optimise`).
+    Curve(CurveReport, Option<Encoding>),
+    /// A surface report (of `fit-surface` or `adapt-surface`).
+    Surface(SurfaceReport, Option<SurfaceEncoding>),
+}
+
+/// Whether `path` holds a JSON report rather than coordinates: its first character, after
+/// white space, is `{`.
+pub fn is_report(path: &Path) -> Result<bool> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
+}
+
+/// The one report of a JSON file. A field that does not parse is named with its line.
+pub fn read_report(path: &Path) -> Result<Saved> {
+    let text = read_text(path)?;
+    let value: serde_json::Value = parse_json(&text, path, "not JSON")?;
+    Saved::of_text(value, &text, path)
+}
+
+/// Every report of a JSON file: one report, or an array of them (a sweep's; an empty array
+/// gives none). A field of a single report that does not parse is named with its line; one in
+/// an array, with the report's index from the second on (`report 2: `).
+pub fn read_reports(path: &Path) -> Result<Vec<Saved>> {
+    let text = read_text(path)?;
+    match parse_json(&text, path, "not JSON")? {
+        serde_json::Value::Array(items) => items
+            .into_iter()
+            .enumerate()
+            .map(|(k, item)| Saved::of_value(item, path, k))
+            .collect(),
+        one => Ok(vec![Saved::of_text(one, &text, path)?]),
+    }
+}
+
+/// The error for a JSON value that is no bezchain report; `at` says which of an array.
+fn not_a_report(path: &Path, at: &str) -> Error {
+    Error::Input {
+        path: path.into(),
+        message: format!("{at}not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"),
+    }
+}
+
+/// The `kind` of a report's JSON value (empty without one).
+fn kind_of(value: &serde_json::Value) -> String {
+    value
+        .get("kind")
+        .and_then(|k| k.as_str())
+        .unwrap_or_default()
+        .to_string()
+}
+
+impl Saved {
+    /// The report of a file's single JSON `value`, parsed from its `text` (so that an error
+    /// names the line).
+    fn of_text(value: serde_json::Value, text: &str, path: &Path) -> Result<Saved> {
+        let kind = kind_of(&value);
         let what = format!("not a bezchain {kind} report");
         match kind.as_str() {
-            "curve" => Ok(Report::Curve(crate::geometry::parse_json(&text, path, &what)?)),
-            "surface" => Ok(Report::Surface(crate::geometry::parse_json(&text, path, &what)?)),
-            _ => Err(Error::Input {
-                path: path.into(),
-                message: "not a bezchain report (\"kind\" must be \"curve\" or \"surface\")".into(),
-            }),
+            "curve" => Ok(Saved::Curve(
+                parse_json(text, path, &what)?,
+                encoding(&value, path, "", &kind)?,
+            )),
+            "surface" => Ok(Saved::Surface(
+                parse_json(text, path, &what)?,
+                encoding(&value, path, "", &kind)?,
+            )),
+            _ => Err(not_a_report(path, "")),
         }
     }
+
+    /// The report `item`, the `k`-th of an array in `path`.
+    fn of_value(item: serde_json::Value, path: &Path, k: usize) -> Result<Saved> {
+        let at = if k == 0 {
+            String::new()
+        } else {
+            format!("report {k}: ")
+        };
+        let kind = kind_of(&item);
+        let bad = |e: String| Error::Input {
+            path: path.into(),
+            message: format!("{at}not a bezchain {kind} report: {e}"),
+        };
+        match kind.as_str() {
+            "curve" => {
+                let enc = encoding(&item, path, &at, &kind)?;
+                Ok(Saved::Curve(from_json_value(item, "").map_err(bad)?, enc))
+            }
+            "surface" => {
+                let enc = encoding(&item, path, &at, &kind)?;
+                Ok(Saved::Surface(from_json_value(item, "").map_err(bad)?, enc))
+            }
+            _ => Err(not_a_report(path, &at)),
+        }
+    }
+}
+
+/// The encoding of a report's `adapt` block, if it has one (`at` and `kind` for the message).
+fn encoding<E: serde::de::DeserializeOwned>(
+    value: &serde_json::Value,
+    path: &Path,
+    at: &str,
+    kind: &str,
+) -> Result<Option<E>> {
+    let Some(enc) = value
+        .get("adapt")
+        .map(|a| a.get("encoding").cloned().unwrap_or_default())
+    else {
+        return Ok(None);
+    };
+    from_json_value(enc, "adapt.encoding.")
+        .map(Some)
+        .map_err(|e| Error::Input {
+            path: path.into(),
+            message: format!("{at}not a bezchain {kind} report: {e}"),
+        })
 }
 
 #[cfg(test)]
