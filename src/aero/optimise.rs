@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::eval::BackendInfo;
 use crate::optim::evo::{
     default_lambda, Checkpoint, EvoOptions, EvoStop, Evolution, Fnv, PopulationObjective, Progress, Score,
-    Scorer,
+    Scorer, Watched,
 };
 use crate::optim::method::Method;
 use serde::Serialize;
@@ -505,6 +505,45 @@ impl<'p> Optimisation<'p> {
             history: r.history,
             design: r.design,
         })
+    }
+}
+
+impl Watched for Optimisation<'_> {
+    fn label(&self) -> String {
+        self.method.to_string()
+    }
+    fn generation(&self) -> u64 {
+        Optimisation::generation(self)
+    }
+    fn limit(&self) -> u64 {
+        self.generations() as u64
+    }
+    fn history(&self) -> &[Progress] {
+        Optimisation::history(self)
+    }
+    fn stopping(&self) -> bool {
+        self.stop().is_some()
+    }
+    /// The best score and its coefficients, the stage, shapes a second and shapes flagged.
+    fn status(&self) -> String {
+        let Some(last) = self.history().last() else {
+            return String::new();
+        };
+        let (_, best) = self.best();
+        let r = self.reasons();
+        format!(
+            "best {:.5e} (CL {:.4}, CM {:.4}, t/c {:.4}) | {} stage | {:.0} shapes/s | {} flagged",
+            last.best,
+            best.cl,
+            best.cm,
+            best.thickness,
+            self.stage(),
+            last.evaluations as f64 / last.seconds.max(1e-9),
+            r.non_finite + r.fold + r.crossing + r.singular + r.thin + r.cm
+        )
+    }
+    fn checkpoint(&self) -> Checkpoint {
+        Optimisation::checkpoint(self)
     }
 }
 

@@ -2,11 +2,10 @@
 //! CL and CM, a JSON report with the pressures, an SVG of Cp above the shape.
 
 use super::output::Outputs;
-use super::{usage, warn_all};
+use super::{usage, warn};
 use anyhow::Result;
-use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
-use bezchain::export::{CpPlot, Report};
-use bezchain::geometry::read_curve;
+use bezchain::aero::{analyse_input, AeroReport, Paneling, DEFAULT_NODES};
+use bezchain::export::CpPlot;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -57,37 +56,7 @@ pub fn run(args: Args) -> Result<()> {
         te_ratio: args.te_ratio,
     };
     let path_text = args.input.display().to_string();
-    let (analysis, input, what) = if super::is_report(&args.input)? {
-        let chain = match Report::read(&args.input)? {
-            Report::Curve(rep) => rep.chain()?,
-            Report::Surface(_) => {
-                return Err(usage(format!(
-                    "{path_text}: a surface report; aero needs a curve"
-                )));
-            }
-        };
-        let what = format!(
-            "curve report, degree {}, {} segments",
-            chain.layout().degree(),
-            chain.layout().segments()
-        );
-        let input = AeroInput {
-            path: path_text.clone(),
-            kind: "curve report".into(),
-            points: chain.ctrl().len(),
-        };
-        (Analysis::of_chain(&chain, &paneling)?, input, what)
-    } else {
-        let loaded = read_curve(&args.input)?;
-        warn_all(&args.input, &loaded.warnings);
-        let what = format!("{} points ({})", loaded.points.len(), loaded.name);
-        let input = AeroInput {
-            path: path_text.clone(),
-            kind: "coordinates".into(),
-            points: loaded.points.len(),
-        };
-        (Analysis::of_points(&loaded.points, &paneling)?, input, what)
-    };
+    let (analysis, input, what) = analyse_input(&args.input, &paneling, &mut warn)?;
     let report = AeroReport::new(&analysis, &paneling, &args.alpha, input);
     // Everything is made before anything is written.
     let svg = match &args.svg {

@@ -93,8 +93,13 @@ pub fn parse_pair(s: &str) -> std::result::Result<[usize; 2], String> {
 /// Print reader warnings on stderr, one line each, prefixed with the file.
 pub fn warn_all(path: &Path, warnings: &[String]) {
     for w in warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        warn(path, w);
     }
+}
+
+/// Print one warning about `path` on stderr.
+pub fn warn(path: &Path, warning: &str) {
+    eprintln!("warning: {}: {warning}", path.display());
 }
 
 /// Refuse a size-like argument above `max` before anything is allocated for it: the message
@@ -106,14 +111,4 @@ pub fn bounded(flag: &str, value: u64, max: u64, suggestion: &str) -> Result<()>
         )));
     }
     Ok(())
-}
-
-/// Whether `path` holds a JSON report rather than coordinates (its first character, after
-/// white space, is `{`).
-pub fn is_report(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
 }

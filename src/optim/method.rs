@@ -66,7 +66,7 @@ impl Method {
     /// The methods of an aerodynamic optimisation.
     pub const AERO: &'static [Method] = &[Method::Ga, Method::Cmaes, Method::GaCmaes];
 
-    /// The methods the evolutionary driver runs ([`crate::optim::evo::Evolution`]).
+    /// The methods the evolutionary driver (`evo::Evolution`) runs.
     pub const EVOLUTIONARY: &'static [Method] = &[Method::Ga, Method::Cmaes];
 
     /// The evolutionary method this starts with, if any, and whether the least-squares polish

@@ -21,11 +21,13 @@ pub mod cmaes;
 pub mod ga;
 pub mod objective;
 mod rng;
+pub mod watch;
 
 pub use checkpoint::Checkpoint;
 pub use cmaes::{default_lambda, CmaesOptions, CmaesState};
 pub use ga::GaOptions;
 pub use objective::{Fnv, PopulationObjective, Score, Scorer};
+pub use watch::Watched;
 
 use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};
@@ -873,6 +875,40 @@ impl<'p> Evolution<'p> {
             evals_per_second: self.evals_per_second(),
             history: self.history,
         })
+    }
+}
+
+impl Watched for Evolution<'_> {
+    fn label(&self) -> String {
+        self.algorithm.to_string()
+    }
+    fn generation(&self) -> u64 {
+        self.generation
+    }
+    fn limit(&self) -> u64 {
+        self.generations() as u64
+    }
+    fn history(&self) -> &[Progress] {
+        &self.history
+    }
+    fn stopping(&self) -> bool {
+        self.stop().is_some()
+    }
+    /// The best and mean scores, individuals and point evaluations a second.
+    fn status(&self) -> String {
+        let Some(last) = self.history.last() else {
+            return String::new();
+        };
+        format!(
+            "best {:.4e} mean {:.3e} | {:.3e} individuals/s, {:.3e} point evals/s",
+            last.best,
+            last.mean,
+            last.evaluations as f64 / last.seconds.max(1e-9),
+            self.evals_per_second()
+        )
+    }
+    fn checkpoint(&self) -> Checkpoint {
+        Evolution::checkpoint(self)
     }
 }
 
