@@ -1,4 +1,5 @@
-//! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders and STEP/IGES B-splines.
+//! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders, STEP/IGES B-splines and
+//! the readable summaries the commands print ([`summary`]).
 
 mod adapt_report;
 mod cad;
@@ -7,6 +8,7 @@ mod iges;
 mod mesh;
 mod render;
 mod step;
+pub mod summary;
 mod svg;
 
 pub use crate::fit::report::{

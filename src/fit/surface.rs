@@ -14,7 +14,7 @@
 use super::grid_evo::fit_grid_evo;
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-use crate::geometry::Grid;
+use crate::geometry::{Blade, Grid};
 use crate::keyword::keywords;
 use crate::optim::evo::{EvoHooks, EvoOptions};
 use crate::optim::hybrid::EvoSummary;
@@ -27,6 +27,7 @@ use crate::problem::GridProblem;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use std::path::Path;
 use std::time::Instant;
 
 /// `--method` of a surface fit: one of [`Method::SURFACE`]; a method of curve fits alone is
@@ -53,6 +54,36 @@ pub enum Breaks {
     /// radii): the interior breaks, or all of them (the first and last then stand for the
     /// cloud's ends). They are mapped to `v` the way the data points' initial parameters are.
     Span(Vec<f64>),
+}
+
+impl Breaks {
+    /// Breaks from text: `uniform`; `span:R1,R2,...`, positions along the span axis; `stations:
+    /// BLADE`, the station radii of a blade file (its reader's warnings go to `warn`); or
+    /// parameters `T1,T2,...` in `[0, 1]`.
+    pub fn parse(text: &str, warn: &mut dyn FnMut(&Path, &str)) -> Result<Breaks> {
+        let numbers = |list: &str| -> Result<Vec<f64>> {
+            list.split(',')
+                .map(|t| match t.trim().parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    Ok(_) => Err(Error::invalid(format!("'{}' is not a finite number", t.trim()))),
+                    Err(_) => Err(Error::invalid(format!("'{}' is not a number", t.trim()))),
+                })
+                .collect()
+        };
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("uniform") {
+            Ok(Breaks::Uniform)
+        } else if let Some(list) = text.strip_prefix("span:") {
+            Ok(Breaks::Span(numbers(list)?))
+        } else if let Some(file) = text.strip_prefix("stations:") {
+            let path = Path::new(file);
+            let blade = Blade::from_file(path)?;
+            blade.warnings.iter().for_each(|w| warn(path, w));
+            Ok(Breaks::Span(blade.stations.iter().map(|s| s.radius).collect()))
+        } else {
+            Ok(Breaks::Params(numbers(text)?))
+        }
+    }
 }
 
 /// A patch-grid layout to fit: degrees, patches, continuity and breaks per direction
@@ -94,6 +125,23 @@ impl SurfaceLayout {
             breaks_u: Breaks::Uniform,
             breaks_v: Breaks::Uniform,
         }
+    }
+
+    /// The grid layout on a unit span (`v` from 0 to 1 along z), for the checks that need no
+    /// cloud.
+    pub fn unit_layout(&self) -> Result<GridLayout> {
+        self.grid_layout(&SpanAxis {
+            dir: DVec3::Z,
+            lo: 0.0,
+            hi: 1.0,
+        })
+    }
+
+    /// The design net's shape `(nu, nv)` (it does not depend on the span), or `None` when the
+    /// layout cannot be built without the cloud.
+    #[must_use]
+    pub fn design_shape(&self) -> Option<(usize, usize)> {
+        self.unit_layout().ok().map(|g| g.design_shape())
     }
 
     /// The grid layout, with span positions mapped to `v` along `axis`.
