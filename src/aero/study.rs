@@ -390,3 +390,82 @@ pub struct OptimiseReport {
     pub curve: CurveReport,
     optimise: OptimiseBlock,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aero::objectives;
+    use crate::aero::optimise::Optimisation;
+    use crate::eval::Backend;
+    use crate::geometry::{write_selig, Naca, NacaOptions};
+    use crate::optim::Method;
+
+    /// From a coordinate file to the report: the start adapted, the problem described, a short
+    /// run's report carrying the curve report's keys and the `optimise` block, and the summary;
+    /// a curve report without an encoding is refused as a start.
+    #[test]
+    fn a_study_runs_from_a_file_to_its_report() {
+        let dir = tempfile::tempdir().unwrap();
+        let start = dir.path().join("n0012.dat");
+        let pts = Naca::parse("0012")
+            .unwrap()
+            .contour(&NacaOptions::default())
+            .unwrap();
+        write_selig(&start, "NACA 0012", &pts).unwrap();
+        let setup = Setup {
+            start: start.clone(),
+            spec: "max-cl".into(),
+            alpha: 4.0,
+            tol: 1e-3,
+            margin: 0.1,
+            panels: 60,
+            constraints: Constraints::default(),
+        };
+        let study = setup
+            .prepare(objectives::parse("max-cl").unwrap(), &mut |_, _| {})
+            .unwrap();
+        assert!(study
+            .describe()
+            .starts_with(&format!("{}: adapted at 1e-3: ", start.display())));
+        let options = OptimiseOptions {
+            population: Some(8),
+            generations: Some(2),
+            backend: Backend::Cpu,
+            ..OptimiseOptions::default()
+        };
+        let mut run = Optimisation::new(&study.problem, Method::Ga, &options).unwrap();
+        let stop = run.run(|_| Ok(())).unwrap();
+        let outcome = study.outcome(run.finish(stop).unwrap(), &options).unwrap();
+        let v = serde_json::to_value(&outcome.report).unwrap();
+        assert_eq!(v["kind"], "curve");
+        assert_eq!(v["optimise"]["objective"], "max-cl");
+        assert_eq!(v["optimise"]["population"], 8);
+        assert_eq!(
+            v["optimise"]["constraint_handling"],
+            objectives::constraint_handling()
+        );
+        assert_eq!(
+            v["optimise"]["offsets_measured_from"],
+            format!("start {}", start.display())
+        );
+        assert_eq!(outcome.selig.len(), SELIG_NODES);
+        assert_eq!(outcome.summary(4.0, 1.0).lines().count(), 7);
+        let report = dir.path().join("fit.json");
+        std::fs::write(&report, serde_json::to_string(&outcome.report.curve).unwrap()).unwrap();
+        let refused = Setup {
+            start: report.clone(),
+            ..study.setup.clone()
+        };
+        let e = refused
+            .prepare(objectives::parse("max-cl").unwrap(), &mut |_, _| {})
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.ends_with(
+                "a report without an adapt encoding (run `bezchain adapt` on the aerofoil, or give its file)"
+            ),
+            "{e}"
+        );
+    }
+}

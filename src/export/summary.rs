@@ -458,3 +458,40 @@ impl Adapted for SurfaceAdaptReport {
         CadShape::from_surface_adapt_report(self)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sweep table lines its columns up and says where a tolerance is not met.
+    #[test]
+    fn the_sweep_table_has_a_row_per_tolerance() {
+        let row = |tol: f64, met: bool| SweepRow {
+            tol,
+            met,
+            scalars: 9,
+            max: 9.02e-4,
+            rms: 6.094e-4,
+            held_out_max: met.then_some(1.074e-3),
+            seconds: 0.01,
+            family: "aerofoil d3 C2 uniform",
+            failure: None,
+        };
+        let t = sweep_table("a.dat", 82, Norm::Max, &[row(1e-2, true), row(1e-3, false)]);
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(
+            lines[0],
+            "a.dat: 82 points, stored scalars against tolerance (max)"
+        );
+        assert_eq!(
+            lines[2],
+            "  1.000e-2  yes        9    9.020e-4    6.094e-4      1.074e-3    0.010  aerofoil d3 C2 uniform"
+        );
+        assert!(
+            lines[3].contains("  NO ") && lines[3].contains("n/a"),
+            "{}",
+            lines[3]
+        );
+        assert_eq!(fixed4(&[0.0, 0.8, 1.0], " "), "0.0000 0.8000 1.0000");
+    }
+}

@@ -699,4 +699,67 @@ mod tests {
         std::fs::write(&path, "[1, 2]").unwrap();
         assert!(Report::read(&path).is_err());
     }
+
+    /// An array of reports reads each, an adapt report with its encoding; a report of an
+    /// array that does not parse is named by its index from the second on, and a file that
+    /// should hold one report refuses an array.
+    #[test]
+    fn arrays_and_adapt_encodings_read_back() {
+        let pts: Vec<DVec2> = (0..=40)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 40.0;
+                DVec2::new(0.5 + 0.5 * t.cos(), 0.1 * t.sin())
+            })
+            .collect();
+        let opts = crate::adaptive::AdaptOptions {
+            tol: 1e-2,
+            ..crate::adaptive::AdaptOptions::default()
+        };
+        let adapted = crate::adaptive::adapt_curve(&pts, &opts).unwrap();
+        let layout = ChainLayout::uniform(2, 2, Continuity::C1).unwrap();
+        let chain = CurveChain::new(layout, vec![DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE]).unwrap();
+        let fitted = CurveReport::new(
+            &chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "y".into(),
+                points: 4,
+            },
+        );
+        let plain = serde_json::to_value(&fitted).unwrap();
+        // An adapt report is a curve report with an `adapt` block holding the encoding.
+        let mut adapt = serde_json::to_value(CurveReport::new(
+            &adapted.chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "x".into(),
+                points: pts.len(),
+            },
+        ))
+        .unwrap();
+        adapt["adapt"] = serde_json::json!({ "encoding": adapted.encoding });
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("two.json");
+        std::fs::write(&path, serde_json::to_string(&vec![&adapt, &plain]).unwrap()).unwrap();
+        let saved = read_reports(&path).unwrap();
+        assert!(matches!(&saved[0], Saved::Curve(_, Some(e)) if *e == adapted.encoding));
+        assert_eq!(saved[1], Saved::Curve(fitted, None));
+        let e = read_report(&path).unwrap_err().to_string();
+        assert!(
+            e.ends_with("not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"),
+            "{e}"
+        );
+        let mut broken = plain.clone();
+        broken["degree"] = serde_json::json!("three");
+        std::fs::write(&path, serde_json::to_string(&vec![&plain, &broken]).unwrap()).unwrap();
+        let e = read_reports(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("report 1: not a bezchain curve report: field 'degree'"),
+            "{e}"
+        );
+        std::fs::write(&path, "[]").unwrap();
+        assert!(read_reports(&path).unwrap().is_empty());
+    }
 }

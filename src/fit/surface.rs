@@ -673,4 +673,42 @@ mod tests {
         // Without a polish nothing caps it.
         assert_eq!(stop(&[stage("ga", MaxIterations)], true), None);
     }
+
+    /// Break lists parse as parameters, span positions or a blade's stations, and a bad number
+    /// is named; a surface fit refuses a method of curves only.
+    #[test]
+    fn breaks_parse_from_their_text() {
+        let mut none = |_: &Path, w: &str| panic!("warning {w}");
+        assert_eq!(Breaks::parse(" Uniform ", &mut none).unwrap(), Breaks::Uniform);
+        assert_eq!(
+            Breaks::parse("0.25, 0.5", &mut none).unwrap(),
+            Breaks::Params(vec![0.25, 0.5])
+        );
+        assert_eq!(
+            Breaks::parse("span:10,20.5", &mut none).unwrap(),
+            Breaks::Span(vec![10.0, 20.5])
+        );
+        let e = Breaks::parse("0.5,x", &mut none).unwrap_err().to_string();
+        assert_eq!(e, "'x' is not a number");
+        let e = Breaks::parse("span:inf", &mut none).unwrap_err().to_string();
+        assert_eq!(e, "'inf' is not a finite number");
+        let blade = concat!(env!("CARGO_MANIFEST_DIR"), "/data/blade_paper.json");
+        match Breaks::parse(&format!("stations:{blade}"), &mut none).unwrap() {
+            Breaks::Span(r) => assert!(r.len() > 2 && r.windows(2).all(|w| w[0] < w[1]), "{r:?}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(parse_surface_method("CMA-ES+lsq").unwrap(), Method::CmaesLsq);
+        let e = parse_surface_method("nm").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "method 'nm' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
+        );
+        let e = parse_surface_method("ga+cmaes").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "unknown method 'ga+cmaes' (expected lsq, ga, cmaes, ga+lsq or cmaes+lsq)"
+        );
+        let layout = SurfaceLayout::uniform([3, 3], [4, 2], [Continuity::C1; 2]);
+        assert_eq!(layout.design_shape(), Some((10, 6)));
+    }
 }
