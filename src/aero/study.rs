@@ -129,18 +129,15 @@ fn start_encoding(path: &Path, tol: f64, warn: Warn<'_>) -> Result<(Vec<DVec2>, 
 pub struct Outcome {
     /// The run's result.
     pub result: OptimiseResult,
-    /// The start measured in f64.
-    pub start: AeroEval,
-    /// The result's chain.
-    pub chain: CurveChain<DVec2>,
-    /// Closest-point offsets of the target's points (or the start's) from the result.
-    pub offsets: OffsetStats<DVec2>,
-    /// Whose points those are (`start FILE`, `target FILE`).
-    pub offsets_from: String,
     /// The report.
     pub report: OptimiseReport,
     /// The result at [`SELIG_NODES`] panel nodes, for a Selig file.
     pub selig: Vec<DVec2>,
+    // For the summary: the start in f64, the closest-point offsets of the target's points (or
+    // the start's) from the result, and whose points those are.
+    start: AeroEval,
+    offsets: OffsetStats<DVec2>,
+    offsets_from: String,
 }
 
 impl Study {
@@ -190,12 +187,11 @@ impl Study {
         };
         Ok(Outcome {
             result,
-            start,
-            chain,
-            offsets,
-            offsets_from,
             report,
             selig,
+            start,
+            offsets,
+            offsets_from,
         })
     }
 

@@ -705,12 +705,8 @@ mod tests {
     /// should hold one report refuses an array.
     #[test]
     fn arrays_and_adapt_encodings_read_back() {
-        let pts: Vec<DVec2> = (0..=40)
-            .map(|k| {
-                let t = std::f64::consts::TAU * k as f64 / 40.0;
-                DVec2::new(0.5 + 0.5 * t.cos(), 0.1 * t.sin())
-            })
-            .collect();
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/naca4413.dat");
+        let pts = crate::geometry::read_curve(&data).unwrap().points;
         let opts = crate::adaptive::AdaptOptions {
             tol: 1e-2,
             ..crate::adaptive::AdaptOptions::default()
