@@ -4,6 +4,7 @@
 use super::output::Outputs;
 use super::{usage, warn};
 use anyhow::Result;
+use bezchain::aero::panel::{MAX_NODES, MIN_NODES};
 use bezchain::aero::{analyse_input, AeroReport, Paneling, DEFAULT_NODES};
 use bezchain::export::CpPlot;
 use std::fmt::Write as _;
@@ -37,9 +38,6 @@ pub struct Args {
     pub svg: Option<PathBuf>,
 }
 
-/// Most panel nodes accepted: the dense system grows as the square.
-const MAX_PANELS: usize = 4000;
-
 /// Analyse and write the outputs.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
@@ -48,8 +46,10 @@ pub fn run(args: Args) -> Result<()> {
     if args.alpha.is_empty() || args.alpha.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
         return Err(usage("--alpha takes angles in degrees between -90 and 90"));
     }
-    if !(8..=MAX_PANELS).contains(&args.panels) {
-        return Err(usage(format!("--panels must be between 8 and {MAX_PANELS}")));
+    if !(MIN_NODES..=MAX_NODES).contains(&args.panels) {
+        return Err(usage(format!(
+            "--panels must be between {MIN_NODES} and {MAX_NODES}"
+        )));
     }
     let paneling = Paneling {
         nodes: args.panels,

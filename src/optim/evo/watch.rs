@@ -3,7 +3,7 @@
 //! aerodynamic optimisation), so one monitor serves them all.
 
 use super::checkpoint::Checkpoint;
-use super::Progress;
+use super::{Evolution, Progress};
 
 /// A run as its monitor sees it between generations.
 pub trait Watched {
@@ -27,4 +27,38 @@ pub trait Watched {
 
     /// Everything needed to continue the run bit-identically.
     fn checkpoint(&self) -> Checkpoint;
+}
+
+impl Watched for Evolution<'_> {
+    fn label(&self) -> String {
+        self.algorithm.to_string()
+    }
+    fn generation(&self) -> u64 {
+        self.generation
+    }
+    fn limit(&self) -> u64 {
+        self.generations() as u64
+    }
+    fn history(&self) -> &[Progress] {
+        &self.history
+    }
+    fn stopping(&self) -> bool {
+        self.stop().is_some()
+    }
+    /// The best and mean scores, individuals and point evaluations a second.
+    fn status(&self) -> String {
+        let Some(last) = self.history.last() else {
+            return String::new();
+        };
+        format!(
+            "best {:.4e} mean {:.3e} | {:.3e} individuals/s, {:.3e} point evals/s",
+            last.best,
+            last.mean,
+            last.evaluations as f64 / last.seconds.max(1e-9),
+            self.evals_per_second()
+        )
+    }
+    fn checkpoint(&self) -> Checkpoint {
+        Evolution::checkpoint(self)
+    }
 }
