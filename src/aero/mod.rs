@@ -14,6 +14,11 @@
 //!   (`shaders/aero.wgsl` and its CPU mirror), and the f64 reference.
 //! - [`optimise`]: [`Optimisation`], the GA and CMA-ES over a design space, every generation
 //!   one call of the panel-method evaluator, with checkpoints.
+//! - [`objectives`]: the objectives (`max-cl`, `inverse:TARGET`), one file each behind one
+//!   trait, registered in one list.
+//! - [`study`]: an optimisation from files to results and its report, as `bezchain optimise`
+//!   runs it.
+//! - [`input`]: an aerofoil as the commands name one, a coordinate file or a curve report.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
@@ -23,10 +28,14 @@ pub mod analysis;
 pub mod batch;
 pub mod contour;
 pub mod design;
+pub mod input;
 pub mod karman_trefftz;
+pub mod objectives;
 pub mod optimise;
 pub mod panel;
+pub mod study;
 
+pub use crate::optim::Method;
 pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
 pub use batch::{
     build_aero_evaluator, AeroBatch, AeroEval, AeroEvaluator, AeroKernel, AeroResult, Constraints, NodeMap,
@@ -34,6 +43,9 @@ pub use batch::{
 };
 pub use contour::{leading_edge_param, panel_params, Contour, Paneling, SplineContour, DEFAULT_NODES};
 pub use design::{DesignSpace, Hold};
+pub use input::{analyse_input, Aerofoil};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
-pub use optimise::{AeroProblem, Method, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
+pub use objectives::{AeroObjective, OBJECTIVES};
+pub use optimise::{AeroProblem, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
+pub use study::{OptimiseReport, Outcome, Setup, Study};

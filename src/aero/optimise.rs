@@ -19,145 +19,30 @@
 use super::batch::{build_aero_evaluator, flags, AeroBatch, AeroEval, AeroEvaluator, AeroResult, Objective};
 use super::design::DesignSpace;
 use crate::error::{Error, Result};
-use crate::eval::{Backend, BackendInfo, GpuOptions};
-use crate::keyword::keywords;
+use crate::eval::BackendInfo;
 use crate::optim::evo::{
-    default_lambda, Algorithm, Checkpoint, CmaesOptions, EvoOptions, EvoStop, Evolution, Fnv, GaOptions,
-    PopulationObjective, Progress, Score, Scorer,
+    default_lambda, Checkpoint, EvoOptions, EvoStop, Evolution, Fnv, PopulationObjective, Progress, Score,
+    Scorer, Watched,
 };
+use crate::optim::method::Method;
 use serde::Serialize;
 
-/// An optimisation method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// The genetic algorithm.
-    Ga,
-    /// CMA-ES.
-    Cmaes,
-    /// The GA for the first half of the generations, then CMA-ES from its best.
-    GaCmaes,
-}
+/// Options of an optimisation: the evolutionary options every objective takes. Their
+/// defaults where left open are the aerodynamic problem's ([`AeroProblem`]'s
+/// [`PopulationObjective::default_population`] and
+/// [`PopulationObjective::default_generations`]): 256 individuals for the GA, `4 + ⌊3 ln n⌋`
+/// for CMA-ES (the CMA-ES stage of `ga+cmaes` takes the GA's); 200 generations for the GA,
+/// 1000 for CMA-ES and `ga+cmaes`.
+pub use crate::optim::evo::EvoOptions as OptimiseOptions;
+pub use crate::optim::evo::{MAX_GENERATIONS, MAX_POPULATION};
 
-keywords!(Method, "method", { Ga => "ga", Cmaes => "cmaes" | "cma-es", GaCmaes => "ga+cmaes" });
-
-/// Options of an optimisation.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OptimiseOptions {
-    /// Individuals per generation. `None`: 256 for the GA, `4 + ⌊3 ln n⌋` for CMA-ES (the
-    /// CMA-ES stage of `ga+cmaes` too). Default `None`.
-    pub population: Option<usize>,
-    /// Generations in all, at least 1. `None`: 200 for the GA, 1000 for CMA-ES and
-    /// `ga+cmaes` (CMA-ES usually stops earlier, flat). Default `None`.
-    pub generations: Option<usize>,
-    /// Seed of every random stream. Default 1.
-    pub seed: u64,
-    /// Where populations are evaluated. Default [`Backend::Auto`].
-    pub backend: Backend,
-    /// Spread of the GA's initial population around the start, and CMA-ES's initial step,
-    /// as a fraction of the chord. Default 0.01.
-    pub spread: f64,
-    /// Stop when the best score has not improved by the fraction `stall_tolerance` of its
-    /// size for this many generations; 0: never. Default 0.
-    pub stall: usize,
-    /// Relative improvement that resets the stall count. Default 1e-6.
-    pub stall_tolerance: f64,
-    /// Options of the GA.
-    pub ga: GaOptions,
-    /// Options of CMA-ES.
-    pub cmaes: CmaesOptions,
-    /// GPU settings. Default [`GpuOptions::default`].
-    pub gpu: GpuOptions,
-}
-
-impl Default for OptimiseOptions {
-    fn default() -> Self {
-        OptimiseOptions {
-            population: None,
-            generations: None,
-            seed: 1,
-            backend: Backend::Auto,
-            spread: 0.01,
-            stall: 0,
-            stall_tolerance: 1e-6,
-            ga: GaOptions::default(),
-            cmaes: CmaesOptions::default(),
-            gpu: GpuOptions::default(),
-        }
-    }
-}
-
-/// The most individuals per generation accepted.
-pub const MAX_POPULATION: usize = 1 << 20;
-/// The most generations accepted.
-pub const MAX_GENERATIONS: usize = 10_000_000;
-
-impl OptimiseOptions {
-    /// Check every field; the message names the option and its range.
-    pub fn check(&self) -> Result<()> {
-        if let Some(p) = self.population {
-            if !(4..=MAX_POPULATION).contains(&p) {
-                return Err(Error::invalid(format!(
-                    "the population must be between 4 and {MAX_POPULATION}, not {p}"
-                )));
-            }
-        }
-        if let Some(g) = self.generations {
-            if !(1..=MAX_GENERATIONS).contains(&g) {
-                return Err(Error::invalid(format!(
-                    "the generations must be between 1 and {MAX_GENERATIONS}, not {g}"
-                )));
-            }
-        }
-        if !(self.spread > 0.0) || !self.spread.is_finite() {
-            return Err(Error::invalid(format!(
-                "the spread must be a finite fraction > 0 of the chord, not {}",
-                self.spread
-            )));
-        }
-        if !(self.stall_tolerance >= 0.0) || !self.stall_tolerance.is_finite() {
-            return Err(Error::invalid("the stall tolerance must be finite and ≥ 0"));
-        }
-        self.ga.check()?;
-        self.cmaes.check()
-    }
-
-    /// Individuals per generation of `stage` on `n` variables.
-    #[must_use]
-    pub fn size(&self, stage: Algorithm, n: usize) -> usize {
-        self.population.unwrap_or(match stage {
-            Algorithm::Ga => 256,
-            Algorithm::Cmaes => default_lambda(n),
-        })
-    }
-
-    /// The generation limit of `method`.
-    #[must_use]
-    pub fn generation_limit(&self, method: Method) -> usize {
-        self.generations.unwrap_or(match method {
-            Method::Ga => 200,
-            Method::Cmaes | Method::GaCmaes => 1000,
-        })
-    }
-
-    /// The evolutionary driver's options for the `stage` of a `method` run on `n` variables
-    /// (the fitting problem's options keep their defaults: this objective has no data).
-    #[must_use]
-    pub fn evo(&self, method: Method, stage: Algorithm, n: usize) -> EvoOptions {
-        EvoOptions {
-            population: Some(self.size(stage, n)),
-            generations: Some(self.generation_limit(method)),
-            seed: self.seed,
-            backend: self.backend,
-            stall_generations: self.stall,
-            stall_tolerance: self.stall_tolerance,
-            spread: self.spread,
-            ga: self.ga,
-            cmaes: self.cmaes,
-            gpu: self.gpu.clone(),
-            ..EvoOptions::default()
-        }
-    }
-}
+/// The aerodynamic problem's GA population where the options leave it open.
+pub const GA_POPULATION: usize = 256;
+/// The aerodynamic problem's GA generation limit where the options leave it open.
+pub const GA_GENERATIONS: usize = 200;
+/// The aerodynamic problem's CMA-ES (and `ga+cmaes`) generation limit where the options leave
+/// it open (CMA-ES usually stops earlier, flat).
+pub const CMAES_GENERATIONS: usize = 1000;
 
 /// An optimisation problem: the design space, and the population problem on its node map.
 #[derive(Clone, Debug, PartialEq)]
@@ -214,6 +99,23 @@ impl PopulationObjective for AeroProblem {
     /// The chord: the spread and CMA-ES's step tolerance are fractions of it.
     fn extent(&self) -> f64 {
         self.space.chord()
+    }
+    fn extent_name(&self) -> &'static str {
+        "the chord"
+    }
+    /// [`GA_POPULATION`] for the GA, `4 + ⌊3 ln n⌋` for CMA-ES.
+    fn default_population(&self, method: Method) -> usize {
+        match method {
+            Method::Ga => GA_POPULATION,
+            _ => default_lambda(self.dim()),
+        }
+    }
+    /// [`GA_GENERATIONS`] for the GA, [`CMAES_GENERATIONS`] for CMA-ES and `ga+cmaes`.
+    fn default_generations(&self, method: Method, _size: usize) -> usize {
+        match method {
+            Method::Ga => GA_GENERATIONS,
+            _ => CMAES_GENERATIONS,
+        }
     }
     fn fingerprint(&self) -> u64 {
         AeroProblem::fingerprint(self)
@@ -388,6 +290,45 @@ fn decode_state(p: &[[f64; 2]]) -> Result<(Reasons, Option<AeroResult>)> {
     Ok((reasons, best))
 }
 
+/// The stage `method` starts with: the GA, or CMA-ES; an error for a method that is not one
+/// of [`Method::AERO`].
+fn first_stage(method: Method) -> Result<Method> {
+    match method {
+        Method::Ga | Method::GaCmaes => Ok(Method::Ga),
+        Method::Cmaes => Ok(Method::Cmaes),
+        _ => Err(Error::invalid(format!(
+            "{method} is not a method of aerodynamic optimisation (ga, cmaes or ga+cmaes)"
+        ))),
+    }
+}
+
+/// The generation limit of a `method` run: the options', or the problem's default for the
+/// GA, or for CMA-ES (`ga+cmaes` too).
+fn generation_limit(problem: &AeroProblem, method: Method, options: &OptimiseOptions) -> usize {
+    let last = if method == Method::Ga {
+        Method::Ga
+    } else {
+        Method::Cmaes
+    };
+    options.generation_limit(problem, last)
+}
+
+/// The evolutionary driver's options for the `stage` of a `method` run: the population and the
+/// generation limit settled (the `ga+cmaes` run keeps its first stage's population and its
+/// whole limit across the handover).
+fn stage_options(
+    problem: &AeroProblem,
+    method: Method,
+    stage: Method,
+    options: &OptimiseOptions,
+) -> EvoOptions {
+    EvoOptions {
+        population: Some(options.size(problem, stage)),
+        generations: Some(generation_limit(problem, method, options)),
+        ..options.clone()
+    }
+}
+
 /// One optimisation run, a generation at a time: the evolutionary driver on the problem, and
 /// for `ga+cmaes` the handover to CMA-ES halfway.
 pub struct Optimisation<'p> {
@@ -401,12 +342,9 @@ impl<'p> Optimisation<'p> {
     /// Start a run: check the options, build the evaluator, evaluate generation 0 (the GA's
     /// initial population; CMA-ES's start).
     pub fn new(problem: &'p AeroProblem, method: Method, options: &OptimiseOptions) -> Result<Self> {
-        options.check()?;
-        let stage = match method {
-            Method::Ga | Method::GaCmaes => Algorithm::Ga,
-            Method::Cmaes => Algorithm::Cmaes,
-        };
-        let run = Evolution::new(problem, stage, &options.evo(method, stage, problem.dim()))?;
+        let stage = first_stage(method)?;
+        options.check_for(problem)?;
+        let run = Evolution::new(problem, stage, &stage_options(problem, method, stage, options))?;
         Ok(Optimisation {
             problem,
             method,
@@ -424,13 +362,10 @@ impl<'p> Optimisation<'p> {
         options: &OptimiseOptions,
         checkpoint: &Checkpoint,
     ) -> Result<Self> {
-        options.check()?;
+        first_stage(method)?;
+        options.check_for(problem)?;
         let stage = checkpoint.algorithm;
-        let allowed = match method {
-            Method::Ga => stage == Algorithm::Ga,
-            Method::Cmaes => stage == Algorithm::Cmaes,
-            Method::GaCmaes => true,
-        };
+        let allowed = method == Method::GaCmaes || stage == method;
         if !allowed {
             return Err(Error::invalid(format!(
                 "the checkpoint holds a {stage} run, which a {method} run does not have"
@@ -439,7 +374,7 @@ impl<'p> Optimisation<'p> {
         let run = Evolution::resume(
             problem,
             stage,
-            &options.evo(method, stage, problem.dim()),
+            &stage_options(problem, method, stage, options),
             checkpoint,
         )?;
         Ok(Optimisation {
@@ -452,14 +387,14 @@ impl<'p> Optimisation<'p> {
 
     /// The generation at which `ga+cmaes` hands over from the GA to CMA-ES.
     fn handover(&self) -> u64 {
-        (self.options.generation_limit(self.method) / 2).max(1) as u64
+        (self.generations() / 2).max(1) as u64
     }
 
     /// Run one generation (for `ga+cmaes`, CMA-ES from the GA's best once half the
     /// generations are done).
     pub fn step(&mut self) -> Result<&Progress> {
         if self.method == Method::GaCmaes
-            && self.run.algorithm() == Algorithm::Ga
+            && self.run.algorithm() == Method::Ga
             && self.run.generation() >= self.handover()
         {
             self.run.switch_to_cmaes();
@@ -507,7 +442,7 @@ impl<'p> Optimisation<'p> {
 
     /// The running stage: the GA or CMA-ES.
     #[must_use]
-    pub fn stage(&self) -> Algorithm {
+    pub fn stage(&self) -> Method {
         self.run.algorithm()
     }
 
@@ -520,7 +455,7 @@ impl<'p> Optimisation<'p> {
     /// The generation limit.
     #[must_use]
     pub fn generations(&self) -> usize {
-        self.options.generation_limit(self.method)
+        generation_limit(self.problem, self.method, &self.options)
     }
 
     /// The best individual so far (f32 offsets) and its kernel result.
@@ -579,6 +514,45 @@ impl<'p> Optimisation<'p> {
             history: r.history,
             design: r.design,
         })
+    }
+}
+
+impl Watched for Optimisation<'_> {
+    fn label(&self) -> String {
+        self.method.to_string()
+    }
+    fn generation(&self) -> u64 {
+        Optimisation::generation(self)
+    }
+    fn limit(&self) -> u64 {
+        self.generations() as u64
+    }
+    fn history(&self) -> &[Progress] {
+        Optimisation::history(self)
+    }
+    fn stopping(&self) -> bool {
+        self.stop().is_some()
+    }
+    /// The best score and its coefficients, the stage, shapes a second and shapes flagged.
+    fn status(&self) -> String {
+        let Some(last) = self.history().last() else {
+            return String::new();
+        };
+        let (_, best) = self.best();
+        let r = self.reasons();
+        format!(
+            "best {:.5e} (CL {:.4}, CM {:.4}, t/c {:.4}) | {} stage | {:.0} shapes/s | {} flagged",
+            last.best,
+            best.cl,
+            best.cm,
+            best.thickness,
+            self.stage(),
+            last.evaluations as f64 / last.seconds.max(1e-9),
+            r.non_finite + r.fold + r.crossing + r.singular + r.thin + r.cm
+        )
+    }
+    fn checkpoint(&self) -> Checkpoint {
+        Optimisation::checkpoint(self)
     }
 }
 

@@ -46,6 +46,8 @@ pub const SHARP_GAP: f64 = 1e-4;
 pub const BISECTOR_OFFSET: f64 = 0.1;
 /// Fewest nodes the method accepts.
 pub const MIN_NODES: usize = 8;
+/// The most nodes the f64 panel method takes: its dense system grows as their square.
+pub const MAX_NODES: usize = 4000;
 
 /// The chord of a contour given by its nodes: leading edge, trailing-edge midpoint, length.
 #[derive(Clone, Copy, Debug, PartialEq)]

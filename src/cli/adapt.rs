@@ -5,13 +5,11 @@ use super::export::{CadArgs, CadOutputs};
 use super::output::{Output, Outputs};
 use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
-use bezchain::adaptive::{adapt_curve, AdaptOptions, AdaptedCurve, Breaks, HeldOut, Mode, Norm, XStore};
-use bezchain::export::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
-use bezchain::export::{CadShape, CurvePlot, FitInfo, InputInfo, OffsetReport};
+use bezchain::adaptive::{adapt_curve, AdaptOptions, Mode, Norm};
+use bezchain::export::summary::{self, Adapted, SweepRow};
+use bezchain::export::{AdaptReport, CurvePlot, InputInfo};
 use bezchain::geometry::read_curve;
 use clap::ValueEnum;
-use glam::DVec2;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The norm the tolerance bounds.
@@ -29,105 +27,6 @@ impl From<NormArg> for Norm {
             NormArg::Max => Norm::Max,
             NormArg::Rms => Norm::Rms,
         }
-    }
-}
-
-/// One row of a `--sweep` table.
-pub(crate) struct SweepRow<'a> {
-    tol: f64,
-    met: bool,
-    scalars: usize,
-    max: f64,
-    rms: f64,
-    held_out_max: Option<f64>,
-    seconds: f64,
-    family: &'a str,
-    /// Why the tolerance does not hold, when it does not (the error says it, not the table).
-    failure: Option<&'a str>,
-}
-
-impl<'a> SweepRow<'a> {
-    /// The row of a report whose shape report has `offset` and `fit`, with `outcome` and
-    /// `held_out` from its adapt block.
-    fn new<C, E>(
-        outcome: &'a AdaptOutcome<C, E>,
-        offset: &OffsetReport,
-        fit: &FitInfo,
-        held_out: Option<HeldOut>,
-    ) -> Self {
-        SweepRow {
-            tol: outcome.tol,
-            met: outcome.met,
-            scalars: outcome.stored_scalars,
-            max: offset.max,
-            rms: offset.rms,
-            held_out_max: held_out.map(|h| h.max),
-            seconds: fit.seconds,
-            family: &outcome.family,
-            failure: outcome.message.as_deref(),
-        }
-    }
-}
-
-/// The `--sweep` table of `adapt` and `adapt-surface`: stored scalars against tolerance.
-fn sweep_table(name: &str, points: usize, norm: Norm, rows: &[SweepRow<'_>]) -> String {
-    let mut s = format!("{name}: {points} points, stored scalars against tolerance ({norm})\n");
-    let _ = writeln!(
-        s,
-        "{:>10} {:>4} {:>8} {:>11} {:>11} {:>13} {:>8}  layout",
-        "tol", "met", "scalars", "max", "rms", "held-out max", "seconds"
-    );
-    for r in rows {
-        let held = r.held_out_max.map_or("n/a".to_string(), |m| format!("{m:.3e}"));
-        let _ = writeln!(
-            s,
-            "{:>10.3e} {:>4} {:>8} {:>11.3e} {:>11.3e} {:>13} {:>8.3}  {}",
-            r.tol,
-            if r.met { "yes" } else { "NO" },
-            r.scalars,
-            r.max,
-            r.rms,
-            held,
-            r.seconds,
-            r.family
-        );
-    }
-    s
-}
-
-/// The report of an adapted chain or patch grid, as `adapt` and `adapt-surface` write it.
-pub(crate) trait Adapted: serde::Serialize {
-    /// Its row of the `--sweep` table.
-    fn row(&self) -> SweepRow<'_>;
-    /// The shape for the STEP and IGES files.
-    fn cad_shape(&self) -> bezchain::Result<CadShape>;
-}
-
-impl Adapted for AdaptReport {
-    fn row(&self) -> SweepRow<'_> {
-        SweepRow::new(
-            &self.adapt.outcome,
-            &self.curve.offset,
-            &self.curve.fit,
-            self.adapt.held_out,
-        )
-    }
-    fn cad_shape(&self) -> bezchain::Result<CadShape> {
-        CadShape::from_adapt_report(self)
-    }
-}
-
-impl Adapted for SurfaceAdaptReport {
-    fn row(&self) -> SweepRow<'_> {
-        SweepRow::new(
-            &self.adapt.outcome,
-            &self.surface.offset,
-            &self.surface.fit,
-            self.adapt.held_out,
-        )
-    }
-    fn cad_shape(&self) -> bezchain::Result<CadShape> {
-        CadShape::from_surface_adapt_report(self)
     }
 }
 
@@ -162,7 +61,12 @@ pub(crate) fn finish<R: Adapted>(
 ) -> Result<()> {
     let rows: Vec<SweepRow<'_>> = reports.iter().map(R::row).collect();
     if rows.len() > 1 {
-        outs.say(&sweep_table(&input.display().to_string(), points, norm, &rows));
+        outs.say(&summary::sweep_table(
+            &input.display().to_string(),
+            points,
+            norm,
+            &rows,
+        ));
     }
     match (json, reports) {
         (None, _) => {}
@@ -286,101 +190,6 @@ pub(crate) fn parse_degrees(flag: &str, text: &str) -> Result<(usize, usize)> {
     }
 }
 
-/// The largest side of the points' bounding box.
-fn extent(points: &[DVec2]) -> f64 {
-    let (lo, hi) = points.iter().fold(
-        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
-    (hi - lo).max_element()
-}
-
-/// One line describing the breaks of a result.
-fn describe_breaks(r: &AdaptedCurve) -> String {
-    let segments = r.chain.layout().segments();
-    match &r.encoding.breaks {
-        Breaks::Uniform { .. } => format!("{segments} equal segments"),
-        Breaks::UniformPerSide { first, second } => {
-            format!("{first} + {second} equal segments per surface")
-        }
-        Breaks::Stored(b) => format!(
-            "{segments} segments, stored breaks [{}]",
-            b.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(", ")
-        ),
-    }
-}
-
-/// The readable summary of one result.
-fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedCurve) -> String {
-    let c = &r.count;
-    let mut s = String::new();
-    let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");
-    let _ = writeln!(s, "  met            {}", if r.met { "yes" } else { "NO" });
-    let mut kinds = vec![format!("y {}", c.y)];
-    if c.x > 0 {
-        kinds.insert(0, format!("x {}", c.x));
-    }
-    if c.rule > 0 {
-        kinds.push(format!("aerofoil rule {}", c.rule));
-    }
-    kinds.push(format!("breaks {}", c.breaks));
-    let _ = writeln!(s, "  stored scalars {} ({})", c.total, kinds.join(", "));
-    let joins: Vec<String> = r.encoding.joins.iter().map(|k| format!("C{k}")).collect();
-    let _ = writeln!(
-        s,
-        "  layout         {}: degree {}, {}, joins [{}]",
-        r.family,
-        r.encoding.degree,
-        describe_breaks(r),
-        joins.join(" ")
-    );
-    if let XStore::AerofoilRule(theta) = &r.encoding.x {
-        let _ = match theta.as_slice() {
-            [le, te] => writeln!(s, "  aerofoil rule  x_le {le:.6}, x_te {te:.6} (both surfaces)"),
-            [le, a, b] => writeln!(
-                s,
-                "  aerofoil rule  x_le {le:.6}, x_te {a:.6} (first surface), {b:.6} (second)"
-            ),
-            _ => Ok(()),
-        };
-    }
-    let _ = writeln!(
-        s,
-        "  offsets        max {:.3e} at ({:.5}, {:.5}), rms {:.3e}",
-        r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.rms
-    );
-    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
-    held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
-    s
-}
-
-/// The summary's `held out` and `search` lines, shared with `adapt-surface`.
-pub(crate) fn held_out_and_search(
-    s: &mut String,
-    held_out: Option<&HeldOut>,
-    families: usize,
-    met: usize,
-    fits: usize,
-    seconds: f64,
-) {
-    match held_out {
-        Some(h) => {
-            let _ = writeln!(
-                s,
-                "  held out       max {:.3e}, rms {:.3e} (refitted on {} points, measured on the other {})",
-                h.max, h.rms, h.fitted, h.measured
-            );
-        }
-        None => {
-            let _ = writeln!(s, "  held out       not possible (too few points for the layout)");
-        }
-    }
-    let _ = writeln!(
-        s,
-        "  search         {families} families ({met} met the tolerance), {fits} fits, {seconds:.3} s"
-    );
-}
-
 /// Run the search(es), print the table, write the outputs.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
@@ -393,7 +202,7 @@ pub fn run(args: Args) -> Result<()> {
     let points = &loaded.points;
     let (min_degree, max_degree) = parse_degrees("--degrees", &args.degrees)?;
     let scale = if args.tolerance.relative {
-        extent(points)
+        loaded.extent()
     } else {
         1.0
     };
@@ -423,7 +232,13 @@ pub fn run(args: Args) -> Result<()> {
     .into_iter()
     .unzip();
     if let [(opts, r)] = &results[..] {
-        outs.say(&summary(&name, points.len(), opts.tol, opts.norm, r));
+        outs.say(&summary::adapted_curve(
+            &name,
+            points.len(),
+            opts.tol,
+            opts.norm,
+            r,
+        ));
     }
     if let (Some(o), Some((opts, r))) = (svg, results.last()) {
         let offsets = bezchain::problem::shape_offsets(

@@ -6,13 +6,10 @@ use super::output::Outputs;
 use super::progress::Generations;
 use super::{usage, warn_all};
 use anyhow::Result;
-use bezchain::adaptive::{
-    adapt_surface_with, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions, SurfaceProgress,
-};
+use bezchain::adaptive::{adapt_surface_with, ChordRule, SurfaceAdaptOptions, SurfaceProgress};
 use bezchain::export::InputInfo;
-use bezchain::export::SurfaceAdaptReport;
+use bezchain::export::{summary, SurfaceAdaptReport};
 use bezchain::geometry::read_cloud;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
@@ -62,87 +59,6 @@ pub enum ChordArg {
     On,
     /// Never the chord rule.
     Off,
-}
-
-fn describe(b: &Breaks) -> String {
-    match b {
-        Breaks::Uniform { segments } => format!("{segments} equal"),
-        Breaks::Stored(v) => format!(
-            "{} at [{}]",
-            v.len() + 1,
-            v.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(", ")
-        ),
-        Breaks::UniformPerSide { first, second } => format!("{first} + {second} equal"),
-    }
-}
-
-/// The readable summary of one result.
-fn summary(name: &str, points: usize, tol: f64, norm: Norm, r: &AdaptedSurface) -> String {
-    let c = &r.count;
-    let e = &r.encoding;
-    let (nu, nv) = r
-        .encoding
-        .layouts()
-        .map(|(u, v)| (u.design_count(), v.design_count()))
-        .unwrap_or((0, 0));
-    let mut s = String::new();
-    let _ = writeln!(s, "{name}: {points} points, tolerance {tol:.3e} ({norm})");
-    let _ = writeln!(s, "  met            {}", if r.met { "yes" } else { "NO" });
-    let _ = writeln!(
-        s,
-        "  stored scalars {} (net {}{}, span rule {}, breaks {})",
-        c.total,
-        c.coords,
-        if e.chord_rule {
-            format!(", chord-rule frames {}", c.frames)
-        } else {
-            String::new()
-        },
-        c.rule,
-        c.breaks
-    );
-    let _ = writeln!(
-        s,
-        "  layout         {}: design net {nu} x {nv}, degrees {} x {}, patches u {}, v {}",
-        r.family,
-        e.degree[0],
-        e.degree[1],
-        describe(&e.breaks_u),
-        describe(&e.breaks_v)
-    );
-    if let Some(rule) = e.span_rule {
-        let _ = writeln!(
-            s,
-            "  span rule      {} of design column j = {:.6} + g_j ({:.6} - {:.6})",
-            ["x", "y", "z"][rule.axis.min(2)],
-            rule.ends[0],
-            rule.ends[1],
-            rule.ends[0]
-        );
-    }
-    let _ = writeln!(
-        s,
-        "  offsets        max {:.3e} at ({:.5}, {:.5}, {:.5}), rms {:.3e}",
-        r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.max_at.z, r.offset.rms
-    );
-    let _ = writeln!(
-        s,
-        "  checker        max {:.3e}, rms {:.3e} (the coarse sampled search of outside checkers: 7 x 7 seeds a patch)",
-        r.checked.max, r.checked.rms
-    );
-    let _ = writeln!(
-        s,
-        "  fold check     normal turns at most {:.1}° between neighbouring samples (at u {:.4}, v {:.4}; {} a patch each way; {}); checker/exact max {:.3}",
-        r.fold.max_turn_deg,
-        r.fold.at[0],
-        r.fold.at[1],
-        r.fold.per_patch,
-        if r.fold.passes { "no fold" } else { "FOLDS" },
-        r.agreement
-    );
-    let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
-    super::adapt::held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
-    s
 }
 
 /// Run the search(es), print the summary, write the report.
@@ -211,7 +127,13 @@ pub fn run(args: Args) -> Result<()> {
         }
         let r = r?;
         if tols.len() == 1 {
-            outs.say(&summary(&name, points.len(), opts.tol, opts.norm, &r));
+            outs.say(&summary::adapted_surface(
+                &name,
+                points.len(),
+                opts.tol,
+                opts.norm,
+                &r,
+            ));
         }
         Ok(SurfaceAdaptReport::new(&r, &opts, input.clone()))
     })?;

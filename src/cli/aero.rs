@@ -2,11 +2,11 @@
 //! CL and CM, a JSON report with the pressures, an SVG of Cp above the shape.
 
 use super::output::Outputs;
-use super::{usage, warn_all};
+use super::{usage, warn};
 use anyhow::Result;
-use bezchain::aero::{AeroInput, AeroReport, Analysis, Paneling, DEFAULT_NODES};
-use bezchain::export::{CpPlot, Report};
-use bezchain::geometry::read_curve;
+use bezchain::aero::panel::{MAX_NODES, MIN_NODES};
+use bezchain::aero::{analyse_input, AeroReport, Paneling, DEFAULT_NODES};
+use bezchain::export::CpPlot;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -38,9 +38,6 @@ pub struct Args {
     pub svg: Option<PathBuf>,
 }
 
-/// Most panel nodes accepted: the dense system grows as the square.
-const MAX_PANELS: usize = 4000;
-
 /// Analyse and write the outputs.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
@@ -49,45 +46,17 @@ pub fn run(args: Args) -> Result<()> {
     if args.alpha.is_empty() || args.alpha.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
         return Err(usage("--alpha takes angles in degrees between -90 and 90"));
     }
-    if !(8..=MAX_PANELS).contains(&args.panels) {
-        return Err(usage(format!("--panels must be between 8 and {MAX_PANELS}")));
+    if !(MIN_NODES..=MAX_NODES).contains(&args.panels) {
+        return Err(usage(format!(
+            "--panels must be between {MIN_NODES} and {MAX_NODES}"
+        )));
     }
     let paneling = Paneling {
         nodes: args.panels,
         te_ratio: args.te_ratio,
     };
     let path_text = args.input.display().to_string();
-    let (analysis, input, what) = if super::is_report(&args.input)? {
-        let chain = match Report::read(&args.input)? {
-            Report::Curve(rep) => rep.chain()?,
-            Report::Surface(_) => {
-                return Err(usage(format!(
-                    "{path_text}: a surface report; aero needs a curve"
-                )));
-            }
-        };
-        let what = format!(
-            "curve report, degree {}, {} segments",
-            chain.layout().degree(),
-            chain.layout().segments()
-        );
-        let input = AeroInput {
-            path: path_text.clone(),
-            kind: "curve report".into(),
-            points: chain.ctrl().len(),
-        };
-        (Analysis::of_chain(&chain, &paneling)?, input, what)
-    } else {
-        let loaded = read_curve(&args.input)?;
-        warn_all(&args.input, &loaded.warnings);
-        let what = format!("{} points ({})", loaded.points.len(), loaded.name);
-        let input = AeroInput {
-            path: path_text.clone(),
-            kind: "coordinates".into(),
-            points: loaded.points.len(),
-        };
-        (Analysis::of_points(&loaded.points, &paneling)?, input, what)
-    };
+    let (analysis, input, what) = analyse_input(&args.input, &paneling, &mut warn)?;
     let report = AeroReport::new(&analysis, &paneling, &args.alpha, input);
     // Everything is made before anything is written.
     let svg = match &args.svg {

@@ -3,9 +3,9 @@
 use super::output::Outputs;
 use super::{usage, warn_all};
 use anyhow::{Context, Result};
+use bezchain::export::summary;
 use bezchain::geometry::{
-    check_scale, write_csv_to, Axes, Blade, Blend, LoftOptions, Precision, MAX_CLOUD_POINTS,
-    MIN_SECTION_POINTS,
+    check_scale, write_csv_to, Blade, LoftOptions, Precision, MAX_CLOUD_POINTS, MIN_SECTION_POINTS,
 };
 use std::path::PathBuf;
 
@@ -90,24 +90,6 @@ pub fn run(args: Args) -> Result<()> {
         args.output.display().to_string()
     };
     outs.commit()?;
-    let shape = match cloud.grid {
-        Some(g) => format!("{} sections × {} points", g.sections, g.per_section),
-        None => "unordered".to_string(),
-    };
-    let blend = match blade.blend {
-        Blend::Radius => "each station its own aerofoil",
-        Blend::Thickness { .. } => "aerofoils blended by relative thickness",
-    };
-    let axes = match blade.axes {
-        Axes::Section => "section axes",
-        Axes::Turbine => "blade-root axes",
-    };
-    eprintln!(
-        "{}: {}, {} stations, {blend}, {axes}: {} points ({shape}) → {to}",
-        args.blade.display(),
-        blade.format,
-        blade.stations.len(),
-        cloud.points.len()
-    );
+    eprintln!("{}", summary::lofted(&args.blade, &blade, &cloud, &to));
     Ok(())
 }

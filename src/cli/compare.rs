@@ -4,13 +4,11 @@ use super::fit::load;
 use super::output::Outputs;
 use super::{bounded, usage};
 use anyhow::Result;
-use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::eval::Backend;
-use bezchain::fit::{fit_curve, FitOptions, Method, PAPER_CASES};
+use bezchain::fit::{compare, Method};
 use bezchain::optim::evo::{
     CmaesOptions, EvoOptions, GA_GENERATIONS, GA_POPULATION, MAX_GENERATIONS, MAX_POPULATION,
 };
-use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -20,7 +18,7 @@ pub struct Args {
     /// The contour (the paper used NACA 4413 with 82 points: `data/naca4413.dat`).
     pub input: PathBuf,
     /// Methods to compare, in table order (also ga+lsq, cmaes+lsq).
-    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = super::parse_word::<Method>)]
+    #[arg(long, value_delimiter = ',', default_value = "nelder-mead,bfgs,ga,cmaes,lsq", value_parser = super::curve_method)]
     pub methods: Vec<Method>,
     /// Individuals per generation of the GA and CMA-ES.
     #[arg(long, default_value_t = GA_POPULATION as i64, allow_negative_numbers = true)]
@@ -42,26 +40,6 @@ pub struct Args {
     /// Also write the rows as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
-}
-
-/// One line of the table.
-#[derive(Serialize)]
-struct Row {
-    case: usize,
-    degree: usize,
-    segments: usize,
-    design_points: usize,
-    expanded_points: usize,
-    method: String,
-    design_variables: usize,
-    iterations: usize,
-    evaluations: usize,
-    seconds: f64,
-    sum_sq: f64,
-    max: f64,
-    paper_total_offset: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    backend: Option<String>,
 }
 
 /// Run every method on every case and print the table.
@@ -106,8 +84,6 @@ pub fn run(args: Args) -> Result<()> {
     evo.check()?;
     let clock = Instant::now();
     let loaded = load(&args.input)?;
-    let mut rows = Vec::new();
-    let mut backends = Vec::new();
     // Rows are printed as they finish: the whole table takes tens of seconds.
     let to_stderr = outs.uses_stdout();
     let emit = |text: &str| super::output::say(to_stderr, text);
@@ -133,58 +109,7 @@ pub fn run(args: Args) -> Result<()> {
     table += "| case | degree | segments | design / expanded points | method | variables | iterations | evaluations | seconds | sum_sq | max | paper's total offset | sum_sq / paper |\n";
     table += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     emit(&table);
-    for case in PAPER_CASES {
-        for &method in &args.methods {
-            let layout = ChainLayout::uniform(case.degree, case.segments, Continuity::C1)?;
-            let opts = FitOptions {
-                method,
-                evo: evo.clone(),
-                ..FitOptions::default()
-            };
-            let fit = fit_curve(&loaded.points, layout, &opts)?;
-            let backend = fit.evolution.as_ref().map(|e| e.run.backend.clone());
-            let l = fit.chain.layout();
-            let row = Row {
-                case: case.case,
-                degree: l.degree(),
-                segments: l.segments(),
-                design_points: l.design_count(),
-                expanded_points: l.expanded_count(),
-                method: method.name().to_string(),
-                design_variables: 2 * l.design_count(),
-                iterations: fit.report.iterations,
-                evaluations: fit.report.evaluations,
-                seconds: fit.report.seconds,
-                sum_sq: fit.closest.sum_sq,
-                max: fit.closest.max,
-                paper_total_offset: case.total_offset,
-                backend: backend.as_ref().map(bezchain::export::backend_label),
-            };
-            if let Some(info) = &backend {
-                if !backends.contains(info) {
-                    backends.push(info.clone());
-                }
-            }
-            emit(&format!(
-                "| {} | {} | {} | {} / {} | {} | {} | {} | {} | {:.3} | {:.3e} | {:.2e} | {:.4e} | {:.1e} |\n",
-                row.case,
-                row.degree,
-                row.segments,
-                row.design_points,
-                row.expanded_points,
-                row.method,
-                row.design_variables,
-                row.iterations,
-                row.evaluations,
-                row.seconds,
-                row.sum_sq,
-                row.max,
-                row.paper_total_offset,
-                row.sum_sq / row.paper_total_offset
-            ));
-            rows.push(row);
-        }
-    }
+    let (rows, backends) = compare(&loaded.points, &args.methods, &evo, &mut |row| emit(&row.line()))?;
     let mut tail = String::new();
     for b in &backends {
         tail += &format!("\nga and cmaes evaluated on {b}");

@@ -7,10 +7,10 @@ use anyhow::Result;
 use bezchain::bezier::Vector;
 use bezchain::eval::Backend;
 use bezchain::export::Report;
-use bezchain::fit::population::{eval_curve_population, eval_grid_population, BatchOptions};
-use bezchain::geometry::{
-    check_design_scale, check_scale, read_cloud, read_curve, read_population, Precision,
+use bezchain::fit::population::{
+    self, eval_curve_population, eval_grid_population, BatchOptions, F32Overflow,
 };
+use bezchain::geometry::{read_cloud, read_curve, read_population};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -45,24 +45,21 @@ pub struct Args {
 }
 
 /// Refuse data or individuals whose squared distances overflow the evaluator's f32, naming the
-/// file and the point or individual (`dim` coordinates a design point).
+/// file and the point or individual.
 fn check_f32<P: Vector>(args: &Args, points: &[P], population: &[f64], n_vars: usize) -> Result<()> {
-    if let Err((at, message)) = check_scale(points, Precision::F32) {
-        let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
-        return Err(usage(format!("{}{at}: {message}", args.points.display())));
-    }
-    for (k, individual) in population.chunks_exact(n_vars).enumerate() {
-        if let Err((i, message)) = check_design_scale(individual, points) {
-            return Err(usage(format!(
-                "{}: individual {} (its row {} of values), variable {}: {message}",
-                args.population.display(),
-                k + 1,
-                k + 1,
-                i + 1
-            )));
+    population::check_f32(points, population, n_vars).map_err(|o| match o {
+        F32Overflow::Data(at, message) => {
+            let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
+            usage(format!("{}{at}: {message}", args.points.display()))
         }
-    }
-    Ok(())
+        F32Overflow::Individual(k, i, message) => usage(format!(
+            "{}: individual {} (its row {} of values), variable {}: {message}",
+            args.population.display(),
+            k + 1,
+            k + 1,
+            i + 1
+        )),
+    })
 }
 
 /// Evaluate and write the fitness file.

@@ -7,7 +7,11 @@ use super::progress::{Checkpoints, Generations};
 use super::usage;
 use anyhow::Result;
 use bezchain::eval::Backend;
-use bezchain::optim::evo::{Algorithm, Checkpoint, EvoOptions, Evolution, MAX_GENERATIONS, MAX_POPULATION};
+use bezchain::optim::evo::{
+    check_generation_size, default_population, Checkpoint, EvoOptions, Watched, MAX_GENERATIONS,
+    MAX_POPULATION,
+};
+use bezchain::optim::Method;
 use bezchain::optim::SolveReport;
 use std::path::{Path, PathBuf};
 
@@ -108,16 +112,14 @@ impl EvoArgs {
 
     /// Refuse, before the run, a population whose generation would not fit in memory for
     /// `n` design variables of `algorithm` (`None`: not evolutionary).
-    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Algorithm>, n: usize) -> Result<()> {
-        match algorithm {
-            Some(a) => opts.check_size(a, n).map_err(|e| {
-                usage(format!(
-                    "--population {}: {e}; ask for fewer individuals or a smaller layout",
-                    opts.size(a, n)
-                ))
-            }),
-            None => Ok(()),
-        }
+    pub fn check_size(&self, opts: &EvoOptions, algorithm: Option<Method>, n: usize) -> Result<()> {
+        let Some(a) = algorithm else { return Ok(()) };
+        let size = opts.population.unwrap_or_else(|| default_population(a, n));
+        check_generation_size(size, n).map_err(|e| {
+            usage(format!(
+                "--population {size}: {e}; ask for fewer individuals or a smaller layout"
+            ))
+        })
     }
 
     /// The flags given, by name (to refuse them for methods that do not use them).
@@ -224,7 +226,8 @@ impl EvoArgs {
     }
 }
 
-/// Progress display, history file and checkpoints of an evolutionary run.
+/// Progress display, history file and checkpoints of a run: an evolutionary fit, or an
+/// aerodynamic optimisation.
 pub struct Monitor {
     progress: Generations,
     started: bool,
@@ -239,42 +242,40 @@ impl Monitor {
     /// A monitor for the runs that `args` ask for; their `--history` and `--checkpoint` paths
     /// are checked now and join the run's outputs.
     pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
-        Ok(Monitor {
-            progress: Generations::new(args.quiet),
+        let history = outs.add_opt("--history", args.history.as_deref())?;
+        let checkpoint = args
+            .checkpoint
+            .as_deref()
+            .map(|p| outs.add_interim("--checkpoint", p))
+            .transpose()?;
+        let every = args.checkpoint_every.unwrap_or(10) as u64;
+        Ok(Monitor::with(args.quiet, history, checkpoint, every))
+    }
+
+    /// A monitor showing progress unless `quiet`, writing `history` and a `checkpoint` every
+    /// `every` generations (and when the run stops) where given.
+    pub fn with(quiet: bool, history: Option<Output>, checkpoint: Option<Output>, every: u64) -> Self {
+        Monitor {
+            progress: Generations::new(quiet),
             started: false,
-            history: outs.add_opt("--history", args.history.as_deref())?,
+            history,
             written: 0,
-            checkpoints: Checkpoints::new(
-                args.checkpoint
-                    .as_deref()
-                    .map(|p| outs.add_interim("--checkpoint", p))
-                    .transpose()?,
-                args.checkpoint_every.unwrap_or(10) as u64,
-            ),
-        })
+            checkpoints: Checkpoints::new(checkpoint, every),
+        }
     }
 
     /// After a generation: the progress (a bar from the first generation on), new history
     /// lines, a checkpoint when due.
-    pub fn generation(&mut self, run: &Evolution<'_>, outs: &mut Outputs) -> bezchain::Result<()> {
-        let name = run.algorithm().to_string();
+    pub fn generation(&mut self, run: &dyn Watched, outs: &mut Outputs) -> bezchain::Result<()> {
+        let name = run.label();
         if !self.started {
-            self.progress
-                .start(&name, run.generation(), run.generations() as u64);
+            self.progress.start(&name, run.generation(), run.limit());
             self.started = true;
         }
         let h = run.history();
         let Some(last) = h.last() else { return Ok(()) };
-        let ips = last.evaluations as f64 / last.seconds.max(1e-9);
-        let msg = format!(
-            "best {:.4e} mean {:.3e} | {:.3e} individuals/s, {:.3e} point evals/s",
-            last.best,
-            last.mean,
-            ips,
-            run.evals_per_second()
-        );
         self.progress
-            .show(&name, last.generation, run.generations() as u64, msg);
+            .show(&name, last.generation, run.limit(), run.status());
         if let Some(o) = self.history {
             let path = outs.path(o).to_path_buf();
             let io = |source| bezchain::Error::Io {
@@ -296,7 +297,7 @@ impl Monitor {
             self.written = h.len();
         }
         self.checkpoints
-            .after(outs, run.generation(), run.stop().is_some(), || {
+            .after(outs, run.generation(), run.stopping(), || {
                 run.checkpoint().to_bytes()
             })
     }

@@ -3,15 +3,15 @@
 
 use super::evo::{warn_cap, EvoArgs, Monitor};
 use super::output::Outputs;
-use super::{usage, warn_all};
+use super::{usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::export::{CurvePlot, CurveReport, InputInfo};
-use bezchain::fit::{fit_curve_with, CurveFit, FitOptions, Method};
+use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo};
+use bezchain::fit::segments::{check_segments, SegmentsRefused};
+use bezchain::fit::{fit_curve_with, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
 use bezchain::optim::evo::{EvoHooks, Evolution};
 use bezchain::problem::{point_offsets, Metric};
-use glam::DVec2;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `bezchain fit`.
@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, default_value = "c1", value_parser = super::parse_word::<Continuity>)]
     pub continuity: Continuity,
     /// Method: lsq, nelder-mead, bfgs, ga, cmaes, ga+lsq or cmaes+lsq.
-    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<Method>)]
+    #[arg(long, default_value = "lsq", value_parser = super::curve_method)]
     pub method: Method,
     /// Offset metric minimised and reported: closest or corresponding.
     #[arg(long, default_value = "closest", value_parser = super::parse_word::<Metric>)]
@@ -54,56 +54,26 @@ pub fn load(path: &Path) -> Result<Loaded2> {
     Ok(loaded)
 }
 
-/// Refuse, before the fit, a layout with more design points than the data can determine; the
-/// message gives the most segments that fit.
-fn check_segments(args: &Args, points: usize) -> Result<ChainLayout> {
-    let fits = |s: usize| {
-        ChainLayout::uniform(args.degree, s, args.continuity).is_ok_and(|l| l.design_count() <= points)
-    };
-    let too_many = |design: String| {
-        // Design points grow with the segments: the most that fit, by bisection.
-        let (mut lo, mut hi) = (0, points.min(args.segments));
-        while lo < hi {
-            let mid = (lo + hi).div_ceil(2);
-            if fits(mid) {
-                lo = mid;
-            } else {
-                hi = mid - 1;
-            }
-        }
-        let hint = match lo {
-            0 => "use a lower --degree or more data points".to_string(),
-            s => format!("use at most --segments {s} at degree {}", args.degree),
-        };
-        usage(format!(
-            "--segments {}: {design}, more than the {points} data points of {} can determine; {hint}",
-            args.segments,
-            args.input.display()
-        ))
-    };
-    // Each segment adds at least one design point: far too many are refused before the layout
-    // is built.
-    if args.segments > 4 * points.max(64) {
-        return Err(too_many(format!(
-            "{} segments need more than {} design points",
-            args.segments, args.segments
-        )));
-    }
-    let layout = ChainLayout::uniform(args.degree, args.segments, args.continuity).map_err(|e| {
-        usage(format!(
+/// The layout asked for, refused before the fit when the data cannot determine its design
+/// points (the message gives the most segments that fit).
+fn layout(args: &Args, points: usize) -> Result<ChainLayout> {
+    check_segments(args.degree, args.segments, args.continuity, points).map_err(|r| match r {
+        SegmentsRefused::Layout(e) => usage(format!(
             "--degree {} --segments {}: {e}",
             args.degree, args.segments
-        ))
-    })?;
-    if layout.design_count() > points {
-        return Err(too_many(format!(
-            "degree {} with {} segments has {} design points",
-            args.degree,
-            args.segments,
-            layout.design_count()
-        )));
-    }
-    Ok(layout)
+        )),
+        SegmentsRefused::TooMany { design, most } => {
+            let hint = match most {
+                0 => "use a lower --degree or more data points".to_string(),
+                s => format!("use at most --segments {s} at degree {}", args.degree),
+            };
+            usage(format!(
+                "--segments {}: {design}, more than the {points} data points of {} can determine; {hint}",
+                args.segments,
+                args.input.display()
+            ))
+        }
+    })
 }
 
 /// Fit, report and plot.
@@ -117,7 +87,7 @@ pub fn run(args: Args) -> Result<()> {
     let evolutionary = args.method.evolutionary();
     let (evo, resume) = args.evo.settings(evolutionary.is_some(), &args.method)?;
     let loaded = load(&args.input)?;
-    let layout = check_segments(&args, loaded.points.len())?;
+    let layout = layout(&args, loaded.points.len())?;
     args.evo
         .check_size(&evo, evolutionary.map(|e| e.0), 2 * layout.design_count())?;
     let opts = FitOptions {
@@ -149,14 +119,8 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(cap) = fit.stopped() {
         warn_cap(&args.input, &fit.method.to_string(), cap, &fit.report);
     }
-    if fit.span_ratio > FitOptions::default().max_span_ratio {
-        eprintln!(
-            "warning: {}: the fitted chain doubles back on itself (span ratio {:.1}): its closest-point \
-             offsets are small but neighbouring data points are far apart along the chain; try \
-             another degree or number of segments",
-            args.input.display(),
-            fit.span_ratio
-        );
+    if let Some(w) = summary::fold_warning(&fit) {
+        warn(&args.input, &w);
     }
     let rep = CurveReport::from_fit(
         &fit,
@@ -197,87 +161,6 @@ pub fn run(args: Args) -> Result<()> {
         outs.put(o, svg.as_bytes())?;
     }
     outs.commit()?;
-    outs.say(&summary(&args.input, &loaded, &fit));
+    outs.say(&summary::curve_fit(&args.input, &loaded, &fit));
     Ok(())
-}
-
-/// A few readable lines about the fit.
-fn summary(input: &Path, loaded: &Loaded2, fit: &CurveFit<DVec2>) -> String {
-    let l = fit.chain.layout();
-    let c = &fit.closest;
-    let mut s = format!(
-        "{}: {} points ({:?}, {})\n",
-        input.display(),
-        loaded.points.len(),
-        loaded.format,
-        loaded.name
-    );
-    s += &format!(
-        "chain: degree {}, {} segments, {}: {} design points ({} variables), {} control points\n",
-        l.degree(),
-        l.segments(),
-        l.continuity(),
-        l.design_count(),
-        2 * l.design_count(),
-        l.expanded_count()
-    );
-    s += &format!(
-        "{}: sum_sq {:.4e}  rms {:.3e}  max {:.3e} at ({:.4}, {:.4})  [closest point]\n",
-        fit.method, c.sum_sq, c.rms, c.max, c.max_at.x, c.max_at.y
-    );
-    if fit.metric == Metric::Corresponding {
-        s += &format!(
-            "corresponding-point sum_sq {:.4e}, max {:.3e}\n",
-            fit.offset.sum_sq, fit.offset.max
-        );
-    }
-    if let Some(evo) = &fit.evolution {
-        let r = &evo.run;
-        s += &format!(
-            "{}: population {}, {} generations ({}{}), {} individuals, {:.1} s; objective {:.4e} (f64, ends tied)\n",
-            evo.stages[0].method,
-            r.size,
-            r.report.iterations,
-            r.stop,
-            match r.restarts {
-                0 => String::new(),
-                1 => ", after 1 restart".to_string(),
-                k => format!(", after {k} restarts"),
-            },
-            r.report.evaluations,
-            r.report.seconds,
-            r.sum_sq
-        );
-        s += &format!(
-            "backend {}: {:.3e} point evaluations/s ({:.3e} individuals/s) in the evaluator ({:.2} s of {:.2} s)\n",
-            r.backend,
-            r.evals_per_second,
-            r.report.evaluations as f64 / r.eval_seconds.max(1e-12),
-            r.eval_seconds,
-            r.report.seconds
-        );
-        for st in &evo.stages[1..] {
-            let from = match evo.polish_from_evolved {
-                Some(true) => " (the polish of the evolved design won)",
-                Some(false) => " (one of lsq's own starts beat the polish of the evolved design)",
-                None => "",
-            };
-            s += &format!(
-                "{}: {} iterations, {} evaluations, {:.1} ms{from}\n",
-                st.method,
-                st.report.iterations,
-                st.report.evaluations,
-                st.report.seconds * 1e3
-            );
-        }
-        s += &format!("total {:.2} s\n", fit.report.seconds);
-    } else {
-        s += &format!(
-            "{} iterations, {} evaluations, {:.1} ms\n",
-            fit.report.iterations,
-            fit.report.evaluations,
-            fit.report.seconds * 1e3
-        );
-    }
-    s
 }

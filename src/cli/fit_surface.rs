@@ -3,20 +3,20 @@
 
 use super::evo::{warn_cap, EvoArgs, Monitor};
 use super::output::Outputs;
-use super::{parse_pair, usage, warn_all};
+use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{render, render_svg, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::export::{render, render_svg, summary, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
 use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
-    fit_surface_with, Breaks, ParamSource, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions,
-    SurfaceProgress,
+    fit_surface_with, parse_surface_method, Breaks, Method, ParamSource, SurfaceFit, SurfaceLayout,
+    SurfaceOptions, SurfaceProgress,
 };
-use bezchain::geometry::{read_cloud, Blade};
+use bezchain::geometry::read_cloud;
 use bezchain::optim::evo::{Checkpoint, EvoHooks, Evolution};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Arguments of `bezchain fit-surface`.
@@ -49,8 +49,8 @@ pub struct Args {
     pub breaks_v: String,
     /// Method: lsq, ga, cmaes, ga+lsq or cmaes+lsq (the evolutionary ones on the population
     /// evaluator, from the linear least-squares start, on the subsample of a large cloud).
-    #[arg(long, default_value = "lsq", value_parser = super::parse_word::<SurfaceMethod>)]
-    pub method: SurfaceMethod,
+    #[arg(long, default_value = "lsq", value_parser = |s: &str| parse_surface_method(s).map_err(|e| e.to_string()))]
+    pub method: Method,
     /// Initial parameters: auto (sections when the cloud has them, else blade-aware), sections
     /// or blade.
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<ParamSource>)]
@@ -127,34 +127,7 @@ fn parse_span(s: &str) -> std::result::Result<SpanArg, String> {
 
 /// Breaks from `--breaks-u` / `--breaks-v` text (`flag` names the option in errors).
 fn parse_breaks(text: &str, flag: &str) -> Result<Breaks> {
-    let numbers = |list: &str| -> Result<Vec<f64>> {
-        list.split(',')
-            .map(|t| {
-                let v: f64 = t
-                    .trim()
-                    .parse()
-                    .map_err(|_| usage(format!("{flag}: '{}' is not a number", t.trim())))?;
-                if v.is_finite() {
-                    Ok(v)
-                } else {
-                    Err(usage(format!("{flag}: '{}' is not a finite number", t.trim())))
-                }
-            })
-            .collect()
-    };
-    let text = text.trim();
-    if text.eq_ignore_ascii_case("uniform") {
-        Ok(Breaks::Uniform)
-    } else if let Some(list) = text.strip_prefix("span:") {
-        Ok(Breaks::Span(numbers(list)?))
-    } else if let Some(file) = text.strip_prefix("stations:") {
-        let path = Path::new(file);
-        let blade = Blade::from_file(path).with_context(|| flag.to_string())?;
-        warn_all(path, &blade.warnings);
-        Ok(Breaks::Span(blade.stations.iter().map(|s| s.radius).collect()))
-    } else {
-        Ok(Breaks::Params(numbers(text)?))
-    }
+    Breaks::parse(text, &mut warn).with_context(|| flag.to_string())
 }
 
 /// Fit, report, mesh and draw.
@@ -175,12 +148,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     // Layouts that do not depend on the cloud are checked now, not after a long read.
     if !matches!(layout.breaks_v, Breaks::Span(_)) {
-        let unit = bezchain::problem::SpanAxis {
-            dir: DVec3::Z,
-            lo: 0.0,
-            hi: 1.0,
-        };
-        layout.grid_layout(&unit).map_err(|e| {
+        layout.unit_layout().map_err(|e| {
             usage(format!(
                 "--patches {}x{} --breaks-u {} --breaks-v {}: {e}",
                 args.patches[0], args.patches[1], args.breaks_u, args.breaks_v
@@ -212,7 +180,7 @@ pub fn run(args: Args) -> Result<()> {
     args.evo.check_size(
         &evo,
         args.method.evolutionary().map(|e| e.0),
-        3 * design_net(&layout).map_or(0, |(nu, nv)| nu * nv),
+        3 * layout.design_shape().map_or(0, |(nu, nv)| nu * nv),
     )?;
     let structure = match loaded.grid {
         Some(g) => format!("{} sections x {} points", g.sections, g.per_section),
@@ -264,19 +232,8 @@ pub fn run(args: Args) -> Result<()> {
         ),
     };
 
-    if let Some(check) = check_fit(&fit, &loaded.points, check) {
-        if !check.agrees {
-            eprintln!(
-                "warning: {}: a coarse sampled search (7x7 seeds a patch, Gauss-Newton from the 4 nearest) \
-                 finds rms {:.4e} and max {:.4e} on this surface, not the exact {:.4e} and {:.4e}: \
-                 overhangs or folds trap it, so simple projection tools will overestimate these offsets",
-                args.cloud.display(),
-                check.rms,
-                check.max,
-                fit.stats.rms,
-                fit.stats.max
-            );
-        }
+    if let Some(w) = check_fit(&fit, &loaded.points, check).and_then(|c| summary::checker_warning(&fit, &c)) {
+        warn(&args.cloud, &w);
     }
     if let Some(cap) = fit.stopped() {
         warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
@@ -307,37 +264,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     if png.is_some() || svg.is_some() {
-        let mut ropts = RenderOptions {
-            width: png_w as u32,
-            height: png_h as u32,
-            ..RenderOptions::default()
-        };
-        // The data as dots: every point of a cloud up to 20,000, an even sample of a larger one.
-        let step = loaded.points.len().div_ceil(20_000).max(1);
-        ropts.cloud = loaded.points.iter().step_by(step).copied().collect();
-        // The surface coloured by the local offset: every point's closest point and offset.
-        ropts.offsets = fit
-            .params
-            .iter()
-            .zip(&loaded.points)
-            .map(|(&[u, v], p)| ([u, v], (fit.grid.eval(u, v) - *p).length()))
-            .collect();
-        // The default views look at a blade along +z, its thickness along y; turn them with
-        // the span axis, and to x when the cloud is thinnest along x (a windIO or AeroDyn
-        // blade in its blade-root axes).
-        let extent = |axis: DVec3| {
-            let (lo, hi) = loaded.points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
-                (lo.min(p.dot(axis)), hi.max(p.dot(axis)))
-            });
-            hi - lo
-        };
-        let thin_x = fit.axis.dir.x.abs() < 0.5 && extent(DVec3::X) < extent(DVec3::Y);
-        for v in ropts.views.iter_mut() {
-            v.right = fit.axis.dir;
-            if thin_x {
-                v.eye = DVec3::new(v.eye.y, v.eye.x, v.eye.z);
-            }
-        }
+        let ropts = RenderOptions::of_fit(&fit, &loaded.points, png_w as u32, png_h as u32);
         if let Some(o) = png {
             let image = render(&fit.grid, &ropts)?;
             outs.put(o, &image.to_png()?)?;
@@ -351,25 +278,20 @@ pub fn run(args: Args) -> Result<()> {
         args.cad.put(&mut outs, &cad, &[shape], &name)?;
     }
     outs.commit()?;
-    outs.say(&summary(&args, &fit, n, clock.elapsed().as_secs_f64()));
+    outs.say(&summary::surface_fit(
+        args.method,
+        &fit,
+        n,
+        clock.elapsed().as_secs_f64(),
+    ));
     Ok(())
-}
-
-/// The design net of `layout` on a unit span (its shape does not depend on the span).
-fn design_net(layout: &SurfaceLayout) -> Option<(usize, usize)> {
-    let unit = bezchain::problem::SpanAxis {
-        dir: DVec3::Z,
-        lo: 0.0,
-        hi: 1.0,
-    };
-    layout.grid_layout(&unit).ok().map(|g| g.design_shape())
 }
 
 /// Refuse, before the fit, a grid with more design points than the cloud's `n` points can
 /// determine; the message suggests the patch counts that fit.
 fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
     let [pu, pv] = args.patches;
-    let Some((nu, nv)) = design_net(layout) else {
+    let Some((nu, nv)) = layout.design_shape() else {
         return Ok(()); // span breaks: checked by the fit, which knows the span
     };
     if nu * nv <= n {
@@ -508,44 +430,4 @@ fn fit_with_progress(
     })?;
     monitor.close(outs)?;
     Ok(fit)
-}
-
-/// A few readable lines about the fit.
-fn summary(args: &Args, fit: &SurfaceFit, n: usize, total: f64) -> String {
-    let l = fit.grid.layout();
-    let (du, dv) = (l.u.degree(), l.v.degree());
-    let (pu, pv) = l.patches();
-    let (nu, nv) = l.design_shape();
-    let (mu, mv) = l.net_shape();
-    let s = &fit.stats;
-    let mut out = format!(
-        "grid: degree {du}x{dv}, {pu}x{pv} patches, {}x{}: design net {nu}x{nv} ({} variables), control net {mu}x{mv}\n",
-        l.u.continuity(),
-        l.v.continuity(),
-        3 * nu * nv
-    );
-    let fmt_breaks = |b: &[f64]| b.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(" ");
-    out += &format!(
-        "breaks u: {}\nbreaks v: {}\n",
-        fmt_breaks(l.u.breaks()),
-        fmt_breaks(l.v.breaks())
-    );
-    out += &format!(
-        "{}: rms {:.4e}  max {:.4e} at ({:.4}, {:.4}, {:.4})  sum_sq {:.4e}  [closest point, {n} points]\n",
-        args.method, s.rms, s.max, s.max_at.x, s.max_at.y, s.max_at.z, s.sum_sq
-    );
-    out += &format!(
-        "continuity error {:.1e}; parameters {}; {} iterations ({}), fit {:.2} s, total {:.2} s\n",
-        fit.grid.continuity_error(),
-        fit.param_source,
-        fit.report.iterations,
-        fit.stages
-            .iter()
-            .map(|st| format!("{} {} on {} points", st.name, st.report.iterations, st.points))
-            .collect::<Vec<_>>()
-            .join(", "),
-        fit.report.seconds,
-        total
-    );
-    out
 }

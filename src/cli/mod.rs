@@ -19,6 +19,7 @@ pub mod progress;
 pub mod sample;
 
 use anyhow::Result;
+use bezchain::optim::Method;
 use std::path::Path;
 
 /// An error in the user's arguments that clap cannot see (exit status 2).
@@ -75,6 +76,11 @@ pub fn parse_word<T: std::str::FromStr<Err = bezchain::Error>>(s: &str) -> std::
     s.parse().map_err(|e: bezchain::Error| e.to_string())
 }
 
+/// clap parser for `--method` of a chain fit ([`Method::CURVE`]).
+pub fn curve_method(s: &str) -> std::result::Result<Method, String> {
+    Method::parse_among(s, Method::CURVE).map_err(|e| e.to_string())
+}
+
 /// clap parser for `AxB` pairs of positive integers (degrees, patch counts).
 pub fn parse_pair(s: &str) -> std::result::Result<[usize; 2], String> {
     let bad = || format!("'{s}' is not of the form AxB (e.g. 3x3)");
@@ -87,8 +93,13 @@ pub fn parse_pair(s: &str) -> std::result::Result<[usize; 2], String> {
 /// Print reader warnings on stderr, one line each, prefixed with the file.
 pub fn warn_all(path: &Path, warnings: &[String]) {
     for w in warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        warn(path, w);
     }
+}
+
+/// Print one warning about `path` on stderr.
+pub fn warn(path: &Path, warning: &str) {
+    eprintln!("warning: {}: {warning}", path.display());
 }
 
 /// Refuse a size-like argument above `max` before anything is allocated for it: the message
@@ -100,14 +111,4 @@ pub fn bounded(flag: &str, value: u64, max: u64, suggestion: &str) -> Result<()>
         )));
     }
     Ok(())
-}
-
-/// Whether `path` holds a JSON report rather than coordinates (its first character, after
-/// white space, is `{`).
-pub fn is_report(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|source| bezchain::Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
 }

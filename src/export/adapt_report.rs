@@ -4,13 +4,13 @@
 //! patch grid (the surface report with an `adapt` block). Formats: `docs/ARCHITECTURE.md`
 //! §5.6 and §5.7.
 
-use super::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
 use crate::adaptive::encoding::{Encoding, ScalarCount};
 use crate::adaptive::surface::{
     AdaptedSurface, CheckedOffsets, FoldCheck, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding,
     SurfaceFamilyTrace,
 };
 use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
+use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
 use serde::{Deserialize, Serialize};
 
 /// How the stored scalars are counted, as the report states it.

@@ -13,8 +13,7 @@ use super::{AdaptReport, SurfaceAdaptReport};
 use crate::adaptive::{Encoding, SurfaceEncoding};
 use crate::chain::{CurveChain, PatchGrid};
 use crate::error::{Error, Result};
-use crate::export::{CurveReport, SurfaceReport};
-use crate::geometry::from_json_value;
+use crate::fit::report::{read_reports, CurveReport, Saved, SurfaceReport};
 use crate::keyword::keywords;
 use glam::{DVec2, DVec3};
 use std::path::Path;
@@ -297,75 +296,33 @@ impl CadShape {
     }
 
     /// Every shape of a report file (`fit`, `adapt`, `fit-surface`, `adapt-surface`; one report
-    /// or an array of them).
+    /// or an array of them, read by [`read_reports`]), each checked against the control points
+    /// its report stores.
     pub fn read_reports(path: &Path) -> Result<Vec<CadShape>> {
-        let text = crate::geometry::read_text(path)?;
-        let value: serde_json::Value = crate::geometry::parse_json(&text, path, "not JSON")?;
-        let items = match value {
-            serde_json::Value::Array(items) => items,
-            one => vec![one],
-        };
-        if items.is_empty() {
+        let saved = read_reports(path)?;
+        if saved.is_empty() {
             return Err(Error::Input {
                 path: path.into(),
                 message: "an empty array: no report to export".into(),
             });
         }
-        let mut out = Vec::with_capacity(items.len());
-        for (k, item) in items.into_iter().enumerate() {
-            let at = if out.is_empty() && k == 0 {
+        let mut out = Vec::with_capacity(saved.len());
+        for (k, report) in saved.iter().enumerate() {
+            let shape = match report {
+                Saved::Curve(r, None) => CadShape::from_curve_report(r),
+                Saved::Curve(r, Some(enc)) => CadShape::from_encoded_curve(r, enc),
+                Saved::Surface(r, None) => CadShape::from_surface_report(r),
+                Saved::Surface(r, Some(enc)) => CadShape::from_encoded_surface(r, enc),
+            };
+            let at = if k == 0 {
                 String::new()
             } else {
                 format!("report {k}: ")
             };
-            let kind = item
-                .get("kind")
-                .and_then(|k| k.as_str())
-                .unwrap_or_default()
-                .to_string();
-            let adapted = item.get("adapt").is_some();
-            let bad = |e: String| Error::Input {
-                path: path.into(),
-                message: format!("{at}not a bezchain {kind} report: {e}"),
-            };
-            let invalid = |e: Error| Error::Input {
+            out.push(shape.map_err(|e| Error::Input {
                 path: path.into(),
                 message: format!("{at}{e}"),
-            };
-            // An adapt report is read as its fit report plus the encoding (the rest of its
-            // adapt block is not needed here).
-            let encoding = item.get("adapt").and_then(|a| a.get("encoding")).cloned();
-            let shape = match (kind.as_str(), adapted) {
-                ("curve", false) => {
-                    let r: CurveReport = from_json_value(item, "").map_err(bad)?;
-                    CadShape::from_curve_report(&r).map_err(invalid)?
-                }
-                ("curve", true) => {
-                    let enc: Encoding =
-                        from_json_value(encoding.unwrap_or_default(), "adapt.encoding.").map_err(bad)?;
-                    let r: CurveReport = from_json_value(item, "").map_err(bad)?;
-                    CadShape::from_encoded_curve(&r, &enc).map_err(invalid)?
-                }
-                ("surface", false) => {
-                    let r: SurfaceReport = from_json_value(item, "").map_err(bad)?;
-                    CadShape::from_surface_report(&r).map_err(invalid)?
-                }
-                ("surface", true) => {
-                    let enc: SurfaceEncoding =
-                        from_json_value(encoding.unwrap_or_default(), "adapt.encoding.").map_err(bad)?;
-                    let r: SurfaceReport = from_json_value(item, "").map_err(bad)?;
-                    CadShape::from_encoded_surface(&r, &enc).map_err(invalid)?
-                }
-                _ => {
-                    return Err(Error::Input {
-                        path: path.into(),
-                        message: format!(
-                            "{at}not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"
-                        ),
-                    })
-                }
-            };
-            out.push(shape);
+            })?);
         }
         Ok(out)
     }

@@ -2,7 +2,7 @@
 //! it) above the shapes that carry them, drawn to equal scales.
 
 use super::svg::{draw_xy_mesh, plot_err};
-use crate::aero::AeroReport;
+use crate::aero::{AeroReport, OptimiseResult, PanelSolution, Study};
 use crate::error::Result;
 use glam::DVec2;
 use plotters::prelude::*;
@@ -49,6 +49,57 @@ const PALETTE: [RGBColor; 6] = [
 ];
 
 impl CpPlot {
+    /// The shapes and pressures of an optimisation's start and `result` (and its target's, when
+    /// the objective has one) at its angle of attack.
+    pub fn of_optimisation(study: &Study, result: &OptimiseResult) -> Result<CpPlot> {
+        let alpha = study.setup.alpha;
+        let space = &study.problem.space;
+        let start = PanelSolution::solve(&space.map().nodes(space.start()))?;
+        let end = PanelSolution::solve(&space.map().nodes(&result.design))?;
+        let cp = |s: &PanelSolution| -> Vec<(f64, f64)> {
+            s.nodes().iter().zip(s.cp(alpha)).map(|(p, c)| (p.x, c)).collect()
+        };
+        let mut curves = vec![
+            CpCurve {
+                label: format!("start: CL {:.4}", start.coefficients(alpha).cl),
+                points: cp(&start),
+            },
+            CpCurve {
+                label: format!("result: CL {:.4}", end.coefficients(alpha).cl),
+                points: cp(&end),
+            },
+        ];
+        let mut outlines = vec![
+            Outline {
+                label: format!("start ({})", study.setup.start.display()),
+                nodes: start.nodes().to_vec(),
+            },
+            Outline {
+                label: "result".into(),
+                nodes: end.nodes().to_vec(),
+            },
+        ];
+        if let Some(t) = &study.target {
+            let s = &t.analysis.solution;
+            curves.push(CpCurve {
+                label: format!("target {}: CL {:.4}", t.path.display(), s.coefficients(alpha).cl),
+                points: cp(s),
+            });
+            outlines.push(Outline {
+                label: format!("target ({})", t.path.display()),
+                nodes: s.nodes().to_vec(),
+            });
+        }
+        Ok(CpPlot {
+            title: format!(
+                "bezchain optimise --objective {} at α = {alpha}°",
+                study.setup.spec
+            ),
+            curves,
+            outlines,
+        })
+    }
+
     /// Render as an SVG document.
     pub fn to_svg(&self) -> Result<String> {
         let xs = self

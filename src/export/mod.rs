@@ -1,4 +1,5 @@
-//! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders and STEP/IGES B-splines.
+//! Outputs: the JSON report, SVG plots, OBJ/STL meshes, PNG renders, STEP/IGES B-splines and
+//! the readable summaries the commands print ([`summary`]).
 
 mod adapt_report;
 mod cad;
@@ -6,10 +7,13 @@ mod cp_plot;
 mod iges;
 mod mesh;
 mod render;
-mod report;
 mod step;
+pub mod summary;
 mod svg;
 
+pub use crate::fit::report::{
+    backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport,
+};
 pub use adapt_report::{
     AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport, COUNTING,
 };
@@ -21,6 +25,5 @@ pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
     DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
-pub use report::{backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport};
 pub use step::step_text;
 pub use svg::CurvePlot;

@@ -9,6 +9,7 @@ use crate::chain::PatchGrid;
 use crate::error::{Error, Result};
 use crate::eval::dense::{dense_grid, uniform, DensePoint};
 use crate::eval::Backend;
+use crate::fit::SurfaceFit;
 use glam::DVec3;
 
 /// An RGB colour.
@@ -395,6 +396,42 @@ fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, width: i6
 }
 
 impl RenderOptions {
+    /// The picture of a grid fitted to `points`, `width` × `height` pixels: the data as dots
+    /// (every point of a cloud up to 20,000, an even sample of a larger one), the surface
+    /// coloured by the offsets of the fit's points. The default views look at a blade along
+    /// +z, its thickness along y; they turn with the fit's span axis, and to x when the cloud
+    /// is thinnest along x (a windIO or AeroDyn blade in its blade-root axes).
+    #[must_use]
+    pub fn of_fit(fit: &SurfaceFit, points: &[DVec3], width: u32, height: u32) -> RenderOptions {
+        let mut o = RenderOptions {
+            width,
+            height,
+            ..RenderOptions::default()
+        };
+        let step = points.len().div_ceil(20_000).max(1);
+        o.cloud = points.iter().step_by(step).copied().collect();
+        o.offsets = fit
+            .params
+            .iter()
+            .zip(points)
+            .map(|(&[u, v], p)| ([u, v], (fit.grid.eval(u, v) - *p).length()))
+            .collect();
+        let extent = |axis: DVec3| {
+            let (lo, hi) = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+                (lo.min(p.dot(axis)), hi.max(p.dot(axis)))
+            });
+            hi - lo
+        };
+        let thin_x = fit.axis.dir.x.abs() < 0.5 && extent(DVec3::X) < extent(DVec3::Y);
+        for v in o.views.iter_mut() {
+            v.right = fit.axis.dir;
+            if thin_x {
+                v.eye = DVec3::new(v.eye.y, v.eye.x, v.eye.z);
+            }
+        }
+        o
+    }
+
     /// A picture of 16 to 16384 pixels each way with at least one view.
     fn check(&self) -> Result<()> {
         if self.width < 16 || self.height < 16 || self.width > 16384 || self.height > 16384 {

@@ -5,11 +5,11 @@ use crate::bezier::Vector;
 use crate::chain::{ChainLayout, CurveChain};
 use crate::closest::FootOptions;
 use crate::error::{Error, Result};
-use crate::keyword::keywords;
 use crate::optim::bfgs::{bfgs, BfgsOptions};
-use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::evo::{EvoHooks, EvoOptions};
 use crate::optim::hybrid::{evolve_then_polish, EvoSummary, Stage};
 use crate::optim::lsq::{lsq, pick, Guard, HasReport, LsqFit, LsqHooks, LsqOptions, Start};
+use crate::optim::method::Method;
 use crate::optim::nelder_mead::{nelder_mead, NelderMeadOptions};
 use crate::optim::report::SolveReport;
 use crate::problem::offset::{
@@ -17,70 +17,12 @@ use crate::problem::offset::{
 };
 use crate::problem::CurveProblem;
 use glam::DVec2;
-use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-/// A fitting method.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Method {
-    /// Least squares: a linear solve at chord-length parameters, then Levenberg-Marquardt
-    /// over the design points and foot points together (closest metric). The default.
-    #[default]
-    Lsq,
-    /// Nelder-Mead on the design variables from the paper's start.
-    NelderMead,
-    /// BFGS with the analytic gradient from the paper's start.
-    Bfgs,
-    /// The genetic algorithm on the population evaluator, from a population around the
-    /// paper's start (see [`crate::optim::evo`]).
-    Ga,
-    /// CMA-ES on the population evaluator, from the paper's start.
-    Cmaes,
-    /// The genetic algorithm, then the least-squares polish from its best design.
-    GaLsq,
-    /// CMA-ES, then the least-squares polish from its best design.
-    CmaesLsq,
-}
-
-impl Method {
-    /// Every method, in the order of the paper's comparison table.
-    pub const ALL: [Method; 7] = [
-        Method::NelderMead,
-        Method::Bfgs,
-        Method::Ga,
-        Method::Cmaes,
-        Method::GaLsq,
-        Method::CmaesLsq,
-        Method::Lsq,
-    ];
-
-    /// The evolutionary method this runs, if any, and whether the least-squares polish follows.
-    #[must_use]
-    pub fn evolutionary(self) -> Option<(Algorithm, bool)> {
-        match self {
-            Method::Ga => Some((Algorithm::Ga, false)),
-            Method::Cmaes => Some((Algorithm::Cmaes, false)),
-            Method::GaLsq => Some((Algorithm::Ga, true)),
-            Method::CmaesLsq => Some((Algorithm::Cmaes, true)),
-            Method::Lsq | Method::NelderMead | Method::Bfgs => None,
-        }
-    }
-}
-
-keywords!(Method, "method", {
-    Lsq => "lsq",
-    NelderMead => "nelder-mead" | "neldermead" | "nm",
-    Bfgs => "bfgs",
-    Ga => "ga",
-    Cmaes => "cmaes" | "cma-es",
-    GaLsq => "ga+lsq",
-    CmaesLsq => "cmaes+lsq" | "cma-es+lsq",
-});
 
 /// Everything `fit_curve` needs besides the data and the layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitOptions {
-    /// The method. Default least squares.
+    /// The method, one of [`Method::CURVE`]. Default least squares.
     pub method: Method,
     /// The offset metric minimised and reported. Default closest point.
     pub metric: Metric,
@@ -209,6 +151,12 @@ pub fn fit_curve_with<P: Vector>(
         })
     };
     let (design, mut report) = match opts.method {
+        Method::GaCmaes => {
+            return Err(Error::invalid(format!(
+                "{} is not a method of curve fits",
+                opts.method
+            )))
+        }
         Method::Ga | Method::Cmaes | Method::GaLsq | Method::CmaesLsq => {
             let Some((algorithm, polish_after)) = opts.method.evolutionary() else {
                 return Err(Error::invalid(format!(
@@ -366,20 +314,5 @@ impl<P> HasReport for Scored<P> {
     }
     fn report_mut(&mut self) -> &mut SolveReport {
         &mut self.fit.report
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn method_names_round_trip() {
-        for m in Method::ALL {
-            assert_eq!(m.to_string().parse::<Method>().unwrap(), m);
-        }
-        assert!("pso".parse::<Method>().is_err());
-        assert_eq!(Method::GaLsq.evolutionary(), Some((Algorithm::Ga, true)));
-        assert_eq!(Method::Bfgs.evolutionary(), None);
     }
 }

@@ -3,9 +3,10 @@
 use crate::chain::GridLayout;
 use crate::chain::PatchGrid;
 use crate::error::Result;
-use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::evo::{EvoHooks, EvoOptions};
 use crate::optim::hybrid::{evolve_then_polish, EvoSummary};
 use crate::optim::lsq::LsqOptions;
+use crate::optim::method::Method;
 use crate::optim::report::SolveReport;
 use crate::problem::offset::{grid_offset_stats, Metric, OffsetStats};
 use crate::problem::GridProblem;
@@ -33,7 +34,7 @@ pub fn fit_grid_evo(
     params: Vec<[f64; 2]>,
     layout: GridLayout,
     start: &[DVec3],
-    algorithm: Algorithm,
+    algorithm: Method,
     polish_after: bool,
     options: &EvoOptions,
     lsq: &LsqOptions,

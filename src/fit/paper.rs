@@ -1,4 +1,15 @@
-//! The paper's three NACA 4413 cases (WCE 2008, Figs. 9–11; `docs/ARCHITECTURE.md` §2.5).
+//! The paper's three NACA 4413 cases (WCE 2008, Figs. 9–11; `docs/ARCHITECTURE.md` §2.5) and its
+//! optimiser comparison on them ([`compare`]).
+
+use super::curve::{fit_curve, FitOptions};
+use super::report::backend_label;
+use crate::chain::{ChainLayout, Continuity};
+use crate::error::Result;
+use crate::eval::BackendInfo;
+use crate::optim::evo::EvoOptions;
+use crate::optim::Method;
+use glam::DVec2;
+use serde::Serialize;
 
 /// One of the paper's 2D cases: its layout, counts and reported total offset.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,3 +55,99 @@ pub const PAPER_CASES: [PaperCase; 3] = [
         total_offset: 1.2705e-4,
     },
 ];
+
+/// One row of the paper's optimiser comparison: a case, a method, its effort and offsets.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CompareRow {
+    case: usize,
+    degree: usize,
+    segments: usize,
+    design_points: usize,
+    expanded_points: usize,
+    method: String,
+    design_variables: usize,
+    iterations: usize,
+    evaluations: usize,
+    seconds: f64,
+    sum_sq: f64,
+    max: f64,
+    paper_total_offset: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    backend: Option<String>,
+}
+
+impl CompareRow {
+    /// The row as a line of the Markdown table (the last column: `sum_sq` over the paper's
+    /// total offset).
+    #[must_use]
+    pub fn line(&self) -> String {
+        format!(
+            "| {} | {} | {} | {} / {} | {} | {} | {} | {} | {:.3} | {:.3e} | {:.2e} | {:.4e} | {:.1e} |\n",
+            self.case,
+            self.degree,
+            self.segments,
+            self.design_points,
+            self.expanded_points,
+            self.method,
+            self.design_variables,
+            self.iterations,
+            self.evaluations,
+            self.seconds,
+            self.sum_sq,
+            self.max,
+            self.paper_total_offset,
+            self.sum_sq / self.paper_total_offset
+        )
+    }
+}
+
+/// The paper's optimiser comparison: every method of `methods` on every case of
+/// [`PAPER_CASES`] fitted to `points` (C1 chains), the evolutionary ones with `evo`; each row
+/// goes to `on_row` when it is done. Returns the rows and the backends the evolutionary methods
+/// ran on.
+pub fn compare(
+    points: &[DVec2],
+    methods: &[Method],
+    evo: &EvoOptions,
+    on_row: &mut dyn FnMut(&CompareRow),
+) -> Result<(Vec<CompareRow>, Vec<BackendInfo>)> {
+    let mut rows = Vec::new();
+    let mut backends: Vec<BackendInfo> = Vec::new();
+    for case in PAPER_CASES {
+        for &method in methods {
+            let layout = ChainLayout::uniform(case.degree, case.segments, Continuity::C1)?;
+            let opts = FitOptions {
+                method,
+                evo: evo.clone(),
+                ..FitOptions::default()
+            };
+            let fit = fit_curve(points, layout, &opts)?;
+            let backend = fit.evolution.as_ref().map(|e| e.run.backend.clone());
+            let l = fit.chain.layout();
+            let row = CompareRow {
+                case: case.case,
+                degree: l.degree(),
+                segments: l.segments(),
+                design_points: l.design_count(),
+                expanded_points: l.expanded_count(),
+                method: method.name().to_string(),
+                design_variables: 2 * l.design_count(),
+                iterations: fit.report.iterations,
+                evaluations: fit.report.evaluations,
+                seconds: fit.report.seconds,
+                sum_sq: fit.closest.sum_sq,
+                max: fit.closest.max,
+                paper_total_offset: case.total_offset,
+                backend: backend.as_ref().map(backend_label),
+            };
+            if let Some(info) = backend {
+                if !backends.contains(&info) {
+                    backends.push(info);
+                }
+            }
+            on_row(&row);
+            rows.push(row);
+        }
+    }
+    Ok((rows, backends))
+}

@@ -28,6 +28,7 @@ use crate::eval::{
     build_evaluator, Backend, BackendInfo, EvalLayout, EvalOptions, Fitness, Gene, GpuOptions,
     PopulationEvaluator, Targets,
 };
+use crate::geometry::{check_design_scale, check_scale, Precision};
 use crate::optim::evo::{EvoOptions, Fnv, PopulationObjective, Score, Scorer};
 use crate::problem::FitProblem;
 use glam::{DVec2, DVec3};
@@ -399,6 +400,25 @@ pub struct BatchResult {
     /// The median seconds of one evaluation of the whole population over the
     /// [`BatchOptions::repeat`] timed ones (`None` without).
     pub seconds_median: Option<f64>,
+}
+
+/// Where data or a population would overflow the evaluator's f32 squares.
+#[derive(Clone, Debug, PartialEq)]
+pub enum F32Overflow {
+    /// The data: at a point (0-based) where one is to blame, and why.
+    Data(Option<usize>, String),
+    /// An individual (0-based), its variable (0-based) and why.
+    Individual(usize, usize, String),
+}
+
+/// Check that `points` and every individual of `population` (rows of `n_vars`) keep their
+/// squared distances inside the evaluator's f32 ([`check_scale`], [`check_design_scale`]).
+pub fn check_f32<P: Vector>(points: &[P], population: &[f64], n_vars: usize) -> Result<(), F32Overflow> {
+    check_scale(points, Precision::F32).map_err(|(at, m)| F32Overflow::Data(at, m))?;
+    for (k, individual) in population.chunks_exact(n_vars.max(1)).enumerate() {
+        check_design_scale(individual, points).map_err(|(i, m)| F32Overflow::Individual(k, i, m))?;
+    }
+    Ok(())
 }
 
 /// The first row of `population`, checked to be a whole number of rows of `n_vars` finite

@@ -14,11 +14,12 @@
 use super::grid_evo::fit_grid_evo;
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
-use crate::geometry::Grid;
+use crate::geometry::{Blade, Grid};
 use crate::keyword::keywords;
-use crate::optim::evo::{Algorithm, EvoHooks, EvoOptions};
+use crate::optim::evo::{EvoHooks, EvoOptions};
 use crate::optim::hybrid::EvoSummary;
 use crate::optim::lsq::{lsq, LsqFit, LsqHooks, LsqIterate, LsqOptions, Start};
+use crate::optim::method::Method;
 use crate::optim::report::{SolveReport, StopReason};
 use crate::problem::offset::{Metric, OffsetStats};
 use crate::problem::param::{blade_params, section_params, BladeParamOptions, SpanAxis};
@@ -26,62 +27,18 @@ use crate::problem::GridProblem;
 use glam::DVec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::str::FromStr;
+use std::path::Path;
 use std::time::Instant;
 
-/// A surface-fitting method: least squares, or an evolutionary method on the population
-/// evaluator (GPU where present) from the least-squares start, optionally polished by least
-/// squares.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum SurfaceMethod {
-    /// Joint Levenberg-Marquardt over the design net and the foot points. The default.
-    #[default]
-    Lsq,
-    /// The genetic algorithm around the linear least-squares start (see [`crate::optim::evo`]).
-    Ga,
-    /// CMA-ES from the linear least-squares start.
-    Cmaes,
-    /// The genetic algorithm, then the least-squares polish from its best net.
-    GaLsq,
-    /// CMA-ES, then the least-squares polish from its best net.
-    CmaesLsq,
-}
-
-impl SurfaceMethod {
-    /// The evolutionary algorithm and whether least squares polishes its result; `None` for
-    /// least squares.
-    #[must_use]
-    pub fn evolutionary(self) -> Option<(Algorithm, bool)> {
-        match self {
-            SurfaceMethod::Ga => Some((Algorithm::Ga, false)),
-            SurfaceMethod::Cmaes => Some((Algorithm::Cmaes, false)),
-            SurfaceMethod::GaLsq => Some((Algorithm::Ga, true)),
-            SurfaceMethod::CmaesLsq => Some((Algorithm::Cmaes, true)),
-            SurfaceMethod::Lsq => None,
-        }
-    }
-}
-
-keywords!(SurfaceMethod, "method", {
-    Lsq => "lsq",
-    Ga => "ga",
-    Cmaes => "cmaes" | "cma-es",
-    GaLsq => "ga+lsq",
-    CmaesLsq => "cmaes+lsq" | "cma-es+lsq",
-}, parse = manual);
-
-impl FromStr for SurfaceMethod {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        if matches!(
-            s.parse::<super::Method>(),
-            Ok(super::Method::NelderMead | super::Method::Bfgs)
-        ) {
-            return Err(Error::invalid(format!(
-                "method '{s}' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
-            )));
-        }
-        crate::keyword::parse(s, "method", Self::KEYWORDS)
+/// `--method` of a surface fit: one of [`Method::SURFACE`]; a method of curve fits alone is
+/// refused by saying so.
+pub fn parse_surface_method(s: &str) -> Result<Method> {
+    match Method::parse_among(s, Method::CURVE) {
+        Ok(m) if !Method::SURFACE.contains(&m) => Err(Error::invalid(format!(
+            "method '{s}' is for curves only (surfaces: {})",
+            Method::names(Method::SURFACE).join(", ")
+        ))),
+        _ => Method::parse_among(s, Method::SURFACE),
     }
 }
 
@@ -97,6 +54,36 @@ pub enum Breaks {
     /// radii): the interior breaks, or all of them (the first and last then stand for the
     /// cloud's ends). They are mapped to `v` the way the data points' initial parameters are.
     Span(Vec<f64>),
+}
+
+impl Breaks {
+    /// Breaks from text: `uniform`; `span:R1,R2,...`, positions along the span axis; `stations:
+    /// BLADE`, the station radii of a blade file (its reader's warnings go to `warn`); or
+    /// parameters `T1,T2,...` in `[0, 1]`.
+    pub fn parse(text: &str, warn: &mut dyn FnMut(&Path, &str)) -> Result<Breaks> {
+        let numbers = |list: &str| -> Result<Vec<f64>> {
+            list.split(',')
+                .map(|t| match t.trim().parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    Ok(_) => Err(Error::invalid(format!("'{}' is not a finite number", t.trim()))),
+                    Err(_) => Err(Error::invalid(format!("'{}' is not a number", t.trim()))),
+                })
+                .collect()
+        };
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("uniform") {
+            Ok(Breaks::Uniform)
+        } else if let Some(list) = text.strip_prefix("span:") {
+            Ok(Breaks::Span(numbers(list)?))
+        } else if let Some(file) = text.strip_prefix("stations:") {
+            let path = Path::new(file);
+            let blade = Blade::from_file(path)?;
+            blade.warnings.iter().for_each(|w| warn(path, w));
+            Ok(Breaks::Span(blade.stations.iter().map(|s| s.radius).collect()))
+        } else {
+            Ok(Breaks::Params(numbers(text)?))
+        }
+    }
 }
 
 /// A patch-grid layout to fit: degrees, patches, continuity and breaks per direction
@@ -138,6 +125,23 @@ impl SurfaceLayout {
             breaks_u: Breaks::Uniform,
             breaks_v: Breaks::Uniform,
         }
+    }
+
+    /// The grid layout on a unit span (`v` from 0 to 1 along z), for the checks that need no
+    /// cloud.
+    pub fn unit_layout(&self) -> Result<GridLayout> {
+        self.grid_layout(&SpanAxis {
+            dir: DVec3::Z,
+            lo: 0.0,
+            hi: 1.0,
+        })
+    }
+
+    /// The design net's shape `(nu, nv)` (it does not depend on the span), or `None` when the
+    /// layout cannot be built without the cloud.
+    #[must_use]
+    pub fn design_shape(&self) -> Option<(usize, usize)> {
+        self.unit_layout().ok().map(|g| g.design_shape())
     }
 
     /// The grid layout, with span positions mapped to `v` along `axis`.
@@ -220,8 +224,8 @@ keywords!(ParamSource, "parameterisation", { Auto => "auto", Sections => "sectio
 /// Everything [`fit_surface`] needs besides the data and the layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
-    /// The method. Default least squares.
-    pub method: SurfaceMethod,
+    /// The method, one of [`Method::SURFACE`]. Default least squares.
+    pub method: Method,
     /// Where the initial parameters come from. Default [`ParamSource::Auto`].
     pub params: ParamSource,
     /// Options of the blade-aware parameterisation.
@@ -247,7 +251,7 @@ pub struct SurfaceOptions {
 impl Default for SurfaceOptions {
     fn default() -> Self {
         SurfaceOptions {
-            method: SurfaceMethod::Lsq,
+            method: Method::Lsq,
             params: ParamSource::Auto,
             blade: BladeParamOptions::default(),
             lsq: LsqOptions {
@@ -537,6 +541,12 @@ pub fn fit_surface_with(
     hooks: &mut EvoHooks<'_>,
 ) -> Result<SurfaceFit> {
     let clock = Instant::now();
+    if !Method::SURFACE.contains(&opts.method) {
+        return Err(Error::invalid(format!(
+            "{} is not a method of surface fits",
+            opts.method
+        )));
+    }
     if let Some(j) = points.iter().position(|p| !p.is_finite()) {
         return Err(Error::invalid(format!(
             "data point {j} has a non-finite coordinate"
@@ -662,5 +672,43 @@ mod tests {
         assert_eq!(stop(&evo, true), Some(MaxEvaluations));
         // Without a polish nothing caps it.
         assert_eq!(stop(&[stage("ga", MaxIterations)], true), None);
+    }
+
+    /// Break lists parse as parameters, span positions or a blade's stations, and a bad number
+    /// is named; a surface fit refuses a method of curves only.
+    #[test]
+    fn breaks_parse_from_their_text() {
+        let mut none = |_: &Path, w: &str| panic!("warning {w}");
+        assert_eq!(Breaks::parse(" Uniform ", &mut none).unwrap(), Breaks::Uniform);
+        assert_eq!(
+            Breaks::parse("0.25, 0.5", &mut none).unwrap(),
+            Breaks::Params(vec![0.25, 0.5])
+        );
+        assert_eq!(
+            Breaks::parse("span:10,20.5", &mut none).unwrap(),
+            Breaks::Span(vec![10.0, 20.5])
+        );
+        let e = Breaks::parse("0.5,x", &mut none).unwrap_err().to_string();
+        assert_eq!(e, "'x' is not a number");
+        let e = Breaks::parse("span:inf", &mut none).unwrap_err().to_string();
+        assert_eq!(e, "'inf' is not a finite number");
+        let blade = concat!(env!("CARGO_MANIFEST_DIR"), "/data/blade_paper.json");
+        match Breaks::parse(&format!("stations:{blade}"), &mut none).unwrap() {
+            Breaks::Span(r) => assert!(r.len() > 2 && r.windows(2).all(|w| w[0] < w[1]), "{r:?}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(parse_surface_method("CMA-ES+lsq").unwrap(), Method::CmaesLsq);
+        let e = parse_surface_method("nm").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "method 'nm' is for curves only (surfaces: lsq, ga, cmaes, ga+lsq, cmaes+lsq)"
+        );
+        let e = parse_surface_method("ga+cmaes").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "unknown method 'ga+cmaes' (expected lsq, ga, cmaes, ga+lsq or cmaes+lsq)"
+        );
+        let layout = SurfaceLayout::uniform([3, 3], [4, 2], [Continuity::C1; 2]);
+        assert_eq!(layout.design_shape(), Some((10, 6)));
     }
 }

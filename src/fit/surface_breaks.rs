@@ -9,9 +9,7 @@
 //! [`crate::problem::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
 //! runs at all) and [`check_fit`] the one of the projection check after a fit.
 
-use super::surface::{
-    fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceMethod, SurfaceOptions, SurfaceProgress,
-};
+use super::surface::{fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceOptions, SurfaceProgress};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use crate::problem::checker::{projection_check, ProjectionCheck};
@@ -164,7 +162,7 @@ pub fn auto_breaks_v(
         return Ok(AutoBreaks::TooLarge { limit });
     }
     let lsq = SurfaceOptions {
-        method: SurfaceMethod::Lsq,
+        method: crate::optim::method::Method::Lsq,
         ..opts.clone()
     };
     search_breaks_v(points, grid, layout, &lsq, progress).map(|s| AutoBreaks::Searched(Box::new(s)))

@@ -12,6 +12,7 @@
 //! Blades in [`Axes::Turbine`] are placed the same way and then have x and y swapped.
 
 use super::blade::{Axes, Blade, Blend};
+use super::gaussian::Gaussian;
 use super::interp::{Pchip, ShapePchip};
 use super::points::{Cloud, Grid};
 use crate::error::{Error, Result};
@@ -19,7 +20,6 @@ use glam::{DVec2, DVec3};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 
 /// The largest cloud `loft` builds (24 bytes a point: 2.4 GB).
@@ -336,7 +336,7 @@ impl Blade {
         };
 
         let sigma = opts.noise * self.max_chord();
-        let normal = Normal::new(0.0, sigma).map_err(|e| Error::invalid(format!("noise: {e}")))?;
+        let normal = Gaussian::new(sigma).map_err(|e| Error::invalid(format!("noise: {e}")))?;
         let mut points = vec![DVec3::ZERO; total];
         points.par_chunks_mut(n).enumerate().for_each_init(
             || vec![DVec2::ZERO; n],

@@ -6,6 +6,7 @@ mod aerodyn;
 mod blade;
 mod blade_read;
 mod dat;
+mod gaussian;
 mod interp;
 mod io;
 mod lednicer;
@@ -20,6 +21,7 @@ pub use blade::{
     Aerofoil, Axes, Blade, BladeFormat, Blend, Station, DEFAULT_NACA_POINTS, DEFAULT_PITCH_AXIS,
 };
 pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
+pub use gaussian::Gaussian;
 pub(crate) use io::{from_json_value, parse_json, read_bytes, read_text};
 pub use io::{write_atomic, Destination, Staged, MAX_INPUT_BYTES, MAX_LINE_BYTES};
 pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};

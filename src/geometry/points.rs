@@ -84,6 +84,19 @@ pub type Loaded2 = Loaded<DVec2>;
 /// A 3D point-cloud file.
 pub type Loaded3 = Loaded<DVec3>;
 
+impl Loaded2 {
+    /// The largest side of the points' bounding box: the size `--relative` curve tolerances
+    /// are fractions of.
+    #[must_use]
+    pub fn extent(&self) -> f64 {
+        let (lo, hi) = self.points.iter().fold(
+            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        (hi - lo).max_element()
+    }
+}
+
 impl Loaded3 {
     /// The points and grid as a [`Cloud`].
     #[must_use]

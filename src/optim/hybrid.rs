@@ -2,8 +2,9 @@
 //! objective, then the least-squares polish of its result on the fitting problem.
 
 use super::evo::PopulationObjective;
-use super::evo::{evolve, Algorithm, EvoHooks, EvoOptions, EvoResult};
+use super::evo::{evolve, EvoHooks, EvoOptions, EvoResult};
 use super::lsq::{lsq, Guard, LsqHooks, LsqOptions, Start};
+use super::method::Method;
 use super::report::SolveReport;
 use crate::chain::shape::Shape;
 use crate::error::{Error, Result};
@@ -55,7 +56,7 @@ pub fn polish<S: Shape<K>, const K: usize>(
 pub fn evolve_then_polish<S: Shape<K>, const K: usize>(
     evo: &dyn PopulationObjective,
     problem: &FitProblem<'_, S, K>,
-    algorithm: Algorithm,
+    algorithm: Method,
     polish_after: bool,
     options: &EvoOptions,
     lsq: &LsqOptions,

@@ -7,6 +7,7 @@
 //! - [`mod@lsq`]: Levenberg-Marquardt over design points and foot points jointly.
 //! - [`evo`]: the GA and CMA-ES, their options, limits and checkpoints.
 //! - [`hybrid`]: `ga+lsq` and `cmaes+lsq`.
+//! - [`method`]: [`Method`], the one enum of every method, and the sets each objective takes.
 //! - [`report`]: [`SolveReport`] and [`StopReason`], what every solver reports back.
 
 // Index loops over small fixed dimensions mirror the formulas; `!(x > 0.0)` is meant: it is
@@ -17,6 +18,7 @@ pub mod bfgs;
 pub mod evo;
 pub mod hybrid;
 pub mod lsq;
+pub mod method;
 pub mod nelder_mead;
 pub mod report;
 
@@ -25,5 +27,6 @@ pub use hybrid::{evolve_then_polish, polish, EvoSummary, Stage};
 pub use lsq::{
     lsq, DampingScale, Guard, LsqFit, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Observer, Start,
 };
+pub use method::Method;
 pub use nelder_mead::{nelder_mead, Minimum, NelderMeadOptions};
 pub use report::{SolveReport, StopReason};

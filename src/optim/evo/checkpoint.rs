@@ -9,8 +9,9 @@
 
 use super::cmaes::CmaesState;
 use super::objective::{Fnv, Score};
-use super::{Algorithm, Progress};
+use super::Progress;
 use crate::error::{Error, Result};
+use crate::optim::method::Method;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"BZEVOCK\0";
@@ -25,7 +26,7 @@ pub struct Checkpoint {
     /// only resumed by a run with the same fingerprint.
     pub fingerprint: u64,
     /// The method.
-    pub algorithm: Algorithm,
+    pub algorithm: Method,
     /// The backend and adapter that ran it (results are bit-identical only on the same one).
     pub backend: String,
     /// Design variables per individual.
@@ -153,10 +154,8 @@ impl Checkpoint {
         w.0.extend_from_slice(MAGIC);
         w.0.extend_from_slice(&VERSION.to_le_bytes());
         w.u64(self.fingerprint);
-        w.0.push(match self.algorithm {
-            Algorithm::Ga => 0,
-            Algorithm::Cmaes => 1,
-        });
+        // A run's stage is one of the evolutionary methods: 0 the GA, 1 CMA-ES.
+        w.0.push(u8::from(self.algorithm == Method::Cmaes));
         w.len(self.backend.len());
         w.0.extend_from_slice(self.backend.as_bytes());
         w.len(self.dim);
@@ -236,8 +235,8 @@ impl Checkpoint {
         let mut r = Reader { bytes: body, at: 12 };
         let fingerprint = r.u64()?;
         let algorithm = match r.take(1)?[0] {
-            0 => Algorithm::Ga,
-            1 => Algorithm::Cmaes,
+            0 => Method::Ga,
+            1 => Method::Cmaes,
             a => return Err(format!("unknown method code {a}")),
         };
         let n = r.len(1)?;
@@ -334,14 +333,14 @@ impl Checkpoint {
             ));
         }
         match (self.algorithm, &self.cmaes) {
-            (Algorithm::Ga, None) => {
+            (Method::Ga, None) => {
                 if Some(self.population.len()) != self.size.checked_mul(self.dim)
                     || self.scores.len() != self.size
                 {
                     return Err("the GA population does not match its size".into());
                 }
             }
-            (Algorithm::Cmaes, Some(c)) => c.check(self.dim).map_err(|e| e.to_string())?,
+            (Method::Cmaes, Some(c)) => c.check(self.dim).map_err(|e| e.to_string())?,
             _ => return Err("the strategy does not match the method".into()),
         }
         Ok(())
@@ -502,15 +501,15 @@ impl Checkpoint {
 mod tests {
     use super::*;
 
-    fn sample(algorithm: Algorithm) -> Checkpoint {
-        let cmaes = (algorithm == Algorithm::Cmaes).then(|| {
+    fn sample(algorithm: Method) -> Checkpoint {
+        let cmaes = (algorithm == Method::Cmaes).then(|| {
             // A restarted state: the restart count and the kept mean go through too.
             let mut c = CmaesState::new(&[0.5, -1.0], 0.1).restarted(3e-6);
             c.path_c = vec![1e-300, f64::MIN_POSITIVE];
             c
         });
         let (population, scores) = match algorithm {
-            Algorithm::Ga => (
+            Method::Ga => (
                 vec![1.0, 2.0, -0.0, f32::MIN_POSITIVE, 3.5, 1e-30],
                 vec![
                     Score {
@@ -524,7 +523,7 @@ mod tests {
                     },
                 ],
             ),
-            Algorithm::Cmaes => (Vec::new(), Vec::new()),
+            _ => (Vec::new(), Vec::new()),
         };
         Checkpoint {
             fingerprint: 0xdead_beef_0123_4567,
@@ -560,7 +559,7 @@ mod tests {
 
     #[test]
     fn round_trips_bit_for_bit() {
-        for a in [Algorithm::Ga, Algorithm::Cmaes] {
+        for a in [Method::Ga, Method::Cmaes] {
             let c = sample(a);
             let back = Checkpoint::from_bytes(&c.to_bytes()).unwrap();
             assert_eq!(back.to_bytes(), c.to_bytes());
@@ -574,7 +573,7 @@ mod tests {
 
     #[test]
     fn damaged_files_are_refused_with_a_reason() {
-        let bytes = sample(Algorithm::Ga).to_bytes();
+        let bytes = sample(Method::Ga).to_bytes();
         let e = Checkpoint::from_bytes(&bytes[..bytes.len() - 3]).unwrap_err();
         assert!(e.contains("checksum"), "{e}");
         let mut flipped = bytes.clone();
@@ -608,24 +607,24 @@ mod tests {
             (Box::new(|c| c.history[0].best = f64::NAN), "history[0].best"),
         ];
         for (edit, want) in cases {
-            let mut c = sample(Algorithm::Ga);
+            let mut c = sample(Method::Ga);
             edit(&mut c);
             let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
             assert!(e.contains(want), "{want}: {e}");
         }
-        let mut c = sample(Algorithm::Cmaes);
+        let mut c = sample(Method::Cmaes);
         c.cmaes.as_mut().unwrap().sigma = 0.0;
         let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
         assert!(e.contains("cmaes.sigma"), "{e}");
-        let mut c = sample(Algorithm::Cmaes);
+        let mut c = sample(Method::Cmaes);
         c.cmaes.as_mut().unwrap().cov[3] = f64::INFINITY;
         let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
         assert!(e.contains("cmaes.cov[3]"), "{e}");
-        let mut c = sample(Algorithm::Cmaes);
+        let mut c = sample(Method::Cmaes);
         c.cmaes.as_mut().unwrap().initial_sigma = -1.0;
         let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
         assert!(e.contains("cmaes.initial_sigma"), "{e}");
-        let mut c = sample(Algorithm::Cmaes);
+        let mut c = sample(Method::Cmaes);
         c.cmaes.as_mut().unwrap().kept_sum_sq = f64::NAN;
         let e = Checkpoint::from_bytes(&c.to_bytes()).unwrap_err();
         assert!(e.contains("cmaes.kept_sum_sq"), "{e}");
@@ -633,7 +632,7 @@ mod tests {
 
     #[test]
     fn individuals_outside_the_bounds_are_refused() {
-        let c = sample(Algorithm::Ga);
+        let c = sample(Method::Ga);
         // best = [0.25, -0.125]; population rows [1, 2], [-0, tiny], [3.5, 1e-30].
         assert!(c.check_bounds(&[[-1.0, 4.0], [-1.0, 2.0]]).is_ok());
         let e = c.check_bounds(&[[-1.0, 3.0], [-1.0, 2.0]]).unwrap_err();
@@ -648,7 +647,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("bezchain-ckpt-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("run.ckpt");
-        let c = sample(Algorithm::Cmaes);
+        let c = sample(Method::Cmaes);
         c.write(&path).unwrap();
         assert_eq!(Checkpoint::read(&path).unwrap(), c);
         // Nothing but the checkpoint is left beside it.

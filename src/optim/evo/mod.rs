@@ -21,44 +21,44 @@ pub mod cmaes;
 pub mod ga;
 pub mod objective;
 mod rng;
+pub mod watch;
 
 pub use checkpoint::Checkpoint;
 pub use cmaes::{default_lambda, CmaesOptions, CmaesState};
 pub use ga::GaOptions;
 pub use objective::{Fnv, PopulationObjective, Score, Scorer};
+pub use watch::Watched;
 
 use self::cmaes::Cmaes;
 use self::ga::{initial_population, Ga};
 use self::rng::Streams;
+use super::method::Method;
 use super::report::{SolveReport, StopReason};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo, GpuOptions};
-use crate::keyword::keywords;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::time::Instant;
 
-/// An evolutionary method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Algorithm {
-    /// The real-coded genetic algorithm.
-    Ga,
-    /// CMA-ES.
-    Cmaes,
-}
+// The evolutionary driver's callers name its methods ([`Method::EVOLUTIONARY`]) so.
+pub use super::method::Method as Algorithm;
 
-keywords!(Algorithm, "evolutionary method", { Ga => "ga", Cmaes => "cmaes" | "cma-es" });
-
-/// Options of the evolutionary methods.
+/// Options of the evolutionary methods, for every objective they run on (chain and grid fits,
+/// aerodynamic shapes): the size and length of a run, its randomness, stopping rules and
+/// operators. Fields an objective has no use for (the fitting problems' projections and
+/// bounds, for an aerodynamic objective) are ignored by it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvoOptions {
-    /// Individuals per generation (CMA-ES: `λ`), at least 4. `None`: 1024 for the GA,
-    /// `4 + ⌊3 ln n⌋` for CMA-ES with `n` design variables. Default `None`.
+    /// Individuals per generation (CMA-ES: `λ`), 4 to [`MAX_POPULATION`]. `None`: the
+    /// objective's default ([`PopulationObjective::default_population`]; the fitting
+    /// problems: 1024 for the GA, `4 + ⌊3 ln n⌋` for CMA-ES with `n` design variables).
+    /// Default `None`.
     pub population: Option<usize>,
-    /// Generations after the initial population, at least 1 (a resumed run counts the
-    /// generations before its checkpoint). `None`: 500 for the GA, pycma's
-    /// `100 + 150 (n + 3)² / √λ` for CMA-ES (which usually stops earlier, when the objective
-    /// is flat). Default `None`.
+    /// Generations after the initial population, 1 to [`MAX_GENERATIONS`] (a resumed run
+    /// counts the generations before its checkpoint). `None`: the objective's default
+    /// ([`PopulationObjective::default_generations`]; the fitting problems: 500 for the GA,
+    /// pycma's `100 + 150 (n + 3)² / √λ` for CMA-ES, which usually stops earlier, when the
+    /// objective is flat). Default `None`.
     pub generations: Option<usize>,
     /// Seed of every random stream. Default 1.
     pub seed: u64,
@@ -75,14 +75,15 @@ pub struct EvoOptions {
     /// Stop once the best sum of squares is at most this (model units squared); 0: no
     /// target. Default 0.
     pub target: f64,
-    /// Stop when the best sum of squares has not improved by the fraction
-    /// [`stall_tolerance`](Self::stall_tolerance) for this many generations; 0: never.
-    /// Default 0.
+    /// Stop when the best score has not improved by the fraction
+    /// [`stall_tolerance`](Self::stall_tolerance) of its size for this many generations; 0:
+    /// never. Default 0.
     pub stall_generations: usize,
     /// Relative improvement that resets the stall count. Default 1e-6.
     pub stall_tolerance: f64,
     /// Standard deviation of the initial population around the start (GA), or the initial
-    /// step size `σ` (CMA-ES), as a fraction of the data extent. Default 0.02.
+    /// step size `σ` (CMA-ES), as a fraction of the objective's extent
+    /// ([`PopulationObjective::extent`]: the data's, an aerofoil's chord). Default 0.02.
     pub spread: f64,
     /// Box bounds: the bounding box of the data (and, for grids, of the start) grown on every
     /// side by this fraction of its largest side. Default 0.1.
@@ -117,41 +118,80 @@ impl Default for EvoOptions {
     }
 }
 
-/// Default GA population.
+/// The fitting problems' GA population.
 pub const GA_POPULATION: usize = 1024;
-/// Default GA generation limit.
+/// The fitting problems' GA generation limit.
 pub const GA_GENERATIONS: usize = 500;
 /// The largest population (individuals per generation) a run may ask for.
 pub const MAX_POPULATION: usize = 1 << 20;
 /// The largest generation limit a run may ask for (its history keeps 40 bytes a generation:
-/// 40 MB at the limit).
-pub const MAX_GENERATIONS: usize = 1_000_000;
+/// 400 MB at the limit).
+pub const MAX_GENERATIONS: usize = 10_000_000;
 /// The most design variables one generation may hold, population × variables: 256 MiB of f32
 /// a copy (a run keeps a few: parents, children, the evaluator's buffers).
 pub const MAX_POPULATION_VALUES: usize = 1 << 26;
 
+/// The fitting problems' population of `method` on `n` design variables: [`GA_POPULATION`]
+/// for the GA, [`default_lambda`] for CMA-ES.
+#[must_use]
+pub fn default_population(method: Method, n: usize) -> usize {
+    match method {
+        Method::Ga => GA_POPULATION,
+        _ => default_lambda(n),
+    }
+}
+
+/// The fitting problems' generation limit of `method` on `n` design variables with `size`
+/// individuals a generation: [`GA_GENERATIONS`] for the GA, pycma's
+/// `100 + 150 (n + 3)² / √λ` for CMA-ES.
+#[must_use]
+pub fn default_generations(method: Method, n: usize, size: usize) -> usize {
+    match method {
+        Method::Ga => GA_GENERATIONS,
+        _ => 100 + (150.0 * ((n + 3) as f64).powi(2) / (size as f64).sqrt()) as usize,
+    }
+}
+
+/// Check that a generation of `size` individuals of `n` design variables fits in memory
+/// ([`MAX_POPULATION_VALUES`]), before anything is allocated for it.
+pub fn check_generation_size(size: usize, n: usize) -> Result<()> {
+    if size.checked_mul(n).is_none_or(|v| v > MAX_POPULATION_VALUES) {
+        return Err(Error::invalid(format!(
+            "a population of {size} individuals of {n} design variables is more than the \
+             {MAX_POPULATION_VALUES} values a generation may hold: at most {} individuals",
+            MAX_POPULATION_VALUES / n.max(1)
+        )));
+    }
+    Ok(())
+}
+
 impl EvoOptions {
-    /// Check every field; the message names the option and its allowed range.
+    /// Check every field; the message names the option and its allowed range (the spread's
+    /// as a fraction of the data extent, the fitting problems' extent).
     pub fn check(&self) -> Result<()> {
+        self.check_with_extent("the data extent")
+    }
+
+    /// [`check`](Self::check) for a run on `problem`: the spread's message names its extent
+    /// ([`PopulationObjective::extent_name`]).
+    pub fn check_for(&self, problem: &dyn PopulationObjective) -> Result<()> {
+        self.check_with_extent(problem.extent_name())
+    }
+
+    fn check_with_extent(&self, extent: &str) -> Result<()> {
         if let Some(p) = self.population {
-            if p < 4 {
+            if !(4..=MAX_POPULATION).contains(&p) {
                 return Err(Error::invalid(format!(
-                    "the population must be at least 4, not {p}"
-                )));
-            }
-            if p > MAX_POPULATION {
-                return Err(Error::invalid(format!(
-                    "the population may be at most {MAX_POPULATION}, not {p}"
+                    "the population must be between 4 and {MAX_POPULATION}, not {p}"
                 )));
             }
         }
-        if self.generations == Some(0) {
-            return Err(Error::invalid("at least one generation is needed"));
-        }
-        if let Some(g) = self.generations.filter(|&g| g > MAX_GENERATIONS) {
-            return Err(Error::invalid(format!(
-                "the generation limit may be at most {MAX_GENERATIONS}, not {g}"
-            )));
+        if let Some(g) = self.generations {
+            if !(1..=MAX_GENERATIONS).contains(&g) {
+                return Err(Error::invalid(format!(
+                    "the generations must be between 1 and {MAX_GENERATIONS}, not {g}"
+                )));
+            }
         }
         if self.reproject_every == 0 {
             return Err(Error::invalid(
@@ -177,7 +217,7 @@ impl EvoOptions {
         }
         if !(self.spread > 0.0) || !self.spread.is_finite() {
             return Err(Error::invalid(format!(
-                "the initial spread must be a finite fraction > 0 of the data extent, not {}",
+                "the initial spread must be a finite fraction > 0 of {extent}, not {}",
                 self.spread
             )));
         }
@@ -191,39 +231,20 @@ impl EvoOptions {
         self.cmaes.check()
     }
 
-    /// Check that a generation of `algorithm` on `n` design variables fits in memory
-    /// ([`MAX_POPULATION_VALUES`]), before anything is allocated for it.
-    pub fn check_size(&self, algorithm: Algorithm, n: usize) -> Result<()> {
-        let size = self.size(algorithm, n);
-        if size.checked_mul(n).is_none_or(|v| v > MAX_POPULATION_VALUES) {
-            return Err(Error::invalid(format!(
-                "a population of {size} individuals of {n} design variables is more than the \
-                 {MAX_POPULATION_VALUES} values a generation may hold: at most {} individuals",
-                MAX_POPULATION_VALUES / n.max(1)
-            )));
-        }
-        Ok(())
+    /// Individuals per generation of `method` on `problem`: [`population`](Self::population),
+    /// or the problem's default.
+    #[must_use]
+    pub fn size(&self, problem: &dyn PopulationObjective, method: Method) -> usize {
+        self.population
+            .unwrap_or_else(|| problem.default_population(method))
     }
 
-    /// Individuals per generation of `algorithm` on `n` design variables.
+    /// The generation limit of `method` on `problem`: [`generations`](Self::generations), or
+    /// the problem's default.
     #[must_use]
-    pub fn size(&self, algorithm: Algorithm, n: usize) -> usize {
-        self.population.unwrap_or(match algorithm {
-            Algorithm::Ga => GA_POPULATION,
-            Algorithm::Cmaes => default_lambda(n),
-        })
-    }
-
-    /// The generation limit of `algorithm` on `n` design variables.
-    #[must_use]
-    pub fn generation_limit(&self, algorithm: Algorithm, n: usize) -> usize {
-        self.generations.unwrap_or(match algorithm {
-            Algorithm::Ga => GA_GENERATIONS,
-            Algorithm::Cmaes => {
-                let lambda = self.size(algorithm, n) as f64;
-                100 + (150.0 * ((n + 3) as f64).powi(2) / lambda.sqrt()) as usize
-            }
-        })
+    pub fn generation_limit(&self, problem: &dyn PopulationObjective, method: Method) -> usize {
+        self.generations
+            .unwrap_or_else(|| problem.default_generations(method, self.size(problem, method)))
     }
 }
 
@@ -294,7 +315,7 @@ enum Engine {
 /// One evolutionary run on a problem, advanced a generation at a time.
 pub struct Evolution<'p> {
     problem: &'p dyn PopulationObjective,
-    algorithm: Algorithm,
+    algorithm: Method,
     options: EvoOptions,
     fingerprint: u64,
     size: usize,
@@ -316,7 +337,7 @@ pub struct Evolution<'p> {
 /// The fingerprint of a run: the problem's, the method and the options that shape the run.
 fn run_fingerprint(
     problem: &dyn PopulationObjective,
-    algorithm: Algorithm,
+    algorithm: Method,
     options: &EvoOptions,
     size: usize,
 ) -> u64 {
@@ -330,7 +351,10 @@ fn run_fingerprint(
     h.usize(options.samples);
     h.f64s(&[options.spread]);
     match algorithm {
-        Algorithm::Ga => {
+        Method::Cmaes => {
+            h.usize(options.cmaes.resample);
+        }
+        _ => {
             let g = &options.ga;
             h.usize(g.tournament);
             h.f64s(&[
@@ -343,9 +367,6 @@ fn run_fingerprint(
                 g.covariance_rate,
                 g.covariance_pool,
             ]);
-        }
-        Algorithm::Cmaes => {
-            h.usize(options.cmaes.resample);
         }
     }
     h.finish()
@@ -374,6 +395,20 @@ fn improvement_threshold(reference: f64, tolerance: f64) -> f64 {
     }
 }
 
+/// The population of `algorithm` on `problem` under `options`, once the options, the method
+/// and the generation's memory ([`check_generation_size`]) are checked.
+fn checked_size(problem: &dyn PopulationObjective, algorithm: Method, options: &EvoOptions) -> Result<usize> {
+    options.check_for(problem)?;
+    if !Method::EVOLUTIONARY.contains(&algorithm) {
+        return Err(Error::invalid(format!(
+            "{algorithm} is not an evolutionary method (ga or cmaes)"
+        )));
+    }
+    let size = options.size(problem, algorithm);
+    check_generation_size(size, problem.dim())?;
+    Ok(size)
+}
+
 /// The index of the best score (ties: the first).
 fn best_index(scores: &[Score]) -> usize {
     (0..scores.len())
@@ -386,20 +421,18 @@ impl<'p> Evolution<'p> {
     /// and evaluate generation 0 (the GA's initial population; CMA-ES's start point).
     pub fn new(
         problem: &'p dyn PopulationObjective,
-        algorithm: Algorithm,
+        algorithm: Method,
         options: &EvoOptions,
     ) -> Result<Self> {
-        options.check()?;
+        let size = checked_size(problem, algorithm, options)?;
         let n = problem.dim();
-        options.check_size(algorithm, n)?;
-        let size = options.size(algorithm, n);
         let streams = Streams::new(options.seed);
         let mut scorer = problem.scorer(None, options)?;
         let mut effort = Effort::default();
         let spread = options.spread * problem.extent();
         let clock = Instant::now();
         let (engine, best, best_score, evaluations) = match algorithm {
-            Algorithm::Ga => {
+            Method::Ga => {
                 let pop = initial_population(problem, size, spread, &streams);
                 let mut scores = vec![Score::WORST; size];
                 score(&mut *scorer, &mut effort, &pop, &mut scores)?;
@@ -408,7 +441,7 @@ impl<'p> Evolution<'p> {
                 let s = scores[k];
                 (Engine::Ga(Ga::new(pop, scores)), best, s, size as u64)
             }
-            Algorithm::Cmaes => {
+            _ => {
                 let bounds = problem.bounds();
                 let start: Vec<f32> = problem
                     .start()
@@ -462,14 +495,12 @@ impl<'p> Evolution<'p> {
     /// never interrupted.
     pub fn resume(
         problem: &'p dyn PopulationObjective,
-        algorithm: Algorithm,
+        algorithm: Method,
         options: &EvoOptions,
         checkpoint: &Checkpoint,
     ) -> Result<Self> {
-        options.check()?;
+        let size = checked_size(problem, algorithm, options)?;
         let n = problem.dim();
-        options.check_size(algorithm, n)?;
-        let size = options.size(algorithm, n);
         let fingerprint = run_fingerprint(problem, algorithm, options, size);
         if checkpoint.algorithm != algorithm {
             return Err(Error::invalid(format!(
@@ -491,10 +522,10 @@ impl<'p> Evolution<'p> {
             .map_err(|e| Error::invalid(format!("the checkpoint cannot be resumed: {e}")))?;
         let scorer = problem.scorer(Some(checkpoint.params.clone()), options)?;
         let engine = match (&checkpoint.cmaes, algorithm) {
-            (None, Algorithm::Ga) => {
+            (None, Method::Ga) => {
                 Engine::Ga(Ga::new(checkpoint.population.clone(), checkpoint.scores.clone()))
             }
-            (Some(state), Algorithm::Cmaes) => {
+            (Some(state), Method::Cmaes) => {
                 state.check(n)?;
                 Engine::Cmaes(Cmaes::new(state.clone(), size))
             }
@@ -602,7 +633,7 @@ impl<'p> Evolution<'p> {
         if o.target > 0.0 && self.best_score.sum_sq <= o.target {
             return Some(EvoStop::Target);
         }
-        if self.generation >= o.generation_limit(self.algorithm, self.problem.dim()) as u64 {
+        if self.generation >= o.generation_limit(self.problem, self.algorithm) as u64 {
             return Some(EvoStop::Generations);
         }
         if o.stall_generations > 0 && self.generation - self.stall_since >= o.stall_generations as u64 {
@@ -678,21 +709,20 @@ impl<'p> Evolution<'p> {
     /// Continue this run with CMA-ES from its best individual (the `ga+cmaes` handover): the
     /// mean there, the step `spread × extent`, `λ` of [`EvoOptions::size`]. The generation
     /// count, evaluations, best, stall count, history and scorer carry on; from now on the run
-    /// checkpoints, resumes ([`resume`](Self::resume) with [`Algorithm::Cmaes`]) and stops as
+    /// checkpoints, resumes ([`resume`](Self::resume) with [`Method::Cmaes`]) and stops as
     /// a CMA-ES run. Nothing happens when it already is one.
     pub fn switch_to_cmaes(&mut self) {
         if matches!(self.engine, Engine::Cmaes(_)) {
             return;
         }
         let problem = self.problem;
-        let n = problem.dim();
-        let size = self.options.size(Algorithm::Cmaes, n);
+        let size = self.options.size(problem, Method::Cmaes);
         let mean: Vec<f64> = self.best.iter().map(|&x| f64::from(x)).collect();
         let state = CmaesState::new(&mean, self.options.spread * problem.extent());
         self.engine = Engine::Cmaes(Cmaes::new(state, size));
-        self.algorithm = Algorithm::Cmaes;
+        self.algorithm = Method::Cmaes;
         self.size = size;
-        self.fingerprint = run_fingerprint(problem, Algorithm::Cmaes, &self.options, size);
+        self.fingerprint = run_fingerprint(problem, Method::Cmaes, &self.options, size);
     }
 
     /// What the scorer would hand a checkpoint now ([`Scorer::state`]).
@@ -733,7 +763,7 @@ impl<'p> Evolution<'p> {
 
     /// The method.
     #[must_use]
-    pub fn algorithm(&self) -> Algorithm {
+    pub fn algorithm(&self) -> Method {
         self.algorithm
     }
 
@@ -746,7 +776,7 @@ impl<'p> Evolution<'p> {
     /// The generation limit.
     #[must_use]
     pub fn generations(&self) -> usize {
-        self.options.generation_limit(self.algorithm, self.problem.dim())
+        self.options.generation_limit(self.problem, self.algorithm)
     }
 
     /// Individuals per generation.
@@ -915,7 +945,7 @@ pub struct EvoHooks<'a> {
 /// A whole run: from the start (or `hooks.resume`) until a stop criterion holds.
 pub fn evolve(
     problem: &dyn PopulationObjective,
-    algorithm: Algorithm,
+    algorithm: Method,
     options: &EvoOptions,
     hooks: &mut EvoHooks<'_>,
 ) -> Result<EvoResult> {
@@ -1041,20 +1071,20 @@ mod tests {
             generations: Some(5),
             ..EvoOptions::default()
         };
-        let mut run = Evolution::new(&bowl, Algorithm::Cmaes, &options).unwrap();
+        let mut run = Evolution::new(&bowl, Method::Cmaes, &options).unwrap();
         for _ in 0..5 {
             let mean = run.strategy().unwrap().mean.clone();
             run.step().unwrap();
             assert_eq!(bowl.centres.lock().unwrap().last(), Some(&mean));
         }
-        let mut run = Evolution::new(&bowl, Algorithm::Ga, &options).unwrap();
+        let mut run = Evolution::new(&bowl, Method::Ga, &options).unwrap();
         for _ in 0..5 {
             let best: Vec<f64> = run.best().0.iter().map(|&x| f64::from(x)).collect();
             run.step().unwrap();
             assert_eq!(bowl.centres.lock().unwrap().last(), Some(&best));
         }
         // The mean has moved off the best sample (the test is not vacuous).
-        let mut run = Evolution::new(&bowl, Algorithm::Cmaes, &options).unwrap();
+        let mut run = Evolution::new(&bowl, Method::Cmaes, &options).unwrap();
         run.step().unwrap();
         let best: Vec<f64> = run.best().0.iter().map(|&x| f64::from(x)).collect();
         assert_ne!(run.strategy().unwrap().mean, best);
@@ -1094,7 +1124,7 @@ mod tests {
                 },
                 ..EvoOptions::default()
             };
-            evolve(&valley, Algorithm::Ga, &options, &mut EvoHooks::default())
+            evolve(&valley, Method::Ga, &options, &mut EvoHooks::default())
                 .unwrap()
                 .sum_sq
         };

@@ -10,7 +10,8 @@ use crate::error::Result;
 use crate::eval::BackendInfo;
 use serde::{Deserialize, Serialize};
 
-use super::EvoOptions;
+use super::{default_generations, default_population, EvoOptions};
+use crate::optim::method::Method;
 
 /// The objective of one individual as the evolutionary methods rank it (lower is better).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -61,6 +62,23 @@ pub trait PopulationObjective: Sync {
     /// The variables' scale, in their units: the initial spread and the step-size tolerance
     /// are fractions of it.
     fn extent(&self) -> f64;
+
+    /// What [`extent`](Self::extent) measures, for messages. Default `the data extent`.
+    fn extent_name(&self) -> &'static str {
+        "the data extent"
+    }
+
+    /// Individuals per generation of `method` where the options leave it open. Default: the
+    /// fitting problems' ([`default_population`]).
+    fn default_population(&self, method: Method) -> usize {
+        default_population(method, self.dim())
+    }
+
+    /// The generation limit of `method` with `size` individuals a generation where the
+    /// options leave it open. Default: the fitting problems' ([`default_generations`]).
+    fn default_generations(&self, method: Method, size: usize) -> usize {
+        default_generations(method, self.dim(), size)
+    }
 
     /// A 64-bit fingerprint of everything that decides a run's results (data, layout,
     /// bounds, start): a checkpoint is resumed only by a problem with the same one.

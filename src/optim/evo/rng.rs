@@ -1,9 +1,9 @@
 //! Random streams with a fixed layout: one ChaCha8 stream per generation, one disjoint block of
 //! it per individual (or pair), so results depend on the seed alone, never on thread count.
 
+use crate::geometry::Gaussian;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
 /// 32-bit words reserved for each index within a generation's stream: far more than any
 /// individual draws (a CMA-ES sample of n variables draws about 2n words per try).
@@ -39,10 +39,10 @@ pub(crate) fn uniform(rng: &mut ChaCha8Rng) -> f64 {
     rng.random::<f64>()
 }
 
-/// A standard normal draw.
+/// A standard normal draw ([`Gaussian::standard`]).
 #[inline]
 pub(crate) fn normal(rng: &mut ChaCha8Rng) -> f64 {
-    StandardNormal.sample(rng)
+    Gaussian::standard().sample(rng)
 }
 
 #[cfg(test)]

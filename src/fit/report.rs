@@ -1,11 +1,18 @@
-//! The JSON fit reports of curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written by
-//! `fit` and `fit-surface` and read back by `eval`.
+//! The JSON reports of fitted curves and surfaces (`docs/ARCHITECTURE.md` §5.4, §5.5), written
+//! by `fit`, `fit-surface`, `adapt`, `adapt-surface` and `optimise`, and the one reader of saved
+//! reports ([`read_reports`], [`read_report`], [`Report::read`]) that `eval`, `sample`, `aero`,
+//! `optimise` and `export` read them back with: each report's shape and, for an adapt report,
+//! the encoding its `adapt` block stores.
 
+use super::curve::CurveFit;
+use super::surface::SurfaceFit;
+use crate::adaptive::{Encoding, SurfaceEncoding};
 use crate::bezier::Vector;
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo};
-use crate::fit::{CurveFit, SurfaceFit, SurfaceMethod};
+use crate::geometry::{from_json_value, parse_json, read_text};
+use crate::optim::Method;
 use crate::problem::OffsetStats;
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
@@ -143,7 +150,7 @@ impl FitInfo {
     /// The `fit` block of a surface fit by `method`: every stage, the evolutionary one (the
     /// first, when there is one) with the backend and the evaluator's throughput.
     #[must_use]
-    pub fn of_surface(fit: &SurfaceFit, method: SurfaceMethod) -> Self {
+    pub fn of_surface(fit: &SurfaceFit, method: Method) -> Self {
         let evo_backend = fit.evolution.as_ref().map(|e| backend_label(&e.run.backend));
         let rate = fit.evolution.as_ref().map(|e| e.run.evals_per_second);
         let stages = fit
@@ -349,7 +356,7 @@ impl SurfaceReport {
 
     /// The report of a finished surface fit by `method` of the cloud described by `input`.
     #[must_use]
-    pub fn from_fit(fit: &SurfaceFit, method: SurfaceMethod, input: InputInfo) -> Self {
+    pub fn from_fit(fit: &SurfaceFit, method: Method, input: InputInfo) -> Self {
         SurfaceReport::new(
             &fit.grid,
             OffsetReport::from(&fit.stats),
@@ -419,25 +426,139 @@ fn check_expanded(
 }
 
 impl Report {
-    /// Read a report (either kind) from a JSON file.
+    /// Read the one report (either kind) of a JSON file ([`read_report`], the encoding of an
+    /// adapt report left out).
     pub fn read(path: &Path) -> Result<Report> {
-        let text = crate::geometry::read_text(path)?;
-        let value: serde_json::Value = crate::geometry::parse_json(&text, path, "not JSON")?;
-        let kind = value
-            .get("kind")
-            .and_then(|k| k.as_str())
-            .unwrap_or_default()
-            .to_string();
+        Ok(match read_report(path)? {
+            Saved::Curve(r, _) => Report::Curve(r),
+            Saved::Surface(r, _) => Report::Surface(r),
+        })
+    }
+}
+
+/// One report of a saved file: its shape's report and, for an adapt report, the encoding its
+/// `adapt` block stores (`docs/ARCHITECTURE.md` §5.6, §5.7).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Saved {
+    /// A curve report (of `fit`, `adapt` or `optimise`).
+    Curve(CurveReport, Option<Encoding>),
+    /// A surface report (of `fit-surface` or `adapt-surface`).
+    Surface(SurfaceReport, Option<SurfaceEncoding>),
+}
+
+/// Whether `path` holds a JSON report rather than coordinates: its first character, after
+/// white space, is `{`.
+pub fn is_report(path: &Path) -> Result<bool> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
+}
+
+/// The one report of a JSON file. A field that does not parse is named with its line.
+pub fn read_report(path: &Path) -> Result<Saved> {
+    let text = read_text(path)?;
+    let value: serde_json::Value = parse_json(&text, path, "not JSON")?;
+    Saved::of_text(value, &text, path)
+}
+
+/// Every report of a JSON file: one report, or an array of them (a sweep's; an empty array
+/// gives none). A field of a single report that does not parse is named with its line; one in
+/// an array, with the report's index from the second on (`report 2: `).
+pub fn read_reports(path: &Path) -> Result<Vec<Saved>> {
+    let text = read_text(path)?;
+    match parse_json(&text, path, "not JSON")? {
+        serde_json::Value::Array(items) => items
+            .into_iter()
+            .enumerate()
+            .map(|(k, item)| Saved::of_value(item, path, k))
+            .collect(),
+        one => Ok(vec![Saved::of_text(one, &text, path)?]),
+    }
+}
+
+/// The error for a JSON value that is no bezchain report; `at` says which of an array.
+fn not_a_report(path: &Path, at: &str) -> Error {
+    Error::Input {
+        path: path.into(),
+        message: format!("{at}not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"),
+    }
+}
+
+/// The `kind` of a report's JSON value (empty without one).
+fn kind_of(value: &serde_json::Value) -> String {
+    value
+        .get("kind")
+        .and_then(|k| k.as_str())
+        .unwrap_or_default()
+        .to_string()
+}
+
+impl Saved {
+    /// The report of a file's single JSON `value`, parsed from its `text` (so that an error
+    /// names the line).
+    fn of_text(value: serde_json::Value, text: &str, path: &Path) -> Result<Saved> {
+        let kind = kind_of(&value);
         let what = format!("not a bezchain {kind} report");
         match kind.as_str() {
-            "curve" => Ok(Report::Curve(crate::geometry::parse_json(&text, path, &what)?)),
-            "surface" => Ok(Report::Surface(crate::geometry::parse_json(&text, path, &what)?)),
-            _ => Err(Error::Input {
-                path: path.into(),
-                message: "not a bezchain report (\"kind\" must be \"curve\" or \"surface\")".into(),
-            }),
+            "curve" => Ok(Saved::Curve(
+                parse_json(text, path, &what)?,
+                encoding(&value, path, "", &kind)?,
+            )),
+            "surface" => Ok(Saved::Surface(
+                parse_json(text, path, &what)?,
+                encoding(&value, path, "", &kind)?,
+            )),
+            _ => Err(not_a_report(path, "")),
         }
     }
+
+    /// The report `item`, the `k`-th of an array in `path`.
+    fn of_value(item: serde_json::Value, path: &Path, k: usize) -> Result<Saved> {
+        let at = if k == 0 {
+            String::new()
+        } else {
+            format!("report {k}: ")
+        };
+        let kind = kind_of(&item);
+        let bad = |e: String| Error::Input {
+            path: path.into(),
+            message: format!("{at}not a bezchain {kind} report: {e}"),
+        };
+        match kind.as_str() {
+            "curve" => {
+                let enc = encoding(&item, path, &at, &kind)?;
+                Ok(Saved::Curve(from_json_value(item, "").map_err(bad)?, enc))
+            }
+            "surface" => {
+                let enc = encoding(&item, path, &at, &kind)?;
+                Ok(Saved::Surface(from_json_value(item, "").map_err(bad)?, enc))
+            }
+            _ => Err(not_a_report(path, &at)),
+        }
+    }
+}
+
+/// The encoding of a report's `adapt` block, if it has one (`at` and `kind` for the message).
+fn encoding<E: serde::de::DeserializeOwned>(
+    value: &serde_json::Value,
+    path: &Path,
+    at: &str,
+    kind: &str,
+) -> Result<Option<E>> {
+    let Some(enc) = value
+        .get("adapt")
+        .map(|a| a.get("encoding").cloned().unwrap_or_default())
+    else {
+        return Ok(None);
+    };
+    from_json_value(enc, "adapt.encoding.")
+        .map(Some)
+        .map_err(|e| Error::Input {
+            path: path.into(),
+            message: format!("{at}not a bezchain {kind} report: {e}"),
+        })
 }
 
 #[cfg(test)]
@@ -577,5 +698,64 @@ mod tests {
         assert!(matches!(Report::read(&path), Err(Error::Parse { line: 1, .. })));
         std::fs::write(&path, "[1, 2]").unwrap();
         assert!(Report::read(&path).is_err());
+    }
+
+    /// An array of reports reads each, an adapt report with its encoding; a report of an
+    /// array that does not parse is named by its index from the second on, and a file that
+    /// should hold one report refuses an array.
+    #[test]
+    fn arrays_and_adapt_encodings_read_back() {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/naca4413.dat");
+        let pts = crate::geometry::read_curve(&data).unwrap().points;
+        let opts = crate::adaptive::AdaptOptions {
+            tol: 1e-2,
+            ..crate::adaptive::AdaptOptions::default()
+        };
+        let adapted = crate::adaptive::adapt_curve(&pts, &opts).unwrap();
+        let layout = ChainLayout::uniform(2, 2, Continuity::C1).unwrap();
+        let chain = CurveChain::new(layout, vec![DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE]).unwrap();
+        let fitted = CurveReport::new(
+            &chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "y".into(),
+                points: 4,
+            },
+        );
+        let plain = serde_json::to_value(&fitted).unwrap();
+        // An adapt report is a curve report with an `adapt` block holding the encoding.
+        let mut adapt = serde_json::to_value(CurveReport::new(
+            &adapted.chain,
+            offset(),
+            fit(),
+            InputInfo {
+                path: "x".into(),
+                points: pts.len(),
+            },
+        ))
+        .unwrap();
+        adapt["adapt"] = serde_json::json!({ "encoding": adapted.encoding });
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("two.json");
+        std::fs::write(&path, serde_json::to_string(&vec![&adapt, &plain]).unwrap()).unwrap();
+        let saved = read_reports(&path).unwrap();
+        assert!(matches!(&saved[0], Saved::Curve(_, Some(e)) if *e == adapted.encoding));
+        assert_eq!(saved[1], Saved::Curve(fitted, None));
+        let e = read_report(&path).unwrap_err().to_string();
+        assert!(
+            e.ends_with("not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"),
+            "{e}"
+        );
+        let mut broken = plain.clone();
+        broken["degree"] = serde_json::json!("three");
+        std::fs::write(&path, serde_json::to_string(&vec![&plain, &broken]).unwrap()).unwrap();
+        let e = read_reports(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("report 1: not a bezchain curve report: field 'degree'"),
+            "{e}"
+        );
+        std::fs::write(&path, "[]").unwrap();
+        assert!(read_reports(&path).unwrap().is_empty());
     }
 }

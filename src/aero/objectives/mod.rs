@@ -1,0 +1,159 @@
+//! The objectives of an aerodynamic optimisation, one file each, every one an
+//! [`AeroObjective`]: it names itself (`--objective max-cl`), says what follows its word, how
+//! it scores a shape and what the shape keeps of its start, and prepares the kernel's
+//! [`Objective`] (reading a target when it has one).
+//!
+//! Adding an objective is one new file implementing [`AeroObjective`] and one line in
+//! [`OBJECTIVES`]: the command's parsing, its usage message and the report's texts follow from
+//! the list. (An objective the kernel does not compute yet needs its
+//! [`Objective`] variant in `shaders/aero.wgsl` and its CPU mirror too.)
+
+mod inverse;
+mod max_cl;
+
+pub use inverse::Inverse;
+pub use max_cl::MaxCl;
+
+use super::analysis::Analysis;
+use super::batch::Objective;
+use super::contour::Paneling;
+use super::design::Hold;
+pub use super::input::Warn;
+use crate::error::{Error, Result};
+use crate::keyword::or_list;
+use glam::DVec2;
+use std::path::PathBuf;
+
+/// Every objective, in the order the usage lists them.
+pub const OBJECTIVES: &[&dyn AeroObjective] = &[&MaxCl, &Inverse];
+
+/// An objective of `bezchain optimise`, named on the command line by its word and, for some,
+/// an argument after a colon (`inverse:TARGET`).
+pub trait AeroObjective: Sync {
+    /// The word that names it, on the command line and in reports (`max-cl`).
+    fn name(&self) -> &'static str;
+
+    /// What follows the word and a colon, as the usage says it (`TARGET (an aerofoil file or
+    /// curve report)`); `None` when nothing does.
+    fn argument(&self) -> Option<&'static str>;
+
+    /// How it scores a valid shape that meets the constraints, as the report says it (`−CL`).
+    fn score(&self) -> &'static str;
+
+    /// What the shape keeps of its start while it is optimised.
+    fn hold(&self) -> Hold;
+
+    /// The kernel's objective at `alpha` degrees on the paneling `on`, and the target shape when
+    /// the objective has one; `argument` is the text after the colon, the reader's warnings go
+    /// to `warn`.
+    fn prepare(&self, argument: Option<&str>, on: &Paneling, alpha: f64, warn: Warn<'_>) -> Result<Prepared>;
+}
+
+/// What an objective hands the optimisation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prepared {
+    /// What the kernel scores.
+    pub objective: Objective,
+    /// The shape to match, for objectives that have one.
+    pub target: Option<Target>,
+}
+
+/// A target shape: the file it came from, its points (the result's offsets are measured from
+/// them) and its analysis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Target {
+    /// The file as given.
+    pub path: PathBuf,
+    /// Its points (a report's chain sampled at 401 even parameters).
+    pub points: Vec<DVec2>,
+    /// Its panel solution.
+    pub analysis: Analysis,
+}
+
+/// The objective `spec` names (`max-cl`, `inverse:TARGET`; the word in any case) and its
+/// argument; otherwise an error listing the usages.
+pub fn parse(spec: &str) -> Result<(&'static dyn AeroObjective, Option<&str>)> {
+    let (word, argument) = match spec.split_once(':') {
+        Some((word, argument)) => (word, Some(argument)),
+        None => (spec, None),
+    };
+    OBJECTIVES
+        .iter()
+        .find(|o| {
+            o.name().eq_ignore_ascii_case(word)
+                && match (o.argument(), argument) {
+                    (None, None) => true,
+                    (Some(_), Some(a)) => !a.is_empty(),
+                    _ => false,
+                }
+        })
+        .map(|&o| (o, argument))
+        .ok_or_else(|| {
+            let usages: Vec<String> = OBJECTIVES
+                .iter()
+                .map(|o| match o.argument() {
+                    Some(a) => format!("{}:{a}", o.name()),
+                    None => o.name().to_string(),
+                })
+                .collect();
+            let usages: Vec<&str> = usages.iter().map(String::as_str).collect();
+            Error::invalid(format!("expected {}", or_list(&usages)))
+        })
+}
+
+/// How the optimisers rank shapes, as the report states it: every objective's score.
+#[must_use]
+pub fn constraint_handling() -> String {
+    let scores: Vec<String> = OBJECTIVES
+        .iter()
+        .map(|o| format!("{}: {}", o.name(), o.score()))
+        .collect();
+    format!(
+        "penalties ranked as Deb's rules: a valid shape meeting the constraints scores its objective ({}); \
+a valid shape breaking them 1e3 + the summed shortfalls (t/c below the minimum, CM below the minimum); an \
+unusable shape (non-finite, a surface folding back in x by more than 1e-3 chord, upper below lower, coincident \
+nodes or a singular system) 1e6 + how far it is from valid; so every feasible shape ranks before every \
+infeasible one",
+        scores.join("; ")
+    )
+}
+
+/// What the design variables leave fixed, as the report states it: the objectives that hold
+/// the chord line named.
+#[must_use]
+pub fn chord_line() -> String {
+    let holding: Vec<&str> = OBJECTIVES
+        .iter()
+        .filter(|o| o.hold() == Hold::ChordLine)
+        .map(|o| o.name())
+        .collect();
+    format!(
+        "both trailing-edge points and the leading edge's x stay where the start has them (pressures do not \
+change when a shape moves or scales, and an inviscid solver rewards a thick blunt base with lift real flow \
+would not give), and for {} the leading edge's y too (turning the shape would change the angle of attack): \
+the dependents are the stored numbers solved from those conditions, the variables the others",
+        holding.join(", ")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_objective_parses_by_its_word_and_others_are_listed() {
+        assert_eq!(parse("MAX-CL").unwrap().0.name(), "max-cl");
+        let (o, a) = parse("inverse:a:b.dat").unwrap();
+        assert_eq!((o.name(), a), ("inverse", Some("a:b.dat")));
+        for bad in ["foo", "inverse:", "inverse", "max-cl:x"] {
+            let e = parse(bad).err().unwrap().to_string();
+            assert_eq!(
+                e, "expected max-cl or inverse:TARGET (an aerofoil file or curve report)",
+                "{bad}"
+            );
+        }
+        assert!(constraint_handling()
+            .contains("(max-cl: −CL; inverse: the arclength-weighted mean of (Cp − Cp_target)²)"));
+        assert!(chord_line().contains("and for max-cl the leading edge's y too"));
+    }
+}
