@@ -3,7 +3,7 @@
 //! independent entity, in the fixed 80-column layout (Start, Global, Directory Entry,
 //! Parameter Data and Terminate sections).
 
-use super::cad::{BsplineCurve, BsplineSurface, CadShape, CadUnit};
+use super::bspline::{BsplineCurve, BsplineSurface, CadShape, CadUnit};
 use super::step::real;
 use crate::error::{Error, Result};
 

@@ -2,6 +2,7 @@
 //! the readable summaries the commands print ([`summary`]).
 
 mod adapt_report;
+mod bspline;
 mod cad;
 mod cp_plot;
 mod iges;
@@ -17,7 +18,8 @@ pub use crate::fit::report::{
 pub use adapt_report::{
     AdaptBlock, AdaptOutcome, AdaptReport, SurfaceAdaptBlock, SurfaceAdaptReport, COUNTING,
 };
-pub use cad::{distinct_knots, utc_now, write_cad, BsplineCurve, BsplineSurface, CadShape, CadUnit};
+pub use bspline::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUnit};
+pub use cad::{utc_now, write_cad};
 pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
 pub use mesh::SurfaceMesh;

@@ -10,7 +10,7 @@
 //!
 //! Numbers are written in shortest round-trip form, so a reader gets the f64 values back.
 
-use super::cad::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUnit};
+use super::bspline::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUnit};
 use crate::error::{Error, Result};
 use glam::DVec3;
 use std::fmt::Write as _;

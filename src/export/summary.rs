@@ -2,7 +2,7 @@
 //! adapted chain or grid, the table of a tolerance sweep, and the warnings that go with a fit.
 
 use super::adapt_report::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
-use super::cad::CadShape;
+use super::bspline::CadShape;
 use crate::adaptive::{AdaptedCurve, AdaptedSurface, Breaks, HeldOut, Norm, XStore};
 use crate::error::Result;
 use crate::fit::report::{FitInfo, OffsetReport};
