@@ -410,6 +410,17 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
         &fit(&p("blade.csv"), &["--breaks-u", "0.5,0.2,0.7"]),
         &["breaks along u"],
     );
+    // Span breaks from a blade file whose stations do not fit the patches: the error names the
+    // option and the blade file, not the cloud.
+    let stations = "stations:data/blade_paper.json";
+    let o = fit(&p("blade.csv"), &["--breaks-v", stations]);
+    assert_user_error_naming(&o, &["--breaks-v", stations, "breaks along v"]);
+    let error = stderr(&o)
+        .lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_default()
+        .to_string();
+    assert!(!error.contains("blade.csv"), "{error}");
     assert_user_error_naming(&fit(&p("blade.csv"), &["--method", "bfgs"]), &["bfgs"]);
     assert_user_error_naming(
         &fit(

@@ -205,6 +205,14 @@ pub fn run(args: Args) -> Result<()> {
         SpanArg::Axis(d) => Some(d),
         SpanArg::Auto => None,
     };
+    // Span breaks (`span:` or `stations:FILE`) depend on the cloud's span: an error in them
+    // names the option and its file, not the cloud.
+    if matches!(layout.breaks_v, Breaks::Span(_)) {
+        let (_, axis, _) = bezchain::fit::initial_params(&loaded.points, loaded.grid, &opts)?;
+        layout
+            .grid_layout(&axis)
+            .map_err(|e| usage(format!("--breaks-v {}: {e}", args.breaks_v.trim())))?;
+    }
 
     let searched = if auto_v {
         choose_breaks_v(&args, &loaded.points, loaded.grid, &layout, &opts)?
