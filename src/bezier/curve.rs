@@ -1,6 +1,6 @@
 //! `BezierCurve`: one polynomial Bezier curve of any degree in the plane or in space.
 
-use super::basis::bernstein;
+use super::basis::{bernstein, casteljau, casteljau_with, combine};
 use super::point::Vector;
 
 /// A Bezier curve `P(u) = sum_i B_{i,n}(u) P_i`, `u` in `[0, 1]`, with `n + 1` control points.
@@ -31,14 +31,7 @@ impl<P: Vector> BezierCurve<P> {
     #[must_use]
     pub fn eval(&self, u: f64) -> P {
         let mut buf: smallbuf::Buf<P> = smallbuf::Buf::from_slice(&self.ctrl);
-        let pts = buf.as_mut_slice();
-        let n = pts.len();
-        for r in 1..n {
-            for i in 0..n - r {
-                pts[i] = pts[i].lerp_to(pts[i + 1], u);
-            }
-        }
-        pts[0]
+        casteljau(buf.as_mut_slice(), u)
     }
 
     /// Evaluate the curve at parameter `u` in Bernstein form (paper eq. 1).
@@ -48,11 +41,7 @@ impl<P: Vector> BezierCurve<P> {
         let mut b = [0.0; 33];
         debug_assert!(n <= 32, "eval_bernstein: degree {n} above 32");
         bernstein(n, u, &mut b);
-        let mut acc = P::ZERO;
-        for (p, w) in self.ctrl.iter().zip(&b) {
-            acc += *p * *w;
-        }
-        acc
+        combine(&self.ctrl, &b)
     }
 
     /// The derivative curve (hodograph), of degree `n - 1` (paper eq. 2).
@@ -77,19 +66,18 @@ impl<P: Vector> BezierCurve<P> {
     /// Split at `u` into the pieces over `[0, u]` and `[u, 1]`, each reparameterised to `[0, 1]`.
     #[must_use]
     pub fn split(&self, u: f64) -> (BezierCurve<P>, BezierCurve<P>) {
+        // The edges of de Casteljau's triangle: each level's first point is the next control
+        // point of the left piece, its last the one before of the right piece.
         let n = self.degree();
         let mut pts = self.ctrl.clone();
         let mut left = Vec::with_capacity(n + 1);
         let mut right = vec![P::ZERO; n + 1];
         left.push(pts[0]);
         right[n] = pts[n];
-        for r in 1..=n {
-            for i in 0..=n - r {
-                pts[i] = pts[i].lerp_to(pts[i + 1], u);
-            }
-            left.push(pts[0]);
-            right[n - r] = pts[n - r];
-        }
+        casteljau_with(&mut pts, u, P::lerp_to, |level| {
+            left.push(level[0]);
+            right[level.len() - 1] = level[level.len() - 1];
+        });
         (BezierCurve::new(left), BezierCurve::new(right))
     }
 

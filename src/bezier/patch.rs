@@ -1,6 +1,6 @@
 //! `BezierPatch`: a tensor-product Bezier surface patch (paper eqs. 3 and 4).
 
-use super::basis::{bernstein, bernstein_deriv};
+use super::basis::{bernstein, bernstein_jet, tensor_jet};
 use super::curve::BezierCurve;
 use super::point::Vector;
 
@@ -50,7 +50,7 @@ impl<P: Vector> BezierPatch<P> {
         let (mut bu, mut bv) = ([0.0; 33], [0.0; 33]);
         bernstein(self.du, u, &mut bu);
         bernstein(self.dv, v, &mut bv);
-        self.weighted(&bu, &bv)
+        self.jet([&bu], [&bv], 0)[0][0]
     }
 
     /// Evaluate as curves of curves (eq. 4): each row collapsed in v, then the column in u.
@@ -63,28 +63,16 @@ impl<P: Vector> BezierPatch<P> {
     /// The point and both first partial derivatives `(P, dP/du, dP/dv)` at `(u, v)`.
     #[must_use]
     pub fn partials(&self, u: f64, v: f64) -> (P, P, P) {
-        let (mut bu, mut bv, mut du, mut dv) = ([0.0; 33], [0.0; 33], [0.0; 33], [0.0; 33]);
-        bernstein(self.du, u, &mut bu);
-        bernstein(self.dv, v, &mut bv);
-        bernstein_deriv(self.du, u, &mut du);
-        bernstein_deriv(self.dv, v, &mut dv);
-        (
-            self.weighted(&bu, &bv),
-            self.weighted(&du, &bv),
-            self.weighted(&bu, &dv),
-        )
+        let bu = bernstein_jet::<33, 2>(self.du, u);
+        let bv = bernstein_jet::<33, 2>(self.dv, v);
+        let jet = self.jet([&bu[0], &bu[1]], [&bv[0], &bv[1]], 1);
+        (jet[0][0], jet[1][0], jet[0][1])
     }
 
-    fn weighted(&self, wu: &[f64], wv: &[f64]) -> P {
-        let mut acc = P::ZERO;
-        for i in 0..=self.du {
-            let mut row = P::ZERO;
-            for j in 0..=self.dv {
-                row += self.at(i, j) * wv[j];
-            }
-            acc += row * wu[i];
-        }
-        acc
+    /// The patch's partials up to order `K - 1` from its bases along u and along v.
+    fn jet<const K: usize>(&self, wu: [&[f64; 33]; K], wv: [&[f64; 33]; K], order: usize) -> [[P; K]; K] {
+        let n = (self.du + 1, self.dv + 1);
+        tensor_jet(&self.ctrl, self.dv + 1, n, wu, wv, order)
     }
 
     /// Split at `u = s` into the patches over `[0, s]` and `[s, 1]` in u.

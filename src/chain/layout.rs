@@ -9,9 +9,10 @@
 //! expanded Bezier control points: the sparse map `expanded = E · design`
 //! ([`ExtractionMap`]), built once per layout.
 //!
-//! The basis at a parameter is the segment's Bernstein polynomials times the segment's block
-//! of `E` (precomputed with its first and second differences), so a basis function and its
-//! derivatives cost one Bernstein recurrence and a few short dot products.
+//! The basis at a parameter is the segment's Bernstein polynomials (from the one evaluator in
+//! [`crate::bezier`]) times the segment's block of `E` (precomputed with its first and second
+//! differences), so a basis function and its derivatives cost one Bernstein recurrence and a
+//! few short dot products.
 //!
 //! Curves ([`CurveChain`](super::CurveChain)) and patch grids
 //! ([`GridLayout`](super::GridLayout), one layout per direction) are built from it; the
@@ -19,7 +20,7 @@
 //! exports all take what they need from it.
 
 use super::map::{insert_knot, ExtractionMap};
-use crate::bezier::Vector;
+use crate::bezier::{bernstein_levels, combine, curve_jet, Vector};
 use crate::error::{Error, Result};
 use crate::keyword::keywords;
 use serde::{Deserialize, Serialize};
@@ -477,25 +478,9 @@ impl ChainLayout {
             self.degree
         );
         let d = N - 1;
-        let v = 1.0 - u;
-        // Bernstein polynomials of degree d - 2, d - 1 and d by the triangular recurrence,
-        // each level kept for the derivatives.
-        let mut levels = [[0.0; N]; 3];
-        levels[0][0] = 1.0;
-        let mut cur = 0;
-        for j in 1..=d {
-            let (prev, next) = (cur, (cur + 1) % 3);
-            let mut saved = 0.0;
-            for i in 0..j {
-                let tmp = levels[prev][i];
-                levels[next][i] = saved + v * tmp;
-                saved = u * tmp;
-            }
-            levels[next][j] = saved;
-            cur = next;
-        }
-        // After the loop `cur` holds degree d, the one before it d - 1, before that d - 2.
-        let (ld, ld1, ld2) = (cur, (cur + 2) % 3, (cur + 1) % 3);
+        // Bernstein polynomials of degree d, d - 1 and d - 2 from one recurrence: the values,
+        // and the weights of the hodographs' blocks for the derivatives.
+        let levels = bernstein_levels::<N, 3>(d, u);
         // Row `a` of a block of `len` columns against the first `len` Bernstein values.
         fn dot<const N: usize>(m: &[f64], w: &[f64; N], len: usize, out: &mut [f64], scale: f64) {
             for (x, row) in out[..N].iter_mut().zip(m.chunks_exact(len.max(1))) {
@@ -505,7 +490,7 @@ impl ChainLayout {
         let n = N;
         dot(
             &self.local[k * n * n..(k + 1) * n * n],
-            &levels[ld],
+            &levels[0],
             n,
             &mut out.value,
             1.0,
@@ -513,7 +498,7 @@ impl ChainLayout {
         if order >= 1 && d >= 1 {
             dot(
                 &self.local_d1[k * n * d..(k + 1) * n * d],
-                &levels[ld1],
+                &levels[1],
                 d,
                 &mut out.d1,
                 self.inv_len[k],
@@ -523,7 +508,7 @@ impl ChainLayout {
             let m = n * (d - 1);
             dot(
                 &self.local_d2[k * m..(k + 1) * m],
-                &levels[ld2],
+                &levels[2],
                 d - 1,
                 &mut out.d2,
                 self.inv_len[k] * self.inv_len[k],
@@ -533,7 +518,7 @@ impl ChainLayout {
 
     /// The chain with expanded Bezier control points `ctrl` at `t`: the point and its
     /// derivatives with respect to `t` up to `order` (higher ones zero), by Horner's scheme on
-    /// the segment's control points and their differences (the hodographs').
+    /// the segment's control points and their differences (the hodographs'; [`curve_jet`]).
     #[inline]
     #[must_use]
     pub fn segment_jet<P: Vector>(&self, ctrl: &[P], t: f64, order: usize) -> [P; 3] {
@@ -547,42 +532,17 @@ impl ChainLayout {
     #[must_use]
     pub fn segment_jet_in<P: Vector>(&self, ctrl: &[P], k: usize, u: f64, order: usize) -> [P; 3] {
         // One monomorphic path per degree, as for the basis: every loop length is a constant.
+        // The segment's points, sliced with the constant degree of each path.
+        let (c, h) = (|d: usize| &ctrl[k * d..=(k + 1) * d], self.inv_len[k]);
         match self.degree {
-            1 => self.jet_fixed::<P, 1>(ctrl, k, u, order),
-            2 => self.jet_fixed::<P, 2>(ctrl, k, u, order),
-            3 => self.jet_fixed::<P, 3>(ctrl, k, u, order),
-            4 => self.jet_fixed::<P, 4>(ctrl, k, u, order),
-            5 => self.jet_fixed::<P, 5>(ctrl, k, u, order),
-            6 => self.jet_fixed::<P, 6>(ctrl, k, u, order),
-            _ => self.jet_fixed::<P, MAX_DEGREE>(ctrl, k, u, order),
+            1 => curve_jet::<P, 1>(c(1), u, order, h),
+            2 => curve_jet::<P, 2>(c(2), u, order, h),
+            3 => curve_jet::<P, 3>(c(3), u, order, h),
+            4 => curve_jet::<P, 4>(c(4), u, order, h),
+            5 => curve_jet::<P, 5>(c(5), u, order, h),
+            6 => curve_jet::<P, 6>(c(6), u, order, h),
+            _ => curve_jet::<P, MAX_DEGREE>(c(MAX_DEGREE), u, order, h),
         }
-    }
-
-    /// [`ChainLayout::segment_jet_in`] for degree `D`.
-    #[inline(always)]
-    fn jet_fixed<P: Vector, const D: usize>(&self, ctrl: &[P], k: usize, u: f64, order: usize) -> [P; 3] {
-        debug_assert_eq!(self.degree, D, "jet_fixed: wrong path for degree {}", self.degree);
-        let d = D;
-        let c = &ctrl[k * d..=(k + 1) * d];
-        let v = 1.0 - u;
-        let h = self.inv_len[k];
-        let mut out = [P::ZERO; 3];
-        out[0] = horner(c, u, v);
-        if order >= 1 {
-            let mut c1 = [P::ZERO; MAX_SUPPORT];
-            for i in 0..d {
-                c1[i] = c[i + 1] - c[i];
-            }
-            let df = d as f64;
-            out[1] = horner(&c1[..d], u, v) * (df * h);
-            if order >= 2 && d >= 2 {
-                for i in 0..d - 1 {
-                    c1[i] = c1[i + 1] - c1[i];
-                }
-                out[2] = horner(&c1[..d - 1], u, v) * (df * (df - 1.0) * h * h);
-            }
-        }
-        out
     }
 
     /// The chain with coefficients `coeffs` at `t`: the point and its first and second
@@ -590,21 +550,15 @@ impl ChainLayout {
     #[must_use]
     pub fn jet<P: Vector>(&self, coeffs: &[P], t: f64) -> [P; 3] {
         let b = self.basis(t, 2);
-        let mut out = [P::ZERO; 3];
-        for a in 0..=self.degree {
-            let x = coeffs[b.first + a];
-            out[0] += x * b.value[a];
-            out[1] += x * b.d1[a];
-            out[2] += x * b.d2[a];
-        }
-        out
+        let x = &coeffs[b.first..=b.first + self.degree];
+        [combine(x, &b.value), combine(x, &b.d1), combine(x, &b.d2)]
     }
 
     /// The chain with coefficients `coeffs` at `t`.
     #[must_use]
     pub fn eval<P: Vector>(&self, coeffs: &[P], t: f64) -> P {
         let b = self.basis(t, 0);
-        (0..=self.degree).fold(P::ZERO, |acc, a| acc + coeffs[b.first + a] * b.value[a])
+        combine(&coeffs[b.first..=b.first + self.degree], &b.value)
     }
 
     /// The expanded Bezier control points (`s d + 1`) of the chain with coefficients `coeffs`.
@@ -660,38 +614,6 @@ impl ChainLayout {
         }
         ChainLayout::with_breaks(self.degree, self.breaks.clone(), Continuity::C1).ok()
     }
-}
-
-/// The Bezier curve with control points `c` at `u` (`v = 1 - u`), by the Horner-like scheme
-/// for Bernstein sums.
-#[inline]
-fn horner<P: Vector>(c: &[P], u: f64, v: f64) -> P {
-    let row = &BINOMIAL[c.len() - 1];
-    let mut acc = c[0];
-    let mut pow = 1.0;
-    for i in 1..c.len() {
-        pow *= u;
-        acc = acc * v + c[i] * (row[i] * pow);
-    }
-    acc
-}
-
-/// Binomial coefficients `C(n, i)` for `n <= MAX_DEGREE`.
-const BINOMIAL: [[f64; MAX_SUPPORT]; MAX_SUPPORT] = binomials();
-
-const fn binomials() -> [[f64; MAX_SUPPORT]; MAX_SUPPORT] {
-    let mut t = [[0.0; MAX_SUPPORT]; MAX_SUPPORT];
-    let mut n = 0;
-    while n < MAX_SUPPORT {
-        t[n][0] = 1.0;
-        let mut i = 1;
-        while i <= n {
-            t[n][i] = t[n - 1][i - 1] + if i < n { t[n - 1][i] } else { 0.0 };
-            i += 1;
-        }
-        n += 1;
-    }
-    t
 }
 
 /// The sample parameters of one direction: `per` steps in every segment between `breaks`

@@ -1,7 +1,7 @@
 //! `PatchGrid`: a grid of tensor-product Bezier patches chained in both directions.
 
 use super::layout::{ChainLayout, Continuity};
-use crate::bezier::{bernstein, bernstein_deriv, BezierPatch, Vector};
+use crate::bezier::{bernstein_jet, combine, BezierPatch, Vector};
 use crate::error::{Error, Result};
 
 /// The shape of a patch grid: one chain layout along u (rows) and one along v (columns).
@@ -210,9 +210,7 @@ impl<P: Vector> PatchGrid<P> {
         // Each parameter's segment, its scale, and its Bernstein values and derivatives.
         let basis = |l: &ChainLayout, d: usize, t: f64| {
             let (k, a) = l.locate(t);
-            let (mut b, mut db) = ([0.0; 33], [0.0; 33]);
-            bernstein(d, a, &mut b);
-            bernstein_deriv(d, a, &mut db);
+            let [b, db] = bernstein_jet::<33, 2>(d, a);
             (k, 1.0 / l.segment_length(k), b, db)
         };
         let rows: Vec<_> = us.iter().map(|&u| basis(&self.layout.u, du, u)).collect();
@@ -229,21 +227,14 @@ impl<P: Vector> PatchGrid<P> {
             across.clear();
             for r in first..=last {
                 let row = &self.net[r * mv + j * dv..=r * mv + (j + 1) * dv];
-                let (mut a, mut b) = (P::ZERO, P::ZERO);
-                for (c, &x) in row.iter().enumerate() {
-                    a += x * bv[c];
-                    b += x * dbv[c];
-                }
-                along.push(a);
-                across.push(b);
+                along.push(combine(row, &bv));
+                across.push(combine(row, &dbv));
             }
-            for (o, &(i, su, bu, dbu)) in out.iter_mut().zip(&rows) {
-                let (mut pu, mut pv) = (P::ZERO, P::ZERO);
-                for r in 0..=du {
-                    pu += along[i * du + r - first] * dbu[r];
-                    pv += across[i * du + r - first] * bu[r];
-                }
-                o.push((pu * su, pv * sv));
+            for (o, (i, su, bu, dbu)) in out.iter_mut().zip(&rows) {
+                let reach = i * du - first..=i * du + du - first;
+                let pu = combine(&along[reach.clone()], dbu);
+                let pv = combine(&across[reach], bu);
+                o.push((pu * *su, pv * sv));
             }
         }
         out

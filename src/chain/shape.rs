@@ -8,7 +8,7 @@
 //! this trait, so the curve and the surface fits share one implementation.
 
 use super::{ChainLayout, GridLayout, SpanBasis};
-use crate::bezier::Vector;
+use crate::bezier::{combine, tensor_jet, Vector};
 use std::marker::PhantomData;
 
 /// The basis of a shape at one parameter: the cell holding it and, over that cell's support,
@@ -284,23 +284,13 @@ impl<P: Vector> Shape<1> for CurveShape<P> {
     /// From the layout's basis on the stack, without filling `scratch`.
     fn eval_jet(&self, t: [f64; 1], order: usize, design: &[P], _scratch: &mut Basis<1>) -> Jet<P, 1> {
         let b = self.layout.basis(t[0], order);
-        let zero = P::ZERO;
-        let mut jet = Jet {
-            point: zero,
-            d1: [zero],
-            d2: [[zero]],
-        };
-        for a in 0..=self.layout.degree() {
-            let x = design[b.first + a];
-            jet.point += x * b.value[a];
-            if order >= 1 {
-                jet.d1[0] += x * b.d1[a];
-            }
-            if order >= 2 {
-                jet.d2[0][0] += x * b.d2[a];
-            }
+        let x = &design[b.first..=b.first + self.layout.degree()];
+        let at = |k: usize, w: &[f64]| if order >= k { combine(x, w) } else { P::ZERO };
+        Jet {
+            point: combine(x, &b.value),
+            d1: [at(1, &b.d1)],
+            d2: [[at(2, &b.d2)]],
         }
-        jet
     }
 
     fn basis(&self, t: [f64; 1], order: usize, out: &mut Basis<1>) {
@@ -422,13 +412,13 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     /// Row `i` of the curve's design is `Σ_j B_j(v) x_ij` over the v basis at `t[1]`.
     fn first_curve(&self, design: &[P], t: [f64; 2]) -> Option<FirstCurve<'_, P>> {
         let bv = self.v.basis(t[1], 0);
-        let sv = self.v.support(bv.segment);
-        let nv = self.v.design_count();
+        let (nv, first) = (self.v.design_count(), bv.first);
         let row = (0..self.u.design_count())
             .map(|i| {
-                sv.iter()
-                    .zip(&bv.value)
-                    .fold(P::ZERO, |acc, (&j, &w)| acc + design[i * nv + j as usize] * w)
+                combine(
+                    &design[i * nv + first..=i * nv + first + self.v.degree()],
+                    &bv.value,
+                )
             })
             .collect();
         Some((&self.rows, row))
@@ -512,43 +502,23 @@ impl<P: Vector> Shape<2> for GridShape<P> {
     fn eval_jet(&self, t: [f64; 2], order: usize, design: &[P], _scratch: &mut Basis<2>) -> Jet<P, 2> {
         let bu = self.u.basis(t[0], order);
         let bv = self.v.basis(t[1], order);
-        let (a, b) = (bu.segment, bv.segment);
-        let (vu, du, ddu) = (&bu.value, &bu.d1, &bu.d2);
-        let (vv, dv, ddv) = (&bv.value, &bv.d1, &bv.d2);
-        let (su, sv) = (self.u.support(a), self.v.support(b));
         let nv = self.v.design_count();
-        let zero = P::ZERO;
-        let mut jet = Jet {
-            point: zero,
-            d1: [zero; 2],
-            d2: [[zero; 2]; 2],
-        };
-        for (i, &ri) in su.iter().enumerate() {
-            let row = &design[ri as usize * nv..(ri as usize + 1) * nv];
-            let (mut p, mut pv, mut pvv) = (zero, zero, zero);
-            for (j, &cj) in sv.iter().enumerate() {
-                let x = row[cj as usize];
-                p += x * vv[j];
-                if order >= 1 {
-                    pv += x * dv[j];
-                }
-                if order >= 2 {
-                    pvv += x * ddv[j];
-                }
-            }
-            jet.point += p * vu[i];
-            if order >= 1 {
-                jet.d1[0] += p * du[i];
-                jet.d1[1] += pv * vu[i];
-            }
-            if order >= 2 {
-                jet.d2[0][0] += p * ddu[i];
-                jet.d2[0][1] += pv * du[i];
-                jet.d2[1][1] += pvv * vu[i];
-            }
+        // The support's rows are consecutive design rows, its columns consecutive columns.
+        let net = &design[bu.first * nv + bv.first..];
+        let n = (self.u.degree() + 1, self.v.degree() + 1);
+        let [[p, pv, pvv], [pu, puv, _], [puu, _, _]] = tensor_jet(
+            net,
+            nv,
+            n,
+            [&bu.value, &bu.d1, &bu.d2],
+            [&bv.value, &bv.d1, &bv.d2],
+            order.min(2),
+        );
+        Jet {
+            point: p,
+            d1: [pu, pv],
+            d2: [[puu, puv], [puv, pvv]],
         }
-        jet.d2[1][0] = jet.d2[0][1];
-        jet
     }
 
     fn basis(&self, t: [f64; 2], order: usize, out: &mut Basis<2>) {

@@ -227,4 +227,51 @@ mod tests {
             }
         }
     }
+
+    /// The mirror, with either rounding of `fma` and one parameter or one per lane, against
+    /// the f64 evaluator: each value within `n + 1` f32 roundings of it, each derivative of
+    /// order `k` within `(2n)^k` times that (its differences scale the values' errors).
+    #[test]
+    fn the_mirror_is_the_f64_evaluator_to_f32_rounding() {
+        use super::Fused;
+        use crate::bezier::bernstein_jet;
+        let eps = f64::from(f32::EPSILON);
+        let ts: Vec<f32> = (0..=LANES * 4)
+            .map(|i| i as f32 / (LANES * 4) as f32)
+            .chain([1e-7, 0.1, 1.0 / 3.0, 0.62, 1.0 - 1e-7])
+            .collect();
+        let (mut work, mut out) = (BasisWork::default(), LaneBasis::default());
+        for n in 0..NB {
+            let tol = |k: usize| (n + 1) as f64 * eps * (2.0 * n as f64).max(1.0).powi(k as i32);
+            let check = |t: f32, got: [&[f32]; 3], what: &str| {
+                let want = bernstein_jet::<NB, 3>(n, f64::from(t));
+                for k in 0..3 {
+                    for i in 0..=n {
+                        let err = (f64::from(got[k][i]) - want[k][i]).abs();
+                        assert!(
+                            err <= tol(k),
+                            "{what} n={n} t={t} order {k} i={i}: {} vs {}",
+                            got[k][i],
+                            want[k][i]
+                        );
+                    }
+                }
+            };
+            for &t in &ts {
+                let u = basis::<Unfused>(n, t);
+                check(t, [&u.b, &u.d1, &u.d2], "unfused");
+                let f = basis::<Fused>(n, t);
+                check(t, [&f.b, &f.d1, &f.d2], "fused");
+            }
+            for chunk in ts.chunks(LANES) {
+                let mut t = [0.5f32; LANES];
+                t[..chunk.len()].copy_from_slice(chunk);
+                basis_lanes::<Unfused>(n, &t, &mut work, &mut out);
+                for (l, &tl) in t.iter().enumerate() {
+                    let lane = |a: &[Lanes; NB]| a.map(|x| x[l]);
+                    check(tl, [&lane(&out.b), &lane(&out.d1), &lane(&out.d2)], "lanes");
+                }
+            }
+        }
+    }
 }

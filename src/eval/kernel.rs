@@ -33,10 +33,11 @@
 
 use super::basis::{bernstein, Unfused};
 use super::{EvalLayout, Fitness, PopulationEvaluator, Targets};
-use crate::bezier::bernstein as bernstein_f64;
+use crate::bezier::{bernstein_jet, tensor_jet};
 use crate::chain::ChainLayout;
 use crate::error::{Error, Result};
 use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
 
 /// Uniform block of every shader. Must be kept in sync with `struct Config` in
 /// `shaders/config.wgsl` (spliced into every shader).
@@ -219,40 +220,6 @@ pub(crate) fn point_groups(population: usize, points: usize) -> (usize, usize) {
     (group_points, points.div_ceil(group_points).max(1))
 }
 
-/// The degree-`n` Bernstein values with their first, second and third derivatives at `t`, in
-/// f64.
-fn basis_f64(n: usize, t: f64) -> [[f64; NB]; 4] {
-    let mut out = [[0.0; NB]; 4];
-    bernstein_f64(n, t, &mut out[0]);
-    let nf = n as f64;
-    if n >= 1 {
-        let mut low = [0.0; NB];
-        bernstein_f64(n - 1, t, &mut low);
-        for i in 0..=n {
-            let a = if i > 0 { low[i - 1] } else { 0.0 };
-            out[1][i] = nf * (a - low[i]);
-        }
-    }
-    if n >= 2 {
-        let mut low = [0.0; NB];
-        bernstein_f64(n - 2, t, &mut low);
-        for i in 0..=n {
-            let a = if i > 1 { low[i - 2] } else { 0.0 };
-            let b = if i > 0 { low[i - 1] } else { 0.0 };
-            out[2][i] = nf * (nf - 1.0) * (a - 2.0 * b + low[i]);
-        }
-    }
-    if n >= 3 {
-        let mut low = [0.0; NB];
-        bernstein_f64(n - 3, t, &mut low);
-        let at = |k: usize, back: usize| if k >= back { low[k - back] } else { 0.0 };
-        for (i, d3) in out[3].iter_mut().enumerate().take(n + 1) {
-            *d3 = nf * (nf - 1.0) * (nf - 2.0) * (at(i, 3) - 3.0 * at(i, 2) + 3.0 * at(i, 1) - at(i, 0));
-        }
-    }
-    out
-}
-
 /// The end of `[0, 1]` nearer `t`.
 fn near_end(t: f64) -> f64 {
     if t < 0.5 {
@@ -326,7 +293,7 @@ pub(crate) struct Problem {
     /// The reference design.
     reference: Vec<f64>,
     /// Its expanded net.
-    ref_net: Vec<[f64; 3]>,
+    ref_net: Vec<DVec3>,
 }
 
 impl Problem {
@@ -512,7 +479,7 @@ impl Problem {
                         *pc += w * design[m.index as usize * dim + c];
                     }
                 }
-                p
+                DVec3::from_array(p)
             })
             .collect();
         self.reference = design;
@@ -521,24 +488,19 @@ impl Problem {
     /// The reference's partials at local `(u, v)` of patch `(i, j)`: `jet[ou][ov][c]`, orders
     /// up to 3 together, in the patch's local units.
     fn reference_jet(&self, i: usize, j: usize, u: f64, v: f64) -> [[[f64; 3]; 4]; 4] {
-        let (du, dv, dim) = (self.du, self.dv, self.dim);
-        let bu = basis_f64(du, u);
-        let bv = basis_f64(dv, v);
-        let mut jet = [[[0.0f64; 3]; 4]; 4];
-        for a in 0..=du {
-            for b in 0..=dv {
-                let p = &self.ref_net[(i * du + a) * self.net_cols + j * dv + b];
-                for (ou, bu) in bu.iter().enumerate() {
-                    for (ov, bv) in bv.iter().enumerate().take(4 - ou) {
-                        let w = bu[a] * bv[b];
-                        for c in 0..dim {
-                            jet[ou][ov][c] += w * p[c];
-                        }
-                    }
-                }
-            }
-        }
-        jet
+        let (du, dv) = (self.du, self.dv);
+        let bu = bernstein_jet::<NB, 4>(du, u);
+        let bv = bernstein_jet::<NB, 4>(dv, v);
+        let net = &self.ref_net[i * du * self.net_cols + j * dv..];
+        let jet = tensor_jet(
+            net,
+            self.net_cols,
+            (du + 1, dv + 1),
+            bu.each_ref(),
+            bv.each_ref(),
+            3,
+        );
+        jet.map(|row| row.map(|p| p.to_array()))
     }
 
     /// How far Newton steps may move from local `(u, v)` of patch `(i, j)` before the

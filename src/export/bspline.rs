@@ -3,7 +3,8 @@
 //! evaluation for checks, and the length unit they are written in.
 
 use crate::adaptive::{Encoding, SurfaceEncoding};
-use crate::chain::{CurveChain, PatchGrid};
+use crate::bezier::tensor_jet;
+use crate::chain::{ChainLayout, CurveChain, PatchGrid};
 use crate::error::Result;
 use crate::keyword::keywords;
 use glam::{DVec2, DVec3};
@@ -73,37 +74,34 @@ pub fn distinct_knots(knots: &[f64]) -> (Vec<f64>, Vec<usize>) {
     (values, mults)
 }
 
-/// The B-spline basis functions of `degree` over `knots` that are non-zero at `t` (clamped to
-/// the knot range): the index of the first and their values (Cox-de Boor).
-fn basis(degree: usize, knots: &[f64], t: f64) -> (usize, Vec<f64>) {
-    let n = knots.len() - degree - 1;
-    let (lo, hi) = (knots[degree], knots[n]);
-    let t = t.clamp(lo, hi);
-    // The span: knots[span] <= t < knots[span + 1], the last non-empty span at the end.
-    let span = if t >= hi {
-        (degree..n)
-            .rev()
-            .find(|&s| knots[s] < knots[s + 1])
-            .unwrap_or(degree)
-    } else {
-        knots.partition_point(|&k| k <= t) - 1
-    };
-    let mut values = vec![0.0; degree + 1];
-    let mut left = vec![0.0; degree + 1];
-    let mut right = vec![0.0; degree + 1];
-    values[0] = 1.0;
-    for j in 1..=degree {
-        left[j] = t - knots[span + 1 - j];
-        right[j] = knots[span + j] - t;
-        let mut saved = 0.0;
-        for r in 0..j {
-            let temp = values[r] / (right[r + 1] + left[j - r]);
-            values[r] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        values[j] = saved;
+/// The chain whose B-spline form has `degree` and `knots`: its layout (the knots' distinct
+/// values mapped from `[lo, hi]` to the breaks in `[0, 1]`, an interior knot of multiplicity
+/// `m` a join of continuity order `degree - m`) with `lo` and `hi`. `None` where the knots are
+/// not a chain's (clamped ends of multiplicity `degree + 1`, degree 1 to
+/// [`MAX_DEGREE`](crate::chain::MAX_DEGREE), interior multiplicities 1 to `degree`).
+///
+/// The exported B-splines are evaluated as these chains, through their Bezier extraction and
+/// the one Bernstein evaluator ([`ChainLayout::basis`]): exactly the curves and surfaces the
+/// reports hold.
+fn chain_layout(degree: usize, knots: &[f64]) -> Option<(ChainLayout, f64, f64)> {
+    let (values, mults) = distinct_knots(knots);
+    let (&lo, &hi) = (values.first()?, values.last()?);
+    let clamped = |m: &usize| *m == degree + 1;
+    if values.len() < 2 || !mults.first().is_some_and(clamped) || !mults.last().is_some_and(clamped) {
+        return None;
     }
-    (span - degree, values)
+    let breaks = values.iter().map(|k| (k - lo) / (hi - lo)).collect();
+    let orders = mults[1..mults.len() - 1]
+        .iter()
+        .map(|&m| degree.checked_sub(m))
+        .collect::<Option<Vec<_>>>()?;
+    let layout = ChainLayout::with_orders(degree, breaks, orders).ok()?;
+    Some((layout, lo, hi))
+}
+
+/// The layout's parameter of `t` in `[lo, hi]`.
+fn to_unit(t: f64, lo: f64, hi: f64) -> f64 {
+    (t - lo) / (hi - lo)
 }
 
 impl BsplineCurve {
@@ -134,11 +132,16 @@ impl BsplineCurve {
         })
     }
 
-    /// The point at parameter `t` (clamped to the knot range).
+    /// The point at parameter `t` (clamped to the knot range), evaluated as the chain the
+    /// B-spline is; NaN where the knots are not a chain's (clamped, degree 1 to 7, interior
+    /// multiplicities 1 to the degree).
     #[must_use]
     pub fn eval(&self, t: f64) -> DVec3 {
-        let (first, b) = basis(self.degree, &self.knots, t);
-        b.iter().enumerate().map(|(a, w)| self.ctrl[first + a] * *w).sum()
+        let Some((layout, lo, hi)) = chain_layout(self.degree, &self.knots) else {
+            debug_assert!(false, "BsplineCurve::eval: the knots are not a chain's");
+            return DVec3::NAN;
+        };
+        layout.eval(&self.ctrl, to_unit(t, lo, hi))
     }
 }
 
@@ -175,18 +178,22 @@ impl BsplineSurface {
         self.ctrl[i * self.count[1] + j]
     }
 
-    /// The point at `(u, v)` (clamped to the knot ranges).
+    /// The point at `(u, v)` (clamped to the knot ranges), evaluated as the patch grid the
+    /// B-spline surface is; NaN where either knot vector is not a chain's.
     #[must_use]
     pub fn eval(&self, u: f64, v: f64) -> DVec3 {
-        let (fu, bu) = basis(self.degree[0], &self.knots_u, u);
-        let (fv, bv) = basis(self.degree[1], &self.knots_v, v);
-        let mut p = DVec3::ZERO;
-        for (a, wu) in bu.iter().enumerate() {
-            for (b, wv) in bv.iter().enumerate() {
-                p += self.at(fu + a, fv + b) * (wu * wv);
-            }
-        }
-        p
+        let along = |d: usize, knots: &[f64], t: f64| {
+            chain_layout(d, knots).map(|(l, lo, hi)| (l.basis(to_unit(t, lo, hi), 0), d + 1))
+        };
+        let (Some((bu, nu)), Some((bv, nv))) = (
+            along(self.degree[0], &self.knots_u, u),
+            along(self.degree[1], &self.knots_v, v),
+        ) else {
+            debug_assert!(false, "BsplineSurface::eval: the knots are not a grid's");
+            return DVec3::NAN;
+        };
+        let net = &self.ctrl[bu.first * self.count[1] + bv.first..];
+        tensor_jet(net, self.count[1], (nu, nv), [&bu.value], [&bv.value], 0)[0][0]
     }
 
     /// The boundary curve at `u = knots_u` start (`side` 0) or end (1), running along v.

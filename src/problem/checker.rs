@@ -14,6 +14,7 @@
 //! the surface normal turns between neighbouring samples (an exact evaluation through
 //! [`PatchGrid::partials`], not an emulation).
 
+use crate::bezier::casteljau_with;
 use crate::chain::samples;
 use crate::chain::{PatchGrid, MAX_DEGREE};
 use glam::DVec3;
@@ -51,13 +52,7 @@ pub fn projection_check(grid: &PatchGrid<DVec3>, points: &[DVec3], rms: f64, max
 
 /// De Casteljau's algorithm with `verify.py`'s arithmetic (`a + (b - a) t`, in order).
 fn casteljau(ctrl: &mut [DVec3], t: f64) -> DVec3 {
-    let n = ctrl.len();
-    for r in 1..n {
-        for i in 0..n - r {
-            ctrl[i] = ctrl[i] + (ctrl[i + 1] - ctrl[i]) * t;
-        }
-    }
-    ctrl[0]
+    casteljau_with(ctrl, t, |a, b, t| a + (b - a) * t, |_| {})
 }
 
 /// One patch's control points (rows along u) and its evaluation with `verify.py`'s arithmetic.
