@@ -21,7 +21,7 @@ struct Config {
     degree_v: u32,
     dim: u32,
     cross: u32,
-    _pad0: u32,
-    _pad1: u32,
+    seeds: u32,
+    seed_ring: u32,
     _pad2: u32,
 }

@@ -57,6 +57,11 @@ const NCP: u32 = NU * NV;
 // A 2x2 Newton system whose determinant is below this fraction of its diagonal product is
 // treated as singular.
 const SINGULAR: f32 = 1e-6;
+// A candidate start's descent replaces the start's only where it ends further than this from
+// it (|ΔΔu| + |ΔΔv|, start-patch units) and lower: where both reach the same foot point, the
+// start's value stands, so that rounding noise (offsets below the f32 resolution of the data's
+// extent) is not minimised over several draws, differently on every backend.
+const SAME_FOOT: f32 = 1e-3;
 
 // @include config.wgsl
 // @include basis.wgsl
@@ -286,17 +291,24 @@ fn dot_n(x: array<f32, DIM>, y: array<f32, DIM>) -> f32 {
     return acc;
 }
 
-// Squared closest-point offset of target t (individual `ind`, patch slot k; rj the
-// reference's partials at t), from config.newton (>= 1) Newton steps on |r(Δ)|²,
-// r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held difference patch at
-// the local parameters Δ reaches. Δ is clamped to the start patch, or with CROSS to
-// the domain (the steps then cross borders), and to the target's reach; the result is the
-// least squared offset met on the way, so it never exceeds the start's.
-fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
+// The frame of target t's foot-point search: the start patch (i0, j0), the first v break,
+// the start patch's lengths (1 without CROSS) and the domain of Δ: the start patch (or with
+// CROSS the whole domain), within the target's reach.
+struct Frame {
+    i0: u32,
+    j0: u32,
+    fv: u32,
+    h0u: f32,
+    h0v: f32,
+    lo_u: f32,
+    hi_u: f32,
+    lo_v: f32,
+    hi_v: f32,
+}
+
+fn frame_of(t: Target) -> Frame {
     let i0 = t.patch_id / config.patches_v;
     let j0 = t.patch_id - i0 * config.patches_v;
-    // First v break; the start patch's lengths and the domain of Δ: the start patch (or with
-    // CROSS the whole domain), within the target's reach.
     let fv = config.patches_u + 1u;
     var h0u = 1.0;
     var h0v = 1.0;
@@ -316,18 +328,148 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
     hi_u = min(hi_u, t.reach_u);
     lo_v = max(lo_v, -t.reach_v);
     hi_v = min(hi_v, t.reach_v);
-    // Δ; the local parameters in the held patch; d(local) / dΔ there.
-    var du = 0.0;
-    var dv = 0.0;
-    var u = t.u;
-    var v = t.v;
-    var ku = 1.0;
-    var kv = 1.0;
+    return Frame(i0, j0, fv, h0u, h0v, lo_u, hi_u, lo_v, hi_v);
+}
+
+// Where a descent starts: Δ, the local parameters there and d(local) / dΔ, its patch held in
+// slot k.
+struct Seed {
+    du: f32,
+    dv: f32,
+    u: f32,
+    v: f32,
+    ku: f32,
+    kv: f32,
+}
+
+// A candidate start: its squared offset, where it lies, and its patch.
+struct Cand {
+    e2: f32,
+    s: Seed,
+    at: u32,
+}
+
+// Two best local minima of the candidates so far, and the last candidate (`down`: it lies
+// below the one before it, or starts a run).
+struct Pick {
+    first: Cand,
+    second: Cand,
+    last: Cand,
+    down: bool,
+}
+
+// Offer candidate c as a local minimum.
+fn offer(p: Pick, c: Cand) -> Pick {
+    var out = p;
+    if (c.e2 < p.first.e2) {
+        out.second = p.first;
+        out.first = c;
+    } else if (c.e2 < p.second.e2) {
+        out.second = c;
+    }
+    return out;
+}
+
+// Add candidate c to the run of candidates (a new run when `fresh`): the last one becomes a
+// local minimum when it lies below its predecessor and not above c.
+fn step_pick(p: Pick, c: Cand, fresh: bool) -> Pick {
+    var out = p;
+    if (p.down && (fresh || p.last.e2 <= c.e2)) {
+        out = offer(p, p.last);
+    }
+    out.down = fresh || c.e2 < p.last.e2;
+    out.last = c;
+    return out;
+}
+
+// The two candidate starts of target t's foot-point search: the two deepest local minima of
+// the squared offset over config.seeds + 1 samples per patch side (0, 1 / seeds, ..., 1; one
+// along v for a curve) on every patch within config.seed_ring patches of the start patch
+// (with CROSS; else the start patch). The samples run patch by patch, u then v; local minima
+// are taken along that run (for a curve, along the whole chain; for a grid, along each line
+// of constant u), ties to the earlier. Samples whose Δ lies outside the frame's domain are
+// skipped; where fewer than two minima exist, the start parameters stand in. Every
+// individual sees the same candidates in the same order, so every backend starts from the
+// same ones.
+fn seed(k: u32, ind: u32, t: Target, rj: RefJet, f: Frame) -> Pick {
+    let none = Cand(3.0e38, Seed(0.0, 0.0, t.u, t.v, 1.0, 1.0), t.patch_id);
+    var pick = Pick(none, none, none, false);
+    let ring = select(0u, config.seed_ring, CROSS != 0u);
+    let i_lo = f.i0 - min(f.i0, ring);
+    let i_hi = min(f.i0 + ring, config.patches_u - 1u);
+    let j_lo = f.j0 - min(f.j0, ring);
+    let j_hi = min(f.j0 + ring, config.patches_v - 1u);
+    let n = f32(config.seeds);
+    let nv = select(config.seeds + 1u, 1u, DV == 0u);
+    var first = true;
+    for (var i = i_lo; i <= i_hi; i++) {
+        let hu = breaks[i + 1u] - breaks[i];
+        for (var j = j_lo; j <= j_hi; j++) {
+            let hv = breaks[f.fv + j + 1u] - breaks[f.fv + j];
+            let here = i * config.patches_v + j;
+            load_patch(k, ind, here);
+            for (var a = 0u; a <= config.seeds; a++) {
+                let uc = f32(a) / n;
+                var du = uc - t.u;
+                var ku = 1.0;
+                if (i != f.i0) {
+                    du = (fma(uc, hu, breaks[i]) - breaks[f.i0]) / f.h0u - t.u;
+                    ku = f.h0u / hu;
+                }
+                for (var b = 0u; b < nv; b++) {
+                    var vc = t.v;
+                    var dv = 0.0;
+                    var kv = 1.0;
+                    if (DV != 0u) {
+                        vc = f32(b) / n;
+                        dv = vc - t.v;
+                        if (j != f.j0) {
+                            dv = (fma(vc, hv, breaks[f.fv + j]) - breaks[f.fv + f.j0]) / f.h0v - t.v;
+                            kv = f.h0v / hv;
+                        }
+                    }
+                    let inside = du >= f.lo_u && du <= f.hi_u && dv >= f.lo_v && dv <= f.hi_v;
+                    let e2 = offset_sq(k, uc, vc, taylor(rj, t, du, dv).val);
+                    let c = Cand(e2, Seed(du, dv, uc, vc, ku, kv), here);
+                    if (inside) {
+                        pick = step_pick(pick, c, first || (DV != 0u && b == 0u));
+                        first = false;
+                    }
+                }
+            }
+        }
+    }
+    if (pick.down) {
+        pick = offer(pick, pick.last);
+    }
+    return pick;
+}
+
+// Descend from candidate c: hold its patch first.
+fn descend_from(k: u32, ind: u32, t: Target, rj: RefJet, f: Frame, c: Cand) -> vec3<f32> {
+    if (held[k] != c.at) {
+        load_patch(k, ind, c.at);
+    }
+    return descend(k, ind, t, rj, f, c.s);
+}
+
+// The least squared offset of target t met in config.newton (>= 1) Newton steps on |r(Δ)|²
+// from seed s, r(Δ) = T(Δ) + D(u, v): T the reference's Taylor polynomial, D the held
+// difference patch at the local parameters Δ reaches. Δ is clamped to the frame's domain (with
+// CROSS the steps cross borders, loading patches as they go); the result never exceeds the
+// seed's offset.
+fn descend(k: u32, ind: u32, t: Target, rj: RefJet, f: Frame, s: Seed) -> vec3<f32> {
+    var du = s.du;
+    var dv = s.dv;
+    var u = s.u;
+    var v = s.v;
+    var ku = s.ku;
+    var kv = s.kv;
     var best = 3.0e38;
     var it = 0u;
     loop {
         let e = jet(k, u, v);
-        let f = taylor(rj, t, du, dv);
+        let tp = taylor(rj, t, du, dv);
         var r: array<f32, DIM>;
         var su: array<f32, DIM>;
         var sv: array<f32, DIM>;
@@ -335,9 +477,9 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
         var suv: array<f32, DIM>;
         var svv: array<f32, DIM>;
         for (var c = 0u; c < DIM; c++) { // @unroll
-            r[c] = f.val[c] + e.s[c];
-            su[c] = fma(ku, e.su[c], f.du[c]);
-            sv[c] = fma(kv, e.sv[c], f.dv[c]);
+            r[c] = tp.val[c] + e.s[c];
+            su[c] = fma(ku, e.su[c], tp.du[c]);
+            sv[c] = fma(kv, e.sv[c], tp.dv[c]);
             suu[c] = fma(ku * ku, e.suu[c], rj.suu[c]);
             suv[c] = fma(ku * kv, e.suv[c], rj.suv[c]);
             svv[c] = fma(kv * kv, e.svv[c], rj.svv[c]);
@@ -374,8 +516,8 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
                 step_v = -gv / cv;
             }
         }
-        du = clamp(du + step_u, lo_u, hi_u);
-        dv = clamp(dv + step_v, lo_v, hi_v);
+        du = clamp(du + step_u, f.lo_u, f.hi_u);
+        dv = clamp(dv + step_v, f.lo_v, f.hi_v);
         // The local parameters of Δ: in the start patch, or (CROSS) in the patch holding it.
         let wu = t.u + du;
         let wv = t.v + dv;
@@ -383,23 +525,23 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
             u = clamp(wu, 0.0, 1.0);
             v = clamp(wv, 0.0, 1.0);
         } else {
-            var i = i0;
-            var j = j0;
+            var i = f.i0;
+            var j = f.j0;
             u = wu;
             v = wv;
             ku = 1.0;
             kv = 1.0;
             if (wu < 0.0 || wu > 1.0) {
-                let l = locate(0u, config.patches_u, clamp(fma(wu, h0u, breaks[i0]), 0.0, 1.0));
+                let l = locate(0u, config.patches_u, clamp(fma(wu, f.h0u, breaks[f.i0]), 0.0, 1.0));
                 i = l.index;
                 u = l.t;
-                ku = h0u / (breaks[i + 1u] - breaks[i]);
+                ku = f.h0u / (breaks[i + 1u] - breaks[i]);
             }
             if (wv < 0.0 || wv > 1.0) {
-                let l = locate(fv, config.patches_v, clamp(fma(wv, h0v, breaks[fv + j0]), 0.0, 1.0));
+                let l = locate(f.fv, config.patches_v, clamp(fma(wv, f.h0v, breaks[f.fv + f.j0]), 0.0, 1.0));
                 j = l.index;
                 v = l.t;
-                kv = h0v / (breaks[fv + j + 1u] - breaks[fv + j]);
+                kv = f.h0v / (breaks[f.fv + j + 1u] - breaks[f.fv + j]);
             }
             let moved = i * config.patches_v + j;
             if (moved != held[k]) {
@@ -411,7 +553,26 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
             break if it >= config.newton;
         }
     }
-    let e2 = min(best, offset_sq(k, u, v, taylor(rj, t, du, dv).val));
+    return vec3<f32>(min(best, offset_sq(k, u, v, taylor(rj, t, du, dv).val)), du, dv);
+}
+
+// Squared closest-point offset of target t (individual `ind`, patch slot k; rj the
+// reference's partials at t): the least of a descent from the start parameters and, with
+// config.seeds, descents from the two candidate starts of `seed`, which find the global
+// closest point where the start sits in another basin (a perturbed contour's fold, or its far
+// end across the trailing edge). Leaves the start patch held.
+fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
+    let f = frame_of(t);
+    let start = descend(k, ind, t, rj, f, Seed(0.0, 0.0, t.u, t.v, 1.0, 1.0));
+    var e2 = start.x;
+    if (config.seeds != 0u) {
+        let pick = seed(k, ind, t, rj, f);
+        let a = descend_from(k, ind, t, rj, f, pick.first);
+        let b = descend_from(k, ind, t, rj, f, pick.second);
+        let other = select(a, b, b.x < a.x);
+        let apart = abs(other.y - start.y) + abs(other.z - start.z) > SAME_FOOT;
+        e2 = select(e2, other.x, apart && other.x < e2);
+    }
     if (CROSS != 0u && held[k] != t.patch_id) {
         load_patch(k, ind, t.patch_id);
     }

@@ -240,7 +240,7 @@ fn rust_structs_match_their_wgsl_twins() {
         size_of::<Config>(),
         &offsets!(Config; population, net_stride, n_vars, n_ctrl, n_points, group_points,
             n_groups, newton, patches_u, patches_v, net_cols, grid_u, grid_v, degree_u, degree_v, dim,
-            cross, _pad0, _pad1, _pad2),
+            cross, seeds, seed_ring, _pad2),
         &all,
     );
     check(

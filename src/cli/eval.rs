@@ -35,6 +35,13 @@ pub struct Args {
     /// offsets at those parameters).
     #[arg(long, default_value_t = 8)]
     pub newton: u32,
+    /// Candidate starts of every individual's foot-point search per segment (over the whole
+    /// chain; default 16) or per patch side (the start patch and its neighbours; default 4):
+    /// Newton steps also run from the two deepest local minima among them, so that every
+    /// backend finds the global closest point (0: only from the first individual's foot
+    /// points).
+    #[arg(long)]
+    pub seeds: Option<u32>,
     /// Evaluate the population this many more times and print the median seconds of one
     /// evaluation (for timing against other tools on the same population).
     #[arg(long, default_value_t = 0)]
@@ -69,6 +76,7 @@ pub fn run(args: Args) -> Result<()> {
     let opts = BatchOptions {
         backend: args.backend,
         newton: args.newton,
+        seeds: args.seeds,
         repeat: args.repeat,
         ..BatchOptions::default()
     };

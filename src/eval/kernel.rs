@@ -82,10 +82,12 @@ pub struct Config {
     /// 1 when Newton steps may cross patch borders, 0 when they are clamped to the start
     /// patch (the shader takes it as the specialised constant `CROSS`).
     pub cross: u32,
-    /// Padding to a multiple of 16 bytes.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+    /// Samples per patch side (one along v for a curve) of the foot-point search's candidate
+    /// starts; 0: Newton starts at each target's start parameters.
+    pub seeds: u32,
+    /// How many patches around the start patch, along each direction, the candidates cover
+    /// (with `cross`; else the start patch only).
+    pub seed_ring: u32,
     /// Padding.
     pub _pad2: u32,
 }
@@ -282,6 +284,8 @@ pub(crate) struct Problem {
     pub newton: u32,
     /// Whether Newton steps may cross patch borders.
     pub cross: bool,
+    /// Candidate starts of the foot-point search per patch side (see [`Config::seeds`]).
+    pub seeds: u32,
     u: ChainLayout,
     v: Option<ChainLayout>,
     /// The map's weights in f64, parallel to `map_entries`.
@@ -394,6 +398,7 @@ impl Problem {
             order: Vec::new(),
             newton,
             cross: false,
+            seeds: 0,
             u,
             v,
             map_f64,
@@ -646,6 +651,19 @@ impl Problem {
         terms as f64 * f64::from(f32::EPSILON) / 2.0 * sum_sq.abs()
     }
 
+    /// The patches around the start patch that the foot-point search's candidates cover: the
+    /// whole chain for a curve (a handful of segments, and a perturbed contour's closest point
+    /// may lie across its trailing edge or fold), the eight neighbours for a patch grid (whose
+    /// patch count would make a global candidate set cost more than the Newton steps).
+    #[must_use]
+    pub fn seed_ring(&self) -> u32 {
+        if self.dv == 0 && self.pv == 1 {
+            self.pu as u32
+        } else {
+            1
+        }
+    }
+
     /// Control points of one patch.
     #[must_use]
     pub fn ncp(&self) -> usize {
@@ -705,8 +723,8 @@ impl Problem {
             degree_v: self.dv as u32,
             dim: self.dim as u32,
             cross: u32::from(self.cross),
-            _pad0: 0,
-            _pad1: 0,
+            seeds: self.seeds,
+            seed_ring: self.seed_ring(),
             _pad2: 0,
         }
     }

@@ -291,6 +291,16 @@ pub trait PopulationEvaluator: Send + HoldsProblem {
         self.problem_mut().newton = newton;
     }
 
+    /// Set the candidate starts of the foot-point search: `seeds` samples per patch side (one
+    /// along v for a curve) over the start patch and its neighbours (the whole chain for a
+    /// curve), the nearest of them and the start parameters chosen per point and individual
+    /// before the Newton steps. 0 (the default): Newton starts at the start parameters, which
+    /// suits a population near the reference; with samples that resolve every basin, every
+    /// backend finds the global closest point within reach.
+    fn set_seeds(&mut self, seeds: u32) {
+        self.problem_mut().seeds = seeds;
+    }
+
     /// The rounding error a sum of squares near `sum_sq` from this evaluator may carry (model
     /// units squared, first order, for individuals near the reference): differences below it
     /// are not resolved.

@@ -360,6 +360,15 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
     }
 }
 
+/// Candidate starts per segment of a curve population's foot-point search by default: with
+/// 8, two of 2,000 NACA 4413 contours perturbed by 0.05 chord (degree 3 × 5) still end in a
+/// wrong basin (2.8e-3 over the f64 sum); with 16 none does.
+pub const CURVE_SEEDS: u32 = 16;
+
+/// Candidate starts per patch side of a grid population's foot-point search by default (over
+/// the start patch and its eight neighbours: 9 × 25 a point).
+pub const GRID_SEEDS: u32 = 4;
+
 /// Options of a one-shot population evaluation (`bezchain eval`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BatchOptions {
@@ -371,6 +380,11 @@ pub struct BatchOptions {
     /// Samples per segment (curves) or per patch direction (grids) of the f64 projection onto
     /// the first individual. Default: 16.
     pub samples: usize,
+    /// Candidate starts per segment (curves: over the whole chain) or per patch side (grids:
+    /// the start patch and its neighbours) of every individual's foot-point search (see
+    /// [`PopulationEvaluator::set_seeds`]); 0 starts at the first individual's foot points
+    /// only. Default (`None`): [`CURVE_SEEDS`] for curves, [`GRID_SEEDS`] for grids.
+    pub seeds: Option<u32>,
     /// Evaluate the population this many more times after the first, timing each (for
     /// comparisons with other tools on the same population). Default: 0.
     pub repeat: usize,
@@ -384,6 +398,7 @@ impl Default for BatchOptions {
             backend: Backend::Auto,
             newton: 8,
             samples: 16,
+            seeds: None,
             repeat: 0,
             gpu: GpuOptions::default(),
         }
@@ -505,6 +520,12 @@ fn run<T: Gene>(
         targets,
         &EvalOptions::crossing(options.backend, options.newton, &options.gpu),
     )?;
+    let curve = matches!(layout, EvalLayout::Curve(_));
+    evaluator.set_seeds(
+        options
+            .seeds
+            .unwrap_or(if curve { CURVE_SEEDS } else { GRID_SEEDS }),
+    );
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
     T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
     let mut times: Vec<f64> = (0..options.repeat)

@@ -19,6 +19,8 @@ use crate::eval::kernel::{Config, Partial, RefJet, Target, NONE};
 
 /// The shader's `SINGULAR`.
 const SINGULAR: f32 = 1e-6;
+/// The shader's `SAME_FOOT`.
+const SAME_FOOT: f32 = 1e-3;
 
 /// The points `first..last` of the group `group` of `config`.
 #[inline(always)]
@@ -400,29 +402,29 @@ fn newton_step(gu: f32, gv: f32, guu: f32, guv: f32, gvv: f32, huu: f32, huv: f3
     }
 }
 
-/// `foot_point_sq` for every lane: `config.newton` (at least 1) Newton steps from target
-/// `p`'s start parameters on the held patch.
+/// `Frame`: the frame of a target's foot-point search.
+struct Frame {
+    i0: usize,
+    j0: usize,
+    fv: usize,
+    h0u: f32,
+    h0v: f32,
+    lo_u: f32,
+    hi_u: f32,
+    lo_v: f32,
+    hi_v: f32,
+}
+
+/// `frame_of`.
 #[inline(always)]
-#[allow(clippy::manual_range_contains)] // the shader's test, which lets NaN through
-fn foot_point_sq<A: Arith, const DIM: usize>(
-    bind: &Bindings<'_>,
-    p: usize,
-    cp: &mut [Point],
-    held: &mut [u32; LANES],
-    work: &mut NewtonWork,
-) -> Lanes {
-    let (config, breaks, net) = (bind.config, bind.breaks, bind.net);
-    let t = &bind.targets[p];
-    let rj = &bind.jets[p];
+fn frame_of(config: &Config, breaks: &[f32], t: &Target) -> Frame {
     let pv = config.patches_v;
-    let (pu_count, pv_count) = (config.patches_u as usize, config.patches_v as usize);
     let i0 = (t.patch_id / pv) as usize;
     let j0 = (t.patch_id - i0 as u32 * pv) as usize;
-    let fv = pu_count + 1;
-    let cross = config.cross != 0;
+    let fv = config.patches_u as usize + 1;
     let (mut h0u, mut h0v) = (1.0f32, 1.0f32);
     let (mut lo_u, mut hi_u, mut lo_v, mut hi_v) = (-t.u, 1.0 - t.u, -t.v, 1.0 - t.v);
-    if cross {
+    if config.cross != 0 {
         h0u = breaks[i0 + 1] - breaks[i0];
         h0v = breaks[fv + j0 + 1] - breaks[fv + j0];
         lo_u = -(t.u + breaks[i0] / h0u);
@@ -430,29 +432,246 @@ fn foot_point_sq<A: Arith, const DIM: usize>(
         lo_v = -(t.v + breaks[fv + j0] / h0v);
         hi_v = (1.0 - breaks[fv + j0]) / h0v - t.v;
     }
-    lo_u = lo_u.max(-t.reach_u);
-    hi_u = hi_u.min(t.reach_u);
-    lo_v = lo_v.max(-t.reach_v);
-    hi_v = hi_v.min(t.reach_v);
-    let mut du = [0.0f32; LANES];
-    let mut dv = [0.0f32; LANES];
-    let mut u = [t.u; LANES];
-    let mut v = [t.v; LANES];
-    let mut ku = [1.0f32; LANES];
-    let mut kv = [1.0f32; LANES];
+    Frame {
+        i0,
+        j0,
+        fv,
+        h0u,
+        h0v,
+        lo_u: lo_u.max(-t.reach_u),
+        hi_u: hi_u.min(t.reach_u),
+        lo_v: lo_v.max(-t.reach_v),
+        hi_v: hi_v.min(t.reach_v),
+    }
+}
+
+/// `Seed` for every lane: where a descent starts.
+struct Seed {
+    du: Lanes,
+    dv: Lanes,
+    u: Lanes,
+    v: Lanes,
+    ku: Lanes,
+    kv: Lanes,
+}
+
+impl Seed {
+    /// The start parameters, on the start patch.
+    fn start(t: &Target) -> Self {
+        Seed {
+            du: [0.0; LANES],
+            dv: [0.0; LANES],
+            u: [t.u; LANES],
+            v: [t.v; LANES],
+            ku: [1.0; LANES],
+            kv: [1.0; LANES],
+        }
+    }
+}
+
+/// One target's foot-point search over every lane: the bindings, the target `p`, the held
+/// control points and the Newton step's work arrays.
+struct Search<'s, 'b> {
+    bind: &'s Bindings<'b>,
+    p: usize,
+    cp: &'s mut [Point],
+    held: &'s mut [u32; LANES],
+    work: &'s mut NewtonWork,
+}
+
+/// `Cand`: a candidate start of one lane.
+#[derive(Clone, Copy)]
+struct Cand {
+    e2: f32,
+    du: f32,
+    dv: f32,
+    u: f32,
+    v: f32,
+    ku: f32,
+    kv: f32,
+    patch: u32,
+}
+
+/// `Pick`: one lane's two best local minima so far and its last candidate.
+#[derive(Clone, Copy)]
+struct Pick {
+    first: Cand,
+    second: Cand,
+    last: Cand,
+    down: bool,
+}
+
+impl Pick {
+    /// `offer`.
+    #[inline(always)]
+    fn offer(&mut self, c: Cand) {
+        if c.e2 < self.first.e2 {
+            self.second = self.first;
+            self.first = c;
+        } else if c.e2 < self.second.e2 {
+            self.second = c;
+        }
+    }
+
+    /// `step_pick`.
+    #[inline(always)]
+    fn step(&mut self, c: Cand, fresh: bool) {
+        if self.down && (fresh || self.last.e2 <= c.e2) {
+            self.offer(self.last);
+        }
+        self.down = fresh || c.e2 < self.last.e2;
+        self.last = c;
+    }
+}
+
+/// `seed` for every lane: the candidates are the same for all lanes (loaded for all at
+/// once), the minima per lane.
+#[inline(always)]
+#[allow(clippy::manual_range_contains)] // the shader's test
+fn seed<A: Arith, const DIM: usize>(s: &mut Search<'_, '_>, f: &Frame) -> [Pick; LANES] {
+    let (bind, p, cp, held) = (s.bind, s.p, &mut *s.cp, &mut *s.held);
+    let (config, breaks, net) = (bind.config, bind.breaks, bind.net);
+    let (t, rj) = (&bind.targets[p], &bind.jets[p]);
+    let none = Cand {
+        e2: 3.0e38,
+        du: 0.0,
+        dv: 0.0,
+        u: t.u,
+        v: t.v,
+        ku: 1.0,
+        kv: 1.0,
+        patch: t.patch_id,
+    };
+    let mut pick = [Pick {
+        first: none,
+        second: none,
+        last: none,
+        down: false,
+    }; LANES];
+    let ring = if config.cross != 0 {
+        config.seed_ring as usize
+    } else {
+        0
+    };
+    let (pu, pv) = (config.patches_u as usize, config.patches_v as usize);
+    let (i_lo, i_hi) = (f.i0 - f.i0.min(ring), (f.i0 + ring).min(pu - 1));
+    let (j_lo, j_hi) = (f.j0 - f.j0.min(ring), (f.j0 + ring).min(pv - 1));
+    let n = config.seeds as f32;
+    let curve = config.degree_v == 0;
+    let nv = if curve { 1 } else { config.seeds + 1 };
+    let mut first = true;
+    for i in i_lo..=i_hi {
+        let hu = breaks[i + 1] - breaks[i];
+        for j in j_lo..=j_hi {
+            let hv = breaks[f.fv + j + 1] - breaks[f.fv + j];
+            let here = (i * pv + j) as u32;
+            load_patch(config, net, here, cp, held);
+            for a in 0..=config.seeds {
+                let uc = a as f32 / n;
+                let (mut du, mut ku) = (uc - t.u, 1.0f32);
+                if i != f.i0 {
+                    du = (A::fma(uc, hu, breaks[i]) - breaks[f.i0]) / f.h0u - t.u;
+                    ku = f.h0u / hu;
+                }
+                for b in 0..nv {
+                    let (mut vc, mut dv, mut kv) = (t.v, 0.0f32, 1.0f32);
+                    if !curve {
+                        vc = b as f32 / n;
+                        dv = vc - t.v;
+                        if j != f.j0 {
+                            dv = (A::fma(vc, hv, breaks[f.fv + j]) - breaks[f.fv + f.j0]) / f.h0v - t.v;
+                            kv = f.h0v / hv;
+                        }
+                    }
+                    let inside = du >= f.lo_u && du <= f.hi_u && dv >= f.lo_v && dv <= f.hi_v;
+                    if !inside {
+                        continue;
+                    }
+                    let base = taylor::<A, DIM>(rj, t, &[du; LANES], &[dv; LANES]).val;
+                    let e2 = offset_sq::<A, DIM>(config, &[uc; LANES], &[vc; LANES], &base, cp);
+                    let fresh = first || (!curve && b == 0);
+                    for l in 0..LANES {
+                        let c = Cand {
+                            e2: e2[l],
+                            du,
+                            dv,
+                            u: uc,
+                            v: vc,
+                            ku,
+                            kv,
+                            patch: here,
+                        };
+                        pick[l].step(c, fresh);
+                    }
+                    first = false;
+                }
+            }
+        }
+    }
+    for pl in &mut pick {
+        if pl.down {
+            pl.offer(pl.last);
+        }
+    }
+    pick
+}
+
+/// `descend_from` for every lane: each lane's candidate held first.
+#[inline(always)]
+fn descend_from<A: Arith, const DIM: usize>(
+    s: &mut Search<'_, '_>,
+    f: &Frame,
+    cands: [Cand; LANES],
+) -> [Lanes; 3] {
+    let mut start = Seed::start(&s.bind.targets[s.p]);
+    for (l, c) in cands.iter().enumerate() {
+        if s.held[l] != c.patch {
+            s.held[l] = c.patch;
+            load_patch_lane(s.bind.config, s.bind.net, c.patch, l, s.cp);
+        }
+        start.du[l] = c.du;
+        start.dv[l] = c.dv;
+        start.u[l] = c.u;
+        start.v[l] = c.v;
+        start.ku[l] = c.ku;
+        start.kv[l] = c.kv;
+    }
+    descend::<A, DIM>(s, f, start)
+}
+
+/// `descend` for every lane: the least squared offset met in `config.newton` (at least 1)
+/// Newton steps from `s`.
+#[inline(always)]
+#[allow(clippy::manual_range_contains)] // the shader's test, which lets NaN through
+fn descend<A: Arith, const DIM: usize>(search: &mut Search<'_, '_>, f: &Frame, s: Seed) -> [Lanes; 3] {
+    let (bind, p) = (search.bind, search.p);
+    let (cp, held, work) = (&mut *search.cp, &mut *search.held, &mut *search.work);
+    let (config, breaks, net) = (bind.config, bind.breaks, bind.net);
+    let (t, rj) = (&bind.targets[p], &bind.jets[p]);
+    let pv = config.patches_v;
+    let (pu_count, pv_count) = (config.patches_u as usize, config.patches_v as usize);
+    let cross = config.cross != 0;
+    let Seed {
+        mut du,
+        mut dv,
+        mut u,
+        mut v,
+        mut ku,
+        mut kv,
+    } = s;
     let mut best = [3.0e38f32; LANES];
     let mut it = 0;
     loop {
         jet::<A, DIM>(config, &u, &v, cp, work);
-        let f = taylor::<A, DIM>(rj, t, &du, &dv);
+        let tp = taylor::<A, DIM>(rj, t, &du, &dv);
         let e = &work.jet;
         let zero = [[0.0f32; LANES]; 3];
         let (mut r, mut su, mut sv, mut suu, mut suv, mut svv) = (zero, zero, zero, zero, zero, zero);
         for c in 0..DIM {
             for l in 0..LANES {
-                r[c][l] = f.val[c][l] + e.s[c][l];
-                su[c][l] = A::fma(ku[l], e.su[c][l], f.du[c][l]);
-                sv[c][l] = A::fma(kv[l], e.sv[c][l], f.dv[c][l]);
+                r[c][l] = tp.val[c][l] + e.s[c][l];
+                su[c][l] = A::fma(ku[l], e.su[c][l], tp.du[c][l]);
+                sv[c][l] = A::fma(kv[l], e.sv[c][l], tp.dv[c][l]);
                 suu[c][l] = A::fma(ku[l] * ku[l], e.suu[c][l], rj.suu[c]);
                 suv[c][l] = A::fma(ku[l] * kv[l], e.suv[c][l], rj.suv[c]);
                 svv[c][l] = A::fma(kv[l] * kv[l], e.svv[c][l], rj.svv[c]);
@@ -471,8 +690,8 @@ fn foot_point_sq<A: Arith, const DIM: usize>(
             best[l] = best[l].min(rr[l]);
             let (huu, huv, hvv) = (guu[l] + ruu[l], guv[l] + ruv[l], gvv[l] + rvv[l]);
             let (step_u, step_v) = newton_step(gu[l], gv[l], guu[l], guv[l], gvv[l], huu, huv, hvv);
-            du[l] = clamp(du[l] + step_u, lo_u, hi_u);
-            dv[l] = clamp(dv[l] + step_v, lo_v, hi_v);
+            du[l] = clamp(du[l] + step_u, f.lo_u, f.hi_u);
+            dv[l] = clamp(dv[l] + step_v, f.lo_v, f.hi_v);
         }
         if !cross {
             for l in 0..LANES {
@@ -482,20 +701,20 @@ fn foot_point_sq<A: Arith, const DIM: usize>(
         } else {
             for l in 0..LANES {
                 let (wu, wv) = (t.u + du[l], t.v + dv[l]);
-                let (mut i, mut j) = (i0, j0);
+                let (mut i, mut j) = (f.i0, f.j0);
                 u[l] = wu;
                 v[l] = wv;
                 ku[l] = 1.0;
                 kv[l] = 1.0;
                 if wu < 0.0 || wu > 1.0 {
-                    let g = clamp(A::fma(wu, h0u, breaks[i0]), 0.0, 1.0);
+                    let g = clamp(A::fma(wu, f.h0u, breaks[f.i0]), 0.0, 1.0);
                     (i, u[l]) = locate(breaks, 0, pu_count, g);
-                    ku[l] = h0u / (breaks[i + 1] - breaks[i]);
+                    ku[l] = f.h0u / (breaks[i + 1] - breaks[i]);
                 }
                 if wv < 0.0 || wv > 1.0 {
-                    let g = clamp(A::fma(wv, h0v, breaks[fv + j0]), 0.0, 1.0);
-                    (j, v[l]) = locate(breaks, fv, pv_count, g);
-                    kv[l] = h0v / (breaks[fv + j + 1] - breaks[fv + j]);
+                    let g = clamp(A::fma(wv, f.h0v, breaks[f.fv + f.j0]), 0.0, 1.0);
+                    (j, v[l]) = locate(breaks, f.fv, pv_count, g);
+                    kv[l] = f.h0v / (breaks[f.fv + j + 1] - breaks[f.fv + j]);
                 }
                 let moved = i as u32 * pv + j as u32;
                 if moved != held[l] {
@@ -513,10 +732,51 @@ fn foot_point_sq<A: Arith, const DIM: usize>(
     let e2 = offset_sq::<A, DIM>(config, &u, &v, &base, cp);
     for l in 0..LANES {
         best[l] = best[l].min(e2[l]);
-        if cross && held[l] != t.patch_id {
-            held[l] = t.patch_id;
-            load_patch_lane(config, net, t.patch_id, l, cp);
+    }
+    [best, du, dv]
+}
+
+/// `foot_point_sq` for every lane: a descent from target `p`'s start parameters and, with
+/// `config.seeds`, from each lane's two candidate starts; the start patch held after.
+#[inline(always)]
+fn foot_point_sq<A: Arith, const DIM: usize>(
+    bind: &Bindings<'_>,
+    p: usize,
+    cp: &mut [Point],
+    held: &mut [u32; LANES],
+    work: &mut NewtonWork,
+) -> Lanes {
+    let (config, net) = (bind.config, bind.net);
+    let t = &bind.targets[p];
+    let f = frame_of(config, bind.breaks, t);
+    let mut s = Search {
+        bind,
+        p,
+        cp,
+        held,
+        work,
+    };
+    let start = descend::<A, DIM>(&mut s, &f, Seed::start(t));
+    let mut e2 = start[0];
+    if config.seeds != 0 {
+        let pick = seed::<A, DIM>(&mut s, &f);
+        let a = descend_from::<A, DIM>(&mut s, &f, pick.map(|p| p.first));
+        let b = descend_from::<A, DIM>(&mut s, &f, pick.map(|p| p.second));
+        for l in 0..LANES {
+            let o = if b[0][l] < a[0][l] { &b } else { &a };
+            let apart = (o[1][l] - start[1][l]).abs() + (o[2][l] - start[2][l]).abs() > SAME_FOOT;
+            if apart && o[0][l] < e2[l] {
+                e2[l] = o[0][l];
+            }
         }
     }
-    best
+    if config.cross != 0 {
+        for l in 0..LANES {
+            if s.held[l] != t.patch_id {
+                s.held[l] = t.patch_id;
+                load_patch_lane(config, net, t.patch_id, l, s.cp);
+            }
+        }
+    }
+    e2
 }

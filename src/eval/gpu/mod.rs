@@ -733,20 +733,29 @@ impl HoldsProblem for GpuEvaluator {
         let n_vars = self.problem.n_vars;
         for start in (0..rows).step_by(chunk) {
             let len = chunk.min(rows - start);
-            // Lanes past `len` in the last workgroup compute on the padding of the net.
-            let config = self.problem.config(len, len.next_multiple_of(WORKGROUP), groups);
+            // The last workgroup is filled with copies of the chunk's last individual, so that
+            // no lane computes on an empty net: on lavapipe, lanes of a partial workgroup that
+            // did gave the seeded foot-point search of the others wrong sums (measured: every
+            // individual of a population of 8 or 40 with 16 seeds a segment, two individuals
+            // per invocation; none with whole workgroups or one individual per invocation).
+            let padded = len.next_multiple_of(WORKGROUP);
+            let config = self.problem.config(padded, padded, groups);
             self.problem.differences(
                 &population[start * n_vars..(start + len) * n_vars],
                 &mut self.rows,
             );
+            let last = self.rows.len() - n_vars;
+            for _ in len..padded {
+                self.rows.extend_from_within(last..last + n_vars);
+            }
             let queue = &self.ctx.queue;
             queue.write_buffer(&self.config, 0, bytemuck::bytes_of(&config));
             queue.write_buffer(&work.population, 0, bytemuck::cast_slice(&self.rows));
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                let workgroups = len.div_ceil(WORKGROUP) as u32;
-                self.expand.dispatch(&mut pass, &work.bind_expand, len);
+                let workgroups = padded.div_ceil(WORKGROUP) as u32;
+                self.expand.dispatch(&mut pass, &work.bind_expand, padded);
                 pass.set_pipeline(&self.eval);
                 pass.set_bind_group(0, &work.bind_eval, &[]);
                 pass.dispatch_workgroups(workgroups, groups.1 as u32, 1);
