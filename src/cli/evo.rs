@@ -68,18 +68,40 @@ pub struct EvoArgs {
     /// Write one line per generation here: generation,best,mean,evaluations,seconds.
     #[arg(long)]
     pub history: Option<PathBuf>,
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+/// How a long run (an evolutionary fit, an aerodynamic optimisation) is watched and saved: its
+/// checkpoints, the checkpoint it continues, its progress display.
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct RunArgs {
     /// Write a checkpoint here every `--checkpoint-every` generations and at the end.
     #[arg(long)]
     pub checkpoint: Option<PathBuf>,
     /// Generations between checkpoints [default: 10].
     #[arg(long)]
-    pub checkpoint_every: Option<usize>,
-    /// Continue the run saved in this checkpoint (same input, layout, method and options).
+    pub checkpoint_every: Option<u64>,
+    /// Continue the run saved in this checkpoint (same input and options: a fit's layout and
+    /// method, an optimisation's objective).
     #[arg(long)]
     pub resume: Option<PathBuf>,
     /// No progress bar or progress lines.
     #[arg(long)]
     pub quiet: bool,
+}
+
+impl RunArgs {
+    /// The checkpoint file, checked now and joined to the run's outputs as an interim output
+    /// (none when not asked for), and the generations between checkpoints.
+    pub fn add(&self, outs: &mut Outputs) -> Result<(Option<Output>, u64)> {
+        let checkpoint = self
+            .checkpoint
+            .as_deref()
+            .map(|p| outs.add_interim("--checkpoint", p))
+            .transpose()?;
+        Ok((checkpoint, self.checkpoint_every.unwrap_or(10)))
+    }
 }
 
 impl EvoArgs {
@@ -103,7 +125,7 @@ impl EvoArgs {
         } else {
             EvoOptions::default()
         };
-        let resume = match &self.resume {
+        let resume = match &self.run.resume {
             Some(path) => Some(Checkpoint::read(path)?),
             None => None,
         };
@@ -146,9 +168,9 @@ impl EvoArgs {
         add(self.covariance_pool.is_some(), "--covariance-pool");
         add(self.restarts.is_some(), "--restarts");
         add(self.history.is_some(), "--history");
-        add(self.checkpoint.is_some(), "--checkpoint");
-        add(self.checkpoint_every.is_some(), "--checkpoint-every");
-        add(self.resume.is_some(), "--resume");
+        add(self.run.checkpoint.is_some(), "--checkpoint");
+        add(self.run.checkpoint_every.is_some(), "--checkpoint-every");
+        add(self.run.resume.is_some(), "--resume");
         v
     }
 
@@ -218,7 +240,7 @@ impl EvoArgs {
         if let Some(r) = self.restarts {
             o.cmaes.restarts = r;
         }
-        if self.checkpoint_every == Some(0) {
+        if self.run.checkpoint_every == Some(0) {
             return Err(usage("--checkpoint-every must be at least 1"));
         }
         o.check()?;
@@ -243,13 +265,8 @@ impl Monitor {
     /// are checked now and join the run's outputs.
     pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
         let history = outs.add_opt("--history", args.history.as_deref())?;
-        let checkpoint = args
-            .checkpoint
-            .as_deref()
-            .map(|p| outs.add_interim("--checkpoint", p))
-            .transpose()?;
-        let every = args.checkpoint_every.unwrap_or(10) as u64;
-        Ok(Monitor::with(args.quiet, history, checkpoint, every))
+        let (checkpoint, every) = args.run.add(outs)?;
+        Ok(Monitor::with(args.run.quiet, history, checkpoint, every))
     }
 
     /// A monitor showing progress unless `quiet`, writing `history` and a `checkpoint` every

@@ -99,7 +99,7 @@ pub fn run(args: Args) -> Result<()> {
     let outs_in_run = &mut outs;
     let monitor_in_run = &mut monitor;
     let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
-    let resume_path = args.evo.resume.clone();
+    let resume_path = args.evo.run.resume.clone();
     let mut hooks = EvoHooks {
         on_generation: if evolutionary.is_some() {
             Some(&mut on_generation)

@@ -322,7 +322,7 @@ fn choose_breaks_v(
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
 ) -> Result<Option<BreakSearch>> {
-    let bar = if args.evo.quiet {
+    let bar = if args.evo.run.quiet {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(0)
@@ -377,7 +377,7 @@ fn fit_with_progress(
 ) -> Result<SurfaceFit> {
     let evolutionary = args.method.evolutionary().is_some();
     // The spinner for least squares; an evolutionary run has the monitor's bar instead.
-    let bar = if evolutionary || args.evo.quiet {
+    let bar = if evolutionary || args.evo.run.quiet {
         ProgressBar::hidden()
     } else {
         ProgressBar::new_spinner()
@@ -432,7 +432,7 @@ fn fit_with_progress(
     drop(hooks);
     monitor.finish();
     bar.finish_and_clear();
-    let fit = fit.with_context(|| match &args.evo.resume {
+    let fit = fit.with_context(|| match &args.evo.run.resume {
         Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
         None => format!("{}: fitting {} points", args.cloud.display(), points.len()),
     })?;

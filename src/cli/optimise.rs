@@ -2,7 +2,7 @@
 //! stored numbers for an aerodynamic objective with the GA or CMA-ES on the panel-method
 //! evaluator; a curve report, a Selig file and a picture of the result.
 
-use super::evo::Monitor;
+use super::evo::{Monitor, RunArgs};
 use super::output::Outputs;
 use super::{usage, warn};
 use anyhow::Result;
@@ -75,18 +75,8 @@ pub struct Args {
     /// Write the result as a Selig `.dat` file here.
     #[arg(long)]
     pub dat: Option<PathBuf>,
-    /// Write a checkpoint here every --checkpoint-every generations and at the end.
-    #[arg(long)]
-    pub checkpoint: Option<PathBuf>,
-    /// Generations between checkpoints.
-    #[arg(long, default_value_t = 10)]
-    pub checkpoint_every: u64,
-    /// Continue the run saved in this checkpoint (same start, objective and options).
-    #[arg(long)]
-    pub resume: Option<PathBuf>,
-    /// No progress bar or progress lines.
-    #[arg(long)]
-    pub quiet: bool,
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// Optimise, report and write the outputs.
@@ -95,11 +85,7 @@ pub fn run(args: Args) -> Result<()> {
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let svg_out = outs.add_opt("--svg", args.svg.as_deref())?;
     let dat = outs.add_opt("--dat", args.dat.as_deref())?;
-    let checkpoint = args
-        .checkpoint
-        .as_deref()
-        .map(|p| outs.add_interim("--checkpoint", p))
-        .transpose()?;
+    let (checkpoint, every) = args.run.add(&mut outs)?;
     let objective = objectives::parse(&args.objective)
         .map_err(|e| usage(format!("--objective {}: {e}", args.objective)))?;
     if !args.alpha.is_finite() || args.alpha.abs() > 30.0 {
@@ -119,7 +105,7 @@ pub fn run(args: Args) -> Result<()> {
     if !args.tol.is_finite() || args.tol <= 0.0 {
         return Err(usage("--tol must be a positive length"));
     }
-    let resume = args.resume.as_deref().map(Checkpoint::read).transpose()?;
+    let resume = args.run.resume.as_deref().map(Checkpoint::read).transpose()?;
     let clock = Instant::now();
     let setup = Setup {
         start: args.start.clone(),
@@ -149,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         None => Optimisation::new(&study.problem, args.method, &options)?,
     };
     outs.say(&format!("{} on {}\n", args.method, run.info()));
-    let mut monitor = Monitor::with(args.quiet, None, checkpoint, args.checkpoint_every);
+    let mut monitor = Monitor::with(args.run.quiet, None, checkpoint, every);
     let stop = run.run(|r| monitor.generation(r, &mut outs));
     monitor.finish();
     let stop = stop?;

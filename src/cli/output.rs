@@ -257,13 +257,23 @@ mod tests {
         v
     }
 
+    /// A run's outputs whose first is `--json` naming `a.json` in `d`, holding `old` (none: the
+    /// file as it is).
+    fn with_json(d: &Path, old: Option<&str>) -> (Outputs, Output) {
+        if let Some(text) = old {
+            std::fs::write(d.join("a.json"), text).unwrap();
+        }
+        let mut outs = Outputs::new();
+        let a = outs.add("--json", &d.join("a.json")).unwrap();
+        (outs, a)
+    }
+
     #[test]
     fn every_output_or_none() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        std::fs::write(d.join("a.json"), "old").unwrap();
         // Checked before the work: a missing folder and a folder are refused by name.
-        let mut outs = Outputs::new();
+        let (mut outs, a) = with_json(d, Some("old"));
         let e = outs
             .add("--svg", &d.join("missing/x.svg"))
             .unwrap_err()
@@ -272,7 +282,6 @@ mod tests {
         let e = outs.add("--png", d).unwrap_err().to_string();
         assert!(e.contains("is a folder"), "{e}");
         // Committed: both files in place, nothing else.
-        let a = outs.add("--json", &d.join("a.json")).unwrap();
         let b = outs.add("--svg", &d.join("b.svg")).unwrap();
         outs.put(a, b"new").unwrap();
         outs.put(b, b"<svg/>").unwrap();
@@ -280,8 +289,7 @@ mod tests {
         assert_eq!(listing(d), ["a.json", "b.svg"]);
         assert_eq!(std::fs::read_to_string(d.join("a.json")).unwrap(), "new");
         // Not committed (the run failed): nothing new, the old files intact.
-        let mut outs = Outputs::new();
-        let a = outs.add("--json", &d.join("a.json")).unwrap();
+        let (mut outs, a) = with_json(d, None);
         outs.add("--obj", &d.join("c.obj")).unwrap();
         outs.put(a, b"newer").unwrap();
         drop(outs);
@@ -294,9 +302,7 @@ mod tests {
     fn a_failing_device_leaves_the_files_alone() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        std::fs::write(d.join("a.json"), "old").unwrap();
-        let mut outs = Outputs::new();
-        let a = outs.add("--json", &d.join("a.json")).unwrap();
+        let (mut outs, a) = with_json(d, Some("old"));
         let full = outs.add("--svg", Path::new("/dev/full")).unwrap();
         outs.put(a, b"new").unwrap();
         outs.put(full, b"<svg/>").unwrap();
