@@ -228,6 +228,12 @@ pub(crate) trait HoldsProblem {
     /// a copy of them (the GPU's buffers) refreshes it.
     fn problem_changed(&mut self) {}
 
+    /// [`PopulationEvaluator::set_seeds`] changed the candidate starts: a backend whose
+    /// kernel depends on them rebuilds it.
+    fn seeds_changed(&mut self) -> Result<()> {
+        Ok(())
+    }
+
     /// The backend and adapter that run the evaluations.
     fn backend_info(&self) -> &BackendInfo;
 
@@ -297,8 +303,9 @@ pub trait PopulationEvaluator: Send + HoldsProblem {
     /// before the Newton steps. 0 (the default): Newton starts at the start parameters, which
     /// suits a population near the reference; with samples that resolve every basin, every
     /// backend finds the global closest point within reach.
-    fn set_seeds(&mut self, seeds: u32) {
+    fn set_seeds(&mut self, seeds: u32) -> Result<()> {
         self.problem_mut().seeds = seeds;
+        self.seeds_changed()
     }
 
     /// The rounding error a sum of squares near `sum_sq` from this evaluator may carry (model

@@ -525,7 +525,7 @@ fn run<T: Gene>(
         options
             .seeds
             .unwrap_or(if curve { CURVE_SEEDS } else { GRID_SEEDS }),
-    );
+    )?;
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
     T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
     let mut times: Vec<f64> = (0..options.repeat)

@@ -142,7 +142,9 @@ pub struct GpuOptions {
     /// Individuals per invocation of the population kernel (`PER` in eval_patch.wgsl), a
     /// divisor of 64; `None`: the adapter's for the Newton steps the evaluator is built with
     /// (on CPU adapters such as lavapipe 4 with fixed parameters, 2 with steps, fewer for large
-    /// patches; 1 on GPUs). Results do not depend on it. Default: `None`.
+    /// patches; 1 on GPUs). Results do not depend on it. A search with candidate starts
+    /// ([`PopulationEvaluator::set_seeds`](super::PopulationEvaluator::set_seeds)) runs with 1
+    /// whatever this says. Default: `None`.
     pub per_invocation: Option<u32>,
     /// Read the target points with subgroup operations where the device has them
     /// (shaders/points_subgroup.wgsl). Results do not depend on it. Default: true.
@@ -521,6 +523,9 @@ pub struct GpuEvaluator {
     options: GpuOptions,
     expand: Expand,
     eval: wgpu::ComputePipeline,
+    /// Individuals per invocation of `eval`, and the adapter's (or the options') choice.
+    per: u32,
+    per_chosen: u32,
     reduce: wgpu::ComputePipeline,
     config: wgpu::Buffer,
     /// The targets and the reference's partials there, interleaved (see [`point_data`]).
@@ -551,6 +556,30 @@ fn point_data(problem: &Problem) -> Vec<[u32; 24]> {
         .collect()
 }
 
+/// The population kernel for `problem` with `per` individuals per invocation, reading its
+/// points with subgroup operations where `subgroups` asks and the device has them.
+fn eval_pipeline(
+    ctx: &GpuContext,
+    problem: &Problem,
+    per: u32,
+    subgroups: bool,
+) -> Result<wgpu::ComputePipeline> {
+    let includes = if subgroups {
+        ctx.point_includes()
+    } else {
+        Vec::new()
+    };
+    let consts = [
+        ("DIM", problem.dim as u32),
+        ("DU", problem.du as u32),
+        ("DV", problem.dv as u32),
+        ("CROSS", u32::from(problem.cross)),
+        ("PER", per),
+    ];
+    let src = prepare_with(source::EVAL_PATCH, &consts, &includes)?;
+    ctx.pipeline("eval_patch", &src)
+}
+
 impl GpuEvaluator {
     /// Build the pipelines for `layout` and upload `targets`, the breaks and the extraction
     /// map; population buffers follow on the first evaluation.
@@ -573,21 +602,8 @@ impl GpuEvaluator {
                 "{per} individuals per invocation: must divide {WORKGROUP}"
             )));
         }
-        let includes = if options.subgroups {
-            ctx.point_includes()
-        } else {
-            Vec::new()
-        };
-        let consts = [
-            ("DIM", problem.dim as u32),
-            ("DU", problem.du as u32),
-            ("DV", problem.dv as u32),
-            ("CROSS", u32::from(problem.cross)),
-            ("PER", per),
-        ];
         let expand = Expand::new(ctx, &problem)?;
-        let eval_src = prepare_with(source::EVAL_PATCH, &consts, &includes)?;
-        let eval = ctx.pipeline("eval_patch", &eval_src)?;
+        let eval = eval_pipeline(ctx, &problem, per, options.subgroups)?;
         let reduce = ctx.pipeline("reduce", &prepare(source::REDUCE, &[])?)?;
         let config = ctx.buffer(
             "config",
@@ -612,6 +628,8 @@ impl GpuEvaluator {
             options: options.clone(),
             expand,
             eval,
+            per,
+            per_chosen: per,
             reduce,
             config,
             points,
@@ -715,6 +733,25 @@ impl HoldsProblem for GpuEvaluator {
         self.upload_targets();
     }
 
+    /// The seeded search runs one individual an invocation: on lavapipe, two an invocation
+    /// gave wrong sums with candidate starts on (measured: 30-40 % low on a bicubic grid and on
+    /// partly filled workgroups of curves, from `seed` alone, its result unused), and one
+    /// gives the CPU mirror's sums to the bit.
+    fn seeds_changed(&mut self) -> Result<()> {
+        let per = if self.problem.seeds != 0 {
+            1
+        } else {
+            self.per_chosen
+        };
+        if per != self.per {
+            self.eval = eval_pipeline(&self.ctx, &self.problem, per, self.options.subgroups)?;
+            self.per = per;
+            // Bind groups belong to the pipeline they were made for.
+            self.work = None;
+        }
+        Ok(())
+    }
+
     fn backend_info(&self) -> &BackendInfo {
         &self.info
     }
@@ -733,29 +770,20 @@ impl HoldsProblem for GpuEvaluator {
         let n_vars = self.problem.n_vars;
         for start in (0..rows).step_by(chunk) {
             let len = chunk.min(rows - start);
-            // The last workgroup is filled with copies of the chunk's last individual, so that
-            // no lane computes on an empty net: on lavapipe, lanes of a partial workgroup that
-            // did gave the seeded foot-point search of the others wrong sums (measured: every
-            // individual of a population of 8 or 40 with 16 seeds a segment, two individuals
-            // per invocation; none with whole workgroups or one individual per invocation).
-            let padded = len.next_multiple_of(WORKGROUP);
-            let config = self.problem.config(padded, padded, groups);
+            // Lanes past `len` in the last workgroup compute on the padding of the net.
+            let config = self.problem.config(len, len.next_multiple_of(WORKGROUP), groups);
             self.problem.differences(
                 &population[start * n_vars..(start + len) * n_vars],
                 &mut self.rows,
             );
-            let last = self.rows.len() - n_vars;
-            for _ in len..padded {
-                self.rows.extend_from_within(last..last + n_vars);
-            }
             let queue = &self.ctx.queue;
             queue.write_buffer(&self.config, 0, bytemuck::bytes_of(&config));
             queue.write_buffer(&work.population, 0, bytemuck::cast_slice(&self.rows));
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                let workgroups = padded.div_ceil(WORKGROUP) as u32;
-                self.expand.dispatch(&mut pass, &work.bind_expand, padded);
+                let workgroups = len.div_ceil(WORKGROUP) as u32;
+                self.expand.dispatch(&mut pass, &work.bind_expand, len);
                 pass.set_pipeline(&self.eval);
                 pass.set_bind_group(0, &work.bind_eval, &[]);
                 pass.dispatch_workgroups(workgroups, groups.1 as u32, 1);
