@@ -52,6 +52,18 @@ impl Error {
         Error::Invalid(msg.into())
     }
 
+    /// `Ok` when `value` is finite and ≥ 0, else the input error "`what` must be finite and
+    /// ≥ 0, not `value`" (options' tolerances, targets, margins).
+    pub(crate) fn check_non_negative(what: &str, value: f64) -> Result<()> {
+        if value >= 0.0 && value.is_finite() {
+            Ok(())
+        } else {
+            Err(Error::invalid(format!(
+                "{what} must be finite and ≥ 0, not {value}"
+            )))
+        }
+    }
+
     /// True for errors caused by the user's input or arguments (the CLI exits with status 2).
     #[must_use]
     pub fn is_user_error(&self) -> bool {

@@ -284,12 +284,7 @@ fn signed_area2(p: &[DVec2]) -> f64 {
 /// a counterclockwise contour, decreasing from 1 to 0 for a clockwise one.
 pub fn panel_params(contour: &dyn Contour, paneling: &Paneling) -> Result<Vec<f64>> {
     let n = paneling.nodes;
-    if !(paneling.te_ratio >= 0.0) || !paneling.te_ratio.is_finite() {
-        return Err(Error::invalid(format!(
-            "the trailing-edge density ratio must be finite and ≥ 0, not {}",
-            paneling.te_ratio
-        )));
-    }
+    Error::check_non_negative("the trailing-edge density ratio", paneling.te_ratio)?;
     if n < super::panel::MIN_NODES {
         return Err(Error::invalid(format!(
             "at least {} panel nodes are needed, not {n}",

@@ -21,8 +21,8 @@ use super::design::DesignSpace;
 use crate::error::{Error, Result};
 use crate::eval::BackendInfo;
 use crate::optim::evo::{
-    default_lambda, Checkpoint, EvoOptions, EvoStop, Evolution, Fnv, PopulationObjective, Progress, Score,
-    Scorer, Watched,
+    default_lambda, drive, Checkpoint, EvoOptions, EvoStop, Evolution, Fnv, Generations, PopulationObjective,
+    Progress, Score, Scorer, Watched,
 };
 use crate::optim::method::Method;
 use serde::Serialize;
@@ -412,20 +412,8 @@ impl<'p> Optimisation<'p> {
     ///
     /// A run resumed from a checkpoint that had already stopped takes no step:
     /// `on_generation` is called once on the resumed state, so that its outputs are written.
-    pub fn run(&mut self, mut on_generation: impl FnMut(&Optimisation<'_>) -> Result<()>) -> Result<EvoStop> {
-        if let Some(why) = self.stop() {
-            if !self.history().is_empty() {
-                on_generation(self)?;
-            }
-            return Ok(why);
-        }
-        loop {
-            self.step()?;
-            on_generation(self)?;
-            if let Some(why) = self.stop() {
-                return Ok(why);
-            }
-        }
+    pub fn run(&mut self, on_generation: impl FnMut(&Optimisation<'_>) -> Result<()>) -> Result<EvoStop> {
+        drive(self, on_generation)
     }
 
     /// Everything needed to continue bit-identically.
@@ -583,4 +571,18 @@ pub struct OptimiseResult {
     pub reasons: Reasons,
     /// One line per generation.
     pub history: Vec<Progress>,
+}
+
+impl Generations for Optimisation<'_> {
+    fn next_generation(&mut self) -> Result<()> {
+        self.step().map(|_| ())
+    }
+
+    fn stop_reason(&self) -> Option<EvoStop> {
+        self.stop()
+    }
+
+    fn has_history(&self) -> bool {
+        !self.history().is_empty()
+    }
 }

@@ -58,18 +58,8 @@ impl Default for CmaesOptions {
 impl CmaesOptions {
     /// Check every field.
     pub fn check(&self) -> Result<()> {
-        if !(self.tol_x >= 0.0) || !self.tol_x.is_finite() {
-            return Err(Error::invalid(format!(
-                "the CMA-ES step tolerance must be finite and ≥ 0, not {}",
-                self.tol_x
-            )));
-        }
-        if !(self.tol_fun >= 0.0) || !self.tol_fun.is_finite() {
-            return Err(Error::invalid(format!(
-                "the CMA-ES objective tolerance must be finite and ≥ 0, not {}",
-                self.tol_fun
-            )));
-        }
+        Error::check_non_negative("the CMA-ES step tolerance", self.tol_x)?;
+        Error::check_non_negative("the CMA-ES objective tolerance", self.tol_fun)?;
         if !(self.max_condition > 1.0) {
             return Err(Error::invalid(format!(
                 "the CMA-ES condition limit must exceed 1, not {}",

@@ -203,30 +203,15 @@ impl EvoOptions {
                 "the projection needs at least one sample per segment",
             ));
         }
-        if !(self.target >= 0.0) || !self.target.is_finite() {
-            return Err(Error::invalid(format!(
-                "the target must be finite and ≥ 0, not {}",
-                self.target
-            )));
-        }
-        if !(self.stall_tolerance >= 0.0) || !self.stall_tolerance.is_finite() {
-            return Err(Error::invalid(format!(
-                "the stall tolerance must be finite and ≥ 0, not {}",
-                self.stall_tolerance
-            )));
-        }
+        Error::check_non_negative("the target", self.target)?;
+        Error::check_non_negative("the stall tolerance", self.stall_tolerance)?;
         if !(self.spread > 0.0) || !self.spread.is_finite() {
             return Err(Error::invalid(format!(
                 "the initial spread must be a finite fraction > 0 of {extent}, not {}",
                 self.spread
             )));
         }
-        if !(self.margin >= 0.0) || !self.margin.is_finite() {
-            return Err(Error::invalid(format!(
-                "the bounds margin must be finite and ≥ 0, not {}",
-                self.margin
-            )));
-        }
+        Error::check_non_negative("the bounds margin", self.margin)?;
         self.ga.check()?;
         self.cmaes.check()
     }
@@ -690,20 +675,8 @@ impl<'p> Evolution<'p> {
     /// A run resumed from a checkpoint that had already stopped (its generations spent, its
     /// step size underflowed) takes no step: `on_generation` is called once on the resumed
     /// state, so that the run's outputs (history, checkpoint) are written from it.
-    pub fn run(&mut self, mut on_generation: impl FnMut(&Evolution<'_>) -> Result<()>) -> Result<EvoStop> {
-        if let Some(why) = self.stop() {
-            if !self.history.is_empty() {
-                on_generation(self)?;
-            }
-            return Ok(why);
-        }
-        loop {
-            self.step()?;
-            on_generation(self)?;
-            if let Some(why) = self.stop() {
-                return Ok(why);
-            }
-        }
+    pub fn run(&mut self, on_generation: impl FnMut(&Evolution<'_>) -> Result<()>) -> Result<EvoStop> {
+        drive(self, on_generation)
     }
 
     /// Continue this run with CMA-ES from its best individual (the `ga+cmaes` handover): the
@@ -958,6 +931,52 @@ pub fn evolve(
         None => run.run(|_| Ok(()))?,
     };
     run.finish(stop)
+}
+
+/// A run that moves generation by generation: [`Evolution`], and the runs built on it.
+pub(crate) trait Generations {
+    /// One generation.
+    fn next_generation(&mut self) -> Result<()>;
+    /// Why the run should stop now, if it should.
+    fn stop_reason(&self) -> Option<EvoStop>;
+    /// Whether it has recorded a generation (a run resumed from a checkpoint has).
+    fn has_history(&self) -> bool;
+}
+
+impl Generations for Evolution<'_> {
+    fn next_generation(&mut self) -> Result<()> {
+        self.step().map(|_| ())
+    }
+
+    fn stop_reason(&self) -> Option<EvoStop> {
+        self.stop()
+    }
+
+    fn has_history(&self) -> bool {
+        !self.history.is_empty()
+    }
+}
+
+/// Step `run` until it says why it stops, calling `on_generation` after each step; a run
+/// that has already stopped takes no step and, where it has a history (a resumed run), is
+/// handed to `on_generation` once, so that its outputs are written.
+pub(crate) fn drive<R: Generations>(
+    run: &mut R,
+    mut on_generation: impl FnMut(&R) -> Result<()>,
+) -> Result<EvoStop> {
+    if let Some(why) = run.stop_reason() {
+        if run.has_history() {
+            on_generation(run)?;
+        }
+        return Ok(why);
+    }
+    loop {
+        run.next_generation()?;
+        on_generation(run)?;
+        if let Some(why) = run.stop_reason() {
+            return Ok(why);
+        }
+    }
 }
 
 #[cfg(test)]
