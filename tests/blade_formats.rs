@@ -176,6 +176,15 @@ fn aerodyn_and_windio_v1_clouds_of_the_iea_3_4_agree() {
 /// Copy the AeroDyn set to a scratch folder, apply `edit` to one of its files, and return the
 /// error of reading the primary file.
 fn aerodyn_error(tag: &str, file: &str, edit: impl Fn(String) -> String) -> Error {
+    let Err(e) = aerodyn_edited(tag, file, edit) else {
+        panic!("a bad file was read ({tag})")
+    };
+    assert!(e.is_user_error(), "{e}");
+    e
+}
+
+/// The shipped AeroDyn files, `file` among them edited, read from a scratch copy.
+fn aerodyn_edited(tag: &str, file: &str, edit: impl Fn(String) -> String) -> bezchain::Result<Blade> {
     let dir = scratch(tag);
     std::fs::create_dir_all(dir.join("Airfoils")).unwrap();
     for entry in std::fs::read_dir(aerodyn_dir())
@@ -191,12 +200,9 @@ fn aerodyn_error(tag: &str, file: &str, edit: impl Fn(String) -> String) -> Erro
     let target = dir.join(file);
     let text = std::fs::read_to_string(&target).unwrap();
     std::fs::write(&target, edit(text)).unwrap();
-    let Err(e) = Blade::from_file(&dir.join("IEA-3.4-130-RWT_AeroDyn15.dat")) else {
-        panic!("a bad file was read ({tag})")
-    };
-    assert!(e.is_user_error(), "{e}");
+    let read = Blade::from_file(&dir.join("IEA-3.4-130-RWT_AeroDyn15.dat"));
     let _ = std::fs::remove_dir_all(&dir);
-    e
+    read
 }
 
 fn windio_error(text: String) -> Error {
@@ -373,5 +379,94 @@ fn the_cli_lofts_every_format_and_exits_2_on_a_bad_file() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.starts_with("error: ") && err.contains("b.yaml:17:"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Stations that coincide within 1e-6 of the span are merged, in every reader, with one note;
+/// twins that differ are an error naming both.
+#[test]
+fn coincident_stations_are_merged_with_a_note_and_different_twins_refused() {
+    // windIO: a twist grid point 1e-10 of the span after another (as grids of different
+    // quantities meet in real files), with the same value.
+    let text = std::fs::read_to_string(windio2()).unwrap();
+    let (s0, t0) = ("0.5102040816326531, ", "1.5587834208773341, ");
+    let twist = text.find("twist:").unwrap();
+    let grid = twist + text[twist..].find(s0).unwrap();
+    let mut edited = text.clone();
+    edited.insert_str(grid + s0.len(), "0.5102040817326531, ");
+    let values = grid + edited[grid..].find(t0).unwrap();
+    edited.insert_str(values + t0.len(), t0);
+    let dir = scratch("twins");
+    let path = dir.join("twins.yaml");
+    std::fs::write(&path, &edited).unwrap();
+    let plain = Blade::from_file(&windio2()).unwrap();
+    let twins = Blade::from_file(&path).unwrap();
+    assert!(plain.notes.is_empty());
+    assert_eq!(twins.notes.len(), 1, "{:?}", twins.notes);
+    assert!(twins.notes[0].contains("merged 1 station"), "{}", twins.notes[0]);
+    assert_eq!(twins.stations.len(), plain.stations.len());
+    // The CLI says it on one note line.
+    let out = Command::new(bin())
+        .args([
+            "blade",
+            path.to_str().unwrap(),
+            "-o",
+            dir.join("c.xyz").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(err.lines().filter(|l| l.starts_with("note:")).count(), 1, "{err}");
+
+    // JSON: the same radius twice, the same section: merged; a different chord: refused.
+    let json = |chord2: f64| {
+        format!(
+            r#"{{"radius": [1.0, 2.0, 2.0, 3.0], "chord": [1.0, 0.8, {chord2}, 0.5],
+                "twist_deg": [5.0, 3.0, 3.0, 1.0], "aerofoil": "naca4412"}}"#
+        )
+    };
+    let same = Blade::from_json(&json(0.8), &dir.join("same.json")).unwrap();
+    assert_eq!(same.stations.len(), 3);
+    assert_eq!(same.notes.len(), 1);
+    let Err(e) = Blade::from_json(&json(0.7), &dir.join("differ.json")) else {
+        panic!("twins with different chords were read")
+    };
+    let msg = e.to_string();
+    assert!(e.is_user_error(), "{msg}");
+    assert!(
+        msg.contains("index 1") && msg.contains("index 2") && msg.contains("chord 0.8 against 0.7"),
+        "{msg}"
+    );
+    // AeroDyn: node 2 listed twice is merged; listed again with another aerofoil, refused.
+    let blade_file = "IEA-3.4-130-RWT_AeroDyn15_blade.dat";
+    let twice = |line: &'static str| {
+        move |t: String| {
+            let mut lines: Vec<String> = t.lines().map(str::to_string).collect();
+            lines[3] = lines[3].replacen("30", "31", 1);
+            let node2 = lines[7].clone();
+            lines.insert(
+                8,
+                if line.is_empty() {
+                    node2
+                } else {
+                    node2.replace("        2", line)
+                },
+            );
+            lines.join("\n") + "\n"
+        }
+    };
+    let merged = aerodyn_edited("twins-ad", blade_file, twice("")).unwrap();
+    assert_eq!((merged.stations.len(), merged.notes.len()), (30, 1));
+    let e = aerodyn_error("twins-ad-bad", blade_file, twice("        3"));
+    assert!(
+        e.to_string().contains("node 2 (line 8)") && e.to_string().contains("differ: "),
+        "{e}"
+    );
+    assert_eq!(line_of(&e).1, 9, "{e}");
+    // Radii that go down by more than the tolerance are still an error.
+    let down =
+        r#"{"radius": [1.0, 2.0, 1.5], "chord": [1, 1, 1], "twist_deg": [0, 0, 0], "aerofoil": "naca4412"}"#;
+    assert!(Blade::from_json(down, &dir.join("down.json")).is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,7 +1,7 @@
 //! `bezchain blade`: loft a blade definition into a point cloud.
 
 use super::output::Outputs;
-use super::{usage, warn_all};
+use super::{note_all, usage, warn_all};
 use anyhow::{Context, Result};
 use bezchain::export::summary;
 use bezchain::geometry::{
@@ -62,6 +62,7 @@ pub fn run(args: Args) -> Result<()> {
     let out = outs.add("--output", &args.output)?;
     let blade = Blade::from_file(&args.blade)?;
     warn_all(&args.blade, &blade.warnings);
+    note_all(&args.blade, &blade.notes);
     let opts = LoftOptions {
         points_per_section: args.points_per_section,
         sections: args.sections,

@@ -97,6 +97,13 @@ pub fn warn_all(path: &Path, warnings: &[String]) {
     }
 }
 
+/// Print notes about `path` on stderr, one line each.
+pub fn note_all(path: &Path, notes: &[String]) {
+    for n in notes {
+        eprintln!("note: {}: {n}", path.display());
+    }
+}
+
 /// Print one warning about `path` on stderr.
 pub fn warn(path: &Path, warning: &str) {
     eprintln!("warning: {}: {warning}", path.display());

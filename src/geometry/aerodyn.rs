@@ -16,7 +16,9 @@
 //! between them (`--sections`) follow [`Blend::Radius`]. `BlCrvAng` is not applied: sections lie
 //! in the planes `z = BlSpn`.
 
-use super::blade::{unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station};
+use super::blade::{
+    merge_coincident, unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station, COINCIDENT_SPAN,
+};
 use super::io;
 use crate::error::{Error, Result};
 use glam::DVec2;
@@ -393,9 +395,11 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
             format!("NumBlNds is {}: at least 2 nodes are needed", nodes.len()),
         ));
     }
+    // Spans within this of their predecessor are twins, merged below.
+    let twins = COINCIDENT_SPAN * (nodes[nodes.len() - 1].span - nodes[0].span).abs();
     let mut stations = Vec::with_capacity(nodes.len());
     for (k, nd) in nodes.iter().enumerate() {
-        if k > 0 && nd.span <= nodes[k - 1].span {
+        if k > 0 && nodes[k - 1].span - nd.span > twins {
             return Err(at(
                 &blade_file,
                 nd.line,
@@ -436,6 +440,10 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
     if stations.iter().all(|s| s.chord == 0.0) {
         return Err(at(&blade_file, nodes[0].line, "BlChord: every chord is zero"));
     }
+    let notes = merge_coincident(&mut stations, None, |k| {
+        format!("node {} (line {})", k + 1, nodes[k].line)
+    })
+    .map_err(|(k, m)| at(&blade_file, nodes[k].line, m))?;
     Ok(Blade {
         name: path
             .file_stem()
@@ -443,6 +451,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
         stations,
         aerofoils,
         warnings: Vec::new(),
+        notes: notes.into_iter().collect(),
         format: BladeFormat::AeroDyn15,
         axes: Axes::Turbine,
         blend: Blend::Radius,

@@ -170,6 +170,9 @@ pub struct Blade {
     pub aerofoils: Vec<Aerofoil>,
     /// Repairs made while reading aerofoil files, for the caller to show.
     pub warnings: Vec<String>,
+    /// What the reader did that changes nothing of the shape (stations merged), for the caller
+    /// to show.
+    pub notes: Vec<String>,
     /// The format the blade was read from.
     pub format: BladeFormat,
     /// The axes the blade is lofted in.
@@ -184,6 +187,96 @@ impl Blade {
     pub fn max_chord(&self) -> f64 {
         self.stations.iter().map(|s| s.chord).fold(0.0, f64::max)
     }
+}
+
+/// Stations whose radii differ by at most this fraction of the span (the last radius less
+/// the first) are one station: blade files list such twins where grids of different
+/// quantities meet (windIO grids 6.5e-9 m apart on a 61.5 m blade), and a loft through both
+/// would bend between them.
+pub const COINCIDENT_SPAN: f64 = 1e-6;
+
+/// Merge the stations of `stations` (sorted by radius, each no further below its predecessor
+/// than the tolerance) that coincide with their predecessor within [`COINCIDENT_SPAN`] of the
+/// span, keeping the first of each run; `rthick`, where the blend keeps one value a station,
+/// is merged alike. Twins must describe the same section: chord, pitch axis, prebend, sweep,
+/// normal offset and the twist's swing at the chord (`chord × Δtwist`) within the tolerance,
+/// the same aerofoil (the same relative thickness within 1e-6 when `rthick` is given).
+/// Otherwise the error is the second twin's index and a message naming both, through `name`
+/// (a station in the file's terms). Returns the note line to show when any were merged.
+pub(crate) fn merge_coincident(
+    stations: &mut Vec<Station>,
+    mut rthick: Option<&mut Vec<f64>>,
+    name: impl Fn(usize) -> String,
+) -> std::result::Result<Option<String>, (usize, String)> {
+    let (Some(first), Some(last)) = (stations.first(), stations.last()) else {
+        return Ok(None);
+    };
+    let tol = COINCIDENT_SPAN * (last.radius - first.radius).abs();
+    let mut keep = vec![true; stations.len()];
+    let mut kept = 0;
+    for k in 1..stations.len() {
+        let (a, b) = (&stations[kept], &stations[k]);
+        if b.radius - a.radius > tol {
+            kept = k;
+            continue;
+        }
+        let swing = 0.5 * (a.chord + b.chord) * (a.twist_deg - b.twist_deg).abs().to_radians();
+        let lengths = [
+            ("chord", a.chord, b.chord),
+            ("pitch axis", a.pitch_axis * a.chord, b.pitch_axis * b.chord),
+            ("prebend", a.prebend, b.prebend),
+            ("sweep", a.sweep, b.sweep),
+            ("normal offset", a.normal_offset, b.normal_offset),
+        ];
+        let differ = lengths
+            .iter()
+            .find(|(_, x, y)| (x - y).abs() > tol)
+            .map(|(what, x, y)| format!("{what} {x} against {y}"))
+            .or_else(|| {
+                (swing > tol).then(|| format!("twist {} against {} degrees", a.twist_deg, b.twist_deg))
+            })
+            .or_else(|| match rthick.as_deref() {
+                Some(t) if (t[kept] - t[k]).abs() > 1e-6 => {
+                    Some(format!("relative thickness {} against {}", t[kept], t[k]))
+                }
+                None if a.aerofoil != b.aerofoil => Some("different aerofoils".to_string()),
+                _ => None,
+            });
+        if let Some(d) = differ {
+            return Err((
+                k,
+                format!(
+                    "{} (r = {}) and {} (r = {}) lie at the same span (within {COINCIDENT_SPAN:e} of it) but \
+                 differ: {d}",
+                    name(kept),
+                    a.radius,
+                    name(k),
+                    b.radius
+                ),
+            ));
+        }
+        keep[k] = false;
+    }
+    let merged: Vec<f64> = (0..stations.len())
+        .filter(|&k| !keep[k])
+        .map(|k| stations[k].radius)
+        .collect();
+    if merged.is_empty() {
+        return Ok(None);
+    }
+    let mut flags = keep.iter();
+    stations.retain(|_| *flags.next().unwrap_or(&true));
+    if let Some(t) = rthick {
+        let mut flags = keep.iter();
+        t.retain(|_| *flags.next().unwrap_or(&true));
+    }
+    let shown: Vec<String> = merged.iter().take(4).map(|r| format!("{r}")).collect();
+    let more = if merged.len() > 4 { ", …" } else { "" };
+    Ok(Some(format!(
+        "merged {} station(s) into the one before, within {COINCIDENT_SPAN:e} of the span (r = {}{more})",
+        merged.len(),
+        shown.join(", ")
+    )))
 }
 
 /// Twice the signed area of the closed polygon through `points` (positive counter-clockwise).

@@ -1,7 +1,10 @@
 //! Reading blade files: the format detection, and bezchain's own blade JSON (column or
 //! station form) with its aerofoil references resolved.
 
-use super::blade::{unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station, DEFAULT_PITCH_AXIS};
+use super::blade::{
+    merge_coincident, unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station, COINCIDENT_SPAN,
+    DEFAULT_PITCH_AXIS,
+};
 use super::io;
 use super::naca::Naca;
 use super::points::read_curve;
@@ -131,11 +134,16 @@ impl Blade {
                 normal_offset: 0.0,
             });
         }
+        let notes = merge_coincident(&mut stations, None, |k| {
+            format!("field {}{}", cols.field("radius", k), cols.at(k))
+        })
+        .map_err(|(_, m)| bad(m))?;
         Ok(Blade {
             name,
             stations,
             aerofoils,
             warnings,
+            notes: notes.into_iter().collect(),
             format: BladeFormat::Json,
             axes: Axes::Section,
             blend: Blend::Radius,
@@ -324,6 +332,8 @@ fn validate(c: &Columns) -> std::result::Result<(), String> {
         };
         return Err(format!("field {f}: at least 2 stations are needed (got {n})"));
     }
+    // Radii within this of their predecessor are twins, merged after reading.
+    let twins = COINCIDENT_SPAN * (c.radius[n - 1] - c.radius[0]).abs();
     for i in 0..n {
         let r = c.radius[i];
         if r < 0.0 {
@@ -333,7 +343,7 @@ fn validate(c: &Columns) -> std::result::Result<(), String> {
                 c.at(i)
             ));
         }
-        if i > 0 && r <= c.radius[i - 1] {
+        if i > 0 && c.radius[i - 1] - r > twins {
             return Err(format!(
                 "field {}: values must increase ({r} after {}{})",
                 c.field("radius", i),

@@ -22,7 +22,7 @@
 //!
 //! Sections lie in the planes `z = radius` (not turned normal to a curved reference axis).
 
-use super::blade::{unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station};
+use super::blade::{merge_coincident, unit_contour, Aerofoil, Axes, Blade, BladeFormat, Blend, Station};
 use super::interp::Pchip;
 use crate::error::{Error, Result};
 use glam::DVec2;
@@ -497,6 +497,10 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
             normal_offset: shape.offset_x.as_ref().map_or(0.0, |c| c.eval(si)),
         });
     }
+    let notes = merge_coincident(&mut stations, Some(&mut rthick), |k| {
+        format!("the station at s = {}", s[k])
+    })
+    .map_err(|(_, m)| at(path, shape.axis[2].line, format!("field 'reference_axis.z': {m}")))?;
     if stations.len() < 2 {
         return Err(bad(format!("field '{p}.chord': at least 2 stations are needed")));
     }
@@ -520,6 +524,7 @@ pub(crate) fn read(text: &str, path: &Path) -> Result<Blade> {
         stations,
         aerofoils,
         warnings: Vec::new(),
+        notes: notes.into_iter().collect(),
         format: shape.format,
         axes: Axes::Turbine,
         blend: Blend::Thickness { masters, rthick },
