@@ -205,7 +205,7 @@ pub const COINCIDENT_SPAN: f64 = 1e-6;
 /// (a station in the file's terms). Returns the note line to show when any were merged.
 pub(crate) fn merge_coincident(
     stations: &mut Vec<Station>,
-    mut rthick: Option<&mut Vec<f64>>,
+    rthick: Option<&mut Vec<f64>>,
     name: impl Fn(usize) -> String,
 ) -> std::result::Result<Option<String>, (usize, String)> {
     let (Some(first), Some(last)) = (stations.first(), stations.last()) else {
