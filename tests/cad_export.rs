@@ -363,6 +363,152 @@ fn a_grid_is_one_bspline_surface_on_one_face() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The IGES global section's fields (after the two delimiters, `1H,` and `1H;`, no field here
+/// holds one).
+fn iges_global(text: &str) -> Vec<String> {
+    let g: String = text
+        .lines()
+        .filter(|l| &l[72..73] == "G")
+        .map(|l| &l[..72])
+        .collect();
+    let rest = g.strip_prefix("1H,,1H;,").expect("the delimiters , and ;");
+    ["1H,", "1H;"]
+        .into_iter()
+        .map(str::to_string)
+        .chain(
+            rest.trim()
+                .trim_end_matches(';')
+                .split(',')
+                .map(|f| f.trim().to_string()),
+        )
+        .collect()
+}
+
+/// Where an IGES entity's control points lie among its numbers.
+fn iges_ctrl_range(kind: u32, v: &[f64]) -> std::ops::Range<usize> {
+    let n = |k: usize| v[k] as usize;
+    let (start, count) = if kind == 126 {
+        let (k, m) = (n(1), n(2));
+        (7 + (k + m + 2) + (k + 1), k + 1)
+    } else {
+        let (k1, k2, m1, m2) = (n(1), n(2), n(3), n(4));
+        let count = (k1 + 1) * (k2 + 1);
+        (10 + (k1 + m1 + 2) + (k2 + m2 + 2) + count, count)
+    };
+    start..start + 3 * count
+}
+
+/// The 3D points of a STEP file's B-spline curves and surfaces, in entity order.
+fn step_ctrl(ents: &HashMap<usize, String>) -> Vec<DVec3> {
+    let mut ids: Vec<usize> = ents
+        .iter()
+        .filter(|(_, b)| b.starts_with("B_SPLINE_"))
+        .map(|(id, _)| *id)
+        .collect();
+    ids.sort_unstable();
+    ids.iter()
+        .flat_map(|id| {
+            let f = fields(&ents[id]);
+            let list = if ents[id].starts_with("B_SPLINE_CURVE") {
+                &f[2]
+            } else {
+                &f[3]
+            };
+            list.split(',')
+                .map(|r| point(ents, r.trim_matches(|c| c == '(' || c == ')')))
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+#[test]
+fn millimetres_write_the_coordinates_times_1000() {
+    let dir = scratch("cad-mm");
+    let (json, _, _) = case1(&dir);
+    let (gjson, _, _) = paper_grid(&dir);
+    for report in [&json, &gjson] {
+        let files = |unit: Option<&str>| {
+            let tag = unit.unwrap_or("default");
+            let (step, iges) = (dir.join(format!("{tag}.step")), dir.join(format!("{tag}.igs")));
+            let mut args = vec!["export", s(report), "--step", s(&step), "--iges", s(&iges)];
+            args.extend(unit.map(|u| ["--cad-unit", u]).into_iter().flatten());
+            ok(run(&args));
+            let read = |p: &Path| std::fs::read_to_string(p).unwrap();
+            (read(&step), read(&iges))
+        };
+        let (m_step, m_iges) = files(Some("m"));
+        let (mm_step, mm_iges) = files(Some("mm"));
+        let undated = |t: &str| {
+            t.lines()
+                .filter(|l| !l.starts_with("FILE_NAME") && !l.contains("H20"))
+                .map(str::to_string)
+                .collect::<Vec<_>>()
+        };
+        let (d_step, d_iges) = files(None);
+        assert_eq!(undated(&d_step), undated(&m_step), "m is the default");
+        assert_eq!(undated(&d_iges), undated(&m_iges), "m is the default");
+
+        // STEP: the same entities; every 3D point × 1000 (the control points exactly), the
+        // unit millimetres, the uncertainty the same 0.1 µm; knots and all else unchanged.
+        let (m, mm) = (step_entities(&m_step), step_entities(&mm_step));
+        assert_eq!(m.len(), mm.len());
+        let ctrl = step_ctrl(&m);
+        assert!(ctrl.len() > 10);
+        let scaled: Vec<DVec3> = ctrl.iter().map(|p| *p * 1000.0).collect();
+        assert_eq!(step_ctrl(&mm), scaled, "control points × 1000 exactly");
+        for (id, a) in &m {
+            let b = &mm[id];
+            if a.starts_with("CARTESIAN_POINT") {
+                let (pa, pb) = (numbers(&fields(a)[1]), numbers(&fields(b)[1]));
+                for (x, y) in pa.iter().zip(&pb) {
+                    let want = if pa.len() == 3 { x * 1000.0 } else { *x };
+                    assert!(
+                        (y - want).abs() <= 1e-12 * want.abs().max(1.0),
+                        "#{id}: {a} vs {b}"
+                    );
+                }
+            } else if a.contains("LENGTH_UNIT") {
+                assert!(a.contains("SI_UNIT($,.METRE.)") && b.contains("SI_UNIT(.MILLI.,.METRE.)"));
+            } else if a.starts_with("UNCERTAINTY_MEASURE_WITH_UNIT") {
+                assert!(
+                    a.contains("LENGTH_MEASURE(1.E-07)") && b.contains("LENGTH_MEASURE(1.E-04)"),
+                    "{b}"
+                );
+            } else if !a.starts_with("PRODUCT(") {
+                assert_eq!(a, b, "#{id}: only points and the unit change");
+            }
+        }
+
+        // IGES: the control points × 1000 exactly, knots, weights and the rest unchanged; the
+        // global section declares millimetres with the resolution and the largest coordinate
+        // in them.
+        let (m, mm) = (iges_entities(&m_iges), iges_entities(&mm_iges));
+        assert_eq!(m.len(), mm.len());
+        for ((kind, a), (_, b)) in m.iter().zip(&mm) {
+            let r = iges_ctrl_range(*kind, a);
+            assert!(r.end < a.len());
+            for k in 0..a.len() {
+                let want = if r.contains(&k) { a[k] * 1000.0 } else { a[k] };
+                assert_eq!(b[k], want, "entity {kind}, number {k}");
+            }
+        }
+        let (gm, gmm) = (iges_global(&m_iges), iges_global(&mm_iges));
+        assert_eq!(
+            (gm[13].as_str(), gm[14].as_str(), gm[18].as_str()),
+            ("6", "1HM", "1.E-7")
+        );
+        assert_eq!(
+            (gmm[13].as_str(), gmm[14].as_str(), gmm[18].as_str()),
+            ("2", "2HMM", "1.E-4")
+        );
+        let largest = |g: &[String]| g[19].replace('E', "e").parse::<f64>().unwrap();
+        assert_eq!(largest(&gmm), largest(&gm) * 1000.0, "the largest coordinate");
+        assert_eq!(gm[12], "1.", "model space scale");
+        assert_eq!(gmm[12], "1.", "model space scale");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_export_arguments_exit_2() {
     let dir = scratch("cad-bad");
@@ -439,20 +585,15 @@ fn samples(report: &Path, out: &Path) -> f64 {
     size
 }
 
-/// Run tests/gmsh_check.py on `file` against `samples`, with `$BEZCHAIN_PYTHON` (a virtual
-/// environment's python with gmsh, say) or `python3`.
-fn gmsh_check(file: &Path, samples: &Path, mesh_size: f64) -> Value {
+/// Run tests/gmsh_check.py on `file` with `args` (`samples` in metres; `--unit` the unit gmsh
+/// reads the file into), with `$BEZCHAIN_PYTHON` (a virtual environment's python with gmsh, say)
+/// or `python3`.
+fn gmsh_check(file: &Path, samples: &Path, args: &[&str]) -> Value {
     let python = std::env::var_os("BEZCHAIN_PYTHON").unwrap_or_else(|| "python3".into());
     let o = Command::new(python)
         .arg(crate_root().join("tests/gmsh_check.py"))
-        .args([
-            s(file),
-            s(samples),
-            "--unit",
-            "m",
-            "--mesh-size",
-            &mesh_size.to_string(),
-        ])
+        .args([s(file), s(samples)])
+        .args(args)
         .output()
         .expect("python3");
     let out = String::from_utf8_lossy(&o.stdout);
@@ -469,6 +610,20 @@ fn gmsh_check(file: &Path, samples: &Path, mesh_size: f64) -> Value {
     serde_json::from_str(line).unwrap()
 }
 
+/// The bounding box gmsh reports, `[xmin, ymin, zmin, xmax, ymax, zmax]`.
+fn bbox(r: &Value) -> Vec<f64> {
+    r["bbox"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// Each file, in metres and in millimetres (`--cad-unit mm`), loaded by gmsh (OpenCASCADE) in
+/// its own unit as one B-spline entity through the report's points (× 1000 in millimetres),
+/// meshed; its bounding box in millimetres 1000 × the metre file's in metres; and both files
+/// read into OpenCASCADE's default unit (millimetres) the same size.
 #[test]
 fn gmsh_loads_each_file_as_one_bspline_that_passes_through_the_report() {
     if std::env::var_os("BEZCHAIN_GMSH").is_none() {
@@ -488,25 +643,67 @@ fn gmsh_loads_each_file_as_one_bspline_that_passes_through_the_report() {
     ] {
         let csv = dir.join("samples.csv");
         let chord = samples(report, &csv);
-        for (file, bar) in files.iter().zip([1e-9, 1e-8]) {
-            let r = gmsh_check(file, &csv, chord / 20.0);
-            eprintln!("{}", r);
-            let top: Vec<&Value> = r["entities"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .filter(|e| e["dim"] == dim)
-                .collect();
-            assert_eq!(
-                top.len(),
-                1,
-                "{}: exactly one entity of dimension {dim}",
-                file.display()
+        let (mm_step, mm_iges) = (dir.join("mm.step"), dir.join("mm.igs"));
+        ok(run(&[
+            "export",
+            s(report),
+            "--step",
+            s(&mm_step),
+            "--iges",
+            s(&mm_iges),
+            "--cad-unit",
+            "mm",
+        ]));
+        for ((file, mm_file), bar) in files.iter().zip([&mm_step, &mm_iges]).zip([1e-9, 1e-8]) {
+            let mut boxes = Vec::new();
+            for (file, unit, per_metre) in [(*file, "m", 1.0), (mm_file, "mm", 1000.0)] {
+                let size = chord * per_metre;
+                let mesh = (size / 20.0).to_string();
+                let r = gmsh_check(file, &csv, &["--unit", unit, "--mesh-size", &mesh]);
+                eprintln!("{}", r);
+                let top: Vec<&Value> = r["entities"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .filter(|e| e["dim"] == dim)
+                    .collect();
+                assert_eq!(
+                    top.len(),
+                    1,
+                    "{}: exactly one entity of dimension {dim}",
+                    file.display()
+                );
+                assert_eq!(top[0]["type"], kind);
+                let d = r["max_distance"].as_f64().unwrap();
+                assert!(d <= bar * size, "{}: {d} > {bar} x {size}", file.display());
+                assert!(r["mesh_nodes"].as_u64().unwrap() > 10);
+                boxes.push(bbox(&r));
+            }
+            // gmsh pads a box by about 1e-7 of its unit.
+            let extent = |b: &[f64]| (0..3).map(|k| b[k + 3] - b[k]).fold(0.0, f64::max);
+            let close = |a: &[f64], b: &[f64], what: &str| {
+                let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+                assert!(
+                    worst <= 1e-6 * extent(b),
+                    "{}: {what}: {a:?} vs {b:?}",
+                    file.display()
+                );
+            };
+            let in_mm: Vec<f64> = boxes[0].iter().map(|x| x * 1000.0).collect();
+            close(
+                &boxes[1],
+                &in_mm,
+                "the mm file's box in mm is 1000 x the m file's in m",
             );
-            assert_eq!(top[0]["type"], kind);
-            let d = r["max_distance"].as_f64().unwrap();
-            assert!(d <= bar * chord, "{}: {d} > {bar} x {chord}", file.display());
-            assert!(r["mesh_nodes"].as_u64().unwrap() > 10);
+            for f in [*file, mm_file] {
+                let r = gmsh_check(f, &csv, &["--unit", "default", "--bbox-only"]);
+                eprintln!("{}", r);
+                close(
+                    &bbox(&r),
+                    &boxes[1],
+                    "OpenCASCADE's default unit (mm) reads both the same",
+                );
+            }
         }
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -2,12 +2,17 @@
 """Load a bezchain STEP or IGES file with gmsh (OpenCASCADE inside) and check it against
 points sampled from the report it came from.
 
-    python3 tests/gmsh_check.py FILE SAMPLES.csv [--unit m|mm] [--mesh-size H]
+    python3 tests/gmsh_check.py FILE SAMPLES.csv [--unit m|mm|default] [--mesh-size H]
+                                [--bbox-only]
 
 SAMPLES.csv has a header `x,y,z` (and `t`, or `u,v`: the parameters the points were sampled
-at) and points on the exported curve or surface, computed by bezchain's own evaluation of the
-chain or grid. Prints one JSON object: the entities gmsh imported (dimension, tag, type); the
-largest distance from a sample to the closest point gmsh's `getClosestPoint` finds on the
+at) and points on the exported curve or surface, in metres (the data's units), computed by
+bezchain's own evaluation of the chain or grid. `--unit` is the unit gmsh reads the file into
+(OpenCASCADE converts from the unit the file declares; `default` leaves OpenCASCADE's own
+choice, millimetres); the samples are converted to it, and every length printed (and H) is in
+it. Prints one JSON object: the entities gmsh imported (dimension, tag, type); their bounding
+box `[xmin, ymin, zmin, xmax, ymax, zmax]` (as gmsh reports it, padded by about 1e-7); with
+`--bbox-only` nothing more, otherwise the largest distance from a sample to the closest point gmsh's `getClosestPoint` finds on the
 imported entity (`max_distance_gmsh`); the largest distance from a sample to the imported
 entity (`max_distance`), the nearer of two closest points found by Newton steps on gmsh's own
 evaluation of the entity, one started at gmsh's answer and one at the sample's parameters
@@ -58,29 +63,36 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("file")
     ap.add_argument("samples")
-    ap.add_argument("--unit", default="m", choices=["m", "mm"])
+    ap.add_argument("--unit", default="m", choices=["m", "mm", "default"])
     ap.add_argument("--mesh-size", type=float, default=0.0)
+    ap.add_argument("--bbox-only", action="store_true")
     a = ap.parse_args()
+    per_metre = 1.0 if a.unit == "m" else 1000.0
     with open(a.samples, newline="") as f:
         rows = list(csv.DictReader(f))
-    pts = [(float(r["x"]), float(r["y"]), float(r["z"])) for r in rows]
+    pts = [tuple(per_metre * float(r[k]) for k in "xyz") for r in rows]
     names = ["t"] if rows and "t" in rows[0] else ["u", "v"] if rows and "u" in rows[0] else []
     params = np.array([[float(r[k]) for k in names] for r in rows]) if names else None
 
     gmsh.initialize(["gmsh", "-v", "0"])
     try:
-        # Keep the file's coordinates: convert into the unit the file declares. OpenCASCADE
-        # knows the unit setting only once a reader has run, so read the file once first.
-        gmsh.model.occ.importShapes(a.file)
-        gmsh.model.remove()
-        gmsh.model.add("check")
-        gmsh.option.setString("Geometry.OCCTargetUnit", "M" if a.unit == "m" else "MM")
+        if a.unit != "default":
+            # OpenCASCADE knows the unit setting only once a reader has run, so read the file
+            # once first.
+            gmsh.model.occ.importShapes(a.file)
+            gmsh.model.remove()
+            gmsh.model.add("check")
+            gmsh.option.setString("Geometry.OCCTargetUnit", "M" if a.unit == "m" else "MM")
         gmsh.model.occ.importShapes(a.file)
         gmsh.model.occ.synchronize()
         entities = []
         for dim in (1, 2, 3):
             for _, tag in gmsh.model.getEntities(dim):
                 entities.append({"dim": dim, "tag": tag, "type": gmsh.model.getType(dim, tag)})
+        bbox = list(gmsh.model.getBoundingBox(-1, -1)) if entities else []
+        if a.bbox_only:
+            print(json.dumps({"file": a.file, "unit": a.unit, "entities": entities, "bbox": bbox}))
+            return
         top = max(e["dim"] for e in entities) if entities else 0
         main_entities = [e for e in entities if e["dim"] == top]
         worst_gmsh = worst = float("nan")
@@ -106,7 +118,9 @@ def main():
             json.dumps(
                 {
                     "file": a.file,
+                    "unit": a.unit,
                     "entities": entities,
+                    "bbox": bbox,
                     "top_dim": top,
                     "samples": len(pts),
                     "max_distance_gmsh": worst_gmsh,

@@ -16,8 +16,8 @@ pub struct CadArgs {
     /// Write the result as an IGES 5.3 B-spline (entity 126 or 128) here.
     #[arg(long)]
     pub iges: Option<PathBuf>,
-    /// The length unit the STEP/IGES files declare: m or mm (coordinates are written as they
-    /// are, never scaled).
+    /// The length unit of the STEP/IGES files: m or mm. The data are taken to be in metres;
+    /// mm writes the coordinates × 1000 (the JSON stays in the data's units).
     #[arg(long, default_value = "m", value_parser = super::parse_word::<CadUnit>)]
     pub cad_unit: CadUnit,
 }

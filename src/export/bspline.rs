@@ -44,17 +44,53 @@ pub enum CadShape {
     Surface(BsplineSurface),
 }
 
-/// The length unit written into the files (the coordinates themselves are never scaled).
+/// The length unit of the CAD files. The shapes are in the data's units, taken to be metres;
+/// the files declare this unit and hold the coordinates in it (× 1000 in millimetres).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum CadUnit {
-    /// Metres (default).
+    /// Metres (default): the coordinates as they are.
     #[default]
     Metre,
-    /// Millimetres (what OpenCASCADE writes unless told otherwise).
+    /// Millimetres (what OpenCASCADE writes unless told otherwise): the coordinates × 1000.
     Millimetre,
 }
 
 keywords!(CadUnit, "CAD unit", { Metre => "m", Millimetre => "mm" });
+
+impl CadUnit {
+    /// How many of this unit make a metre: the factor from the data's units (metres) to the
+    /// file's coordinates.
+    #[must_use]
+    pub fn per_metre(self) -> f64 {
+        match self {
+            CadUnit::Metre => 1.0,
+            CadUnit::Millimetre => 1000.0,
+        }
+    }
+
+    /// The smallest length the files resolve, 0.1 µm, in this unit (the STEP uncertainty and
+    /// the IGES minimum resolution).
+    #[must_use]
+    pub fn resolution(self) -> f64 {
+        self.per_metre() / 1e7
+    }
+}
+
+impl CadShape {
+    /// The shape with its control points in `unit` (knots unchanged): what the files hold.
+    #[must_use]
+    pub fn in_unit(&self, unit: CadUnit) -> CadShape {
+        let mut out = self.clone();
+        let ctrl = match &mut out {
+            CadShape::Curve(c) => &mut c.ctrl,
+            CadShape::Surface(s) => &mut s.ctrl,
+        };
+        for p in ctrl {
+            *p *= unit.per_metre();
+        }
+        out
+    }
+}
 
 /// The knots that differ and how often each occurs (STEP's form).
 #[must_use]

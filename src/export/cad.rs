@@ -234,6 +234,35 @@ mod tests {
     }
 
     #[test]
+    fn millimetres_scale_the_control_points_only() {
+        assert_eq!(
+            (CadUnit::Metre.per_metre(), CadUnit::Millimetre.per_metre()),
+            (1.0, 1000.0)
+        );
+        assert_eq!(
+            (CadUnit::Metre.resolution(), CadUnit::Millimetre.resolution()),
+            (1e-7, 1e-4)
+        );
+        let c = BsplineCurve {
+            degree: 1,
+            knots: vec![0.0, 0.0, 0.3, 1.0, 1.0],
+            ctrl: vec![
+                DVec3::new(0.1, -2.5, 0.0),
+                DVec3::ONE,
+                DVec3::new(1e-3, 7.0, 0.25),
+            ],
+        };
+        let shape = CadShape::Curve(c.clone());
+        assert_eq!(shape.in_unit(CadUnit::Metre), shape);
+        let CadShape::Curve(mm) = shape.in_unit(CadUnit::Millimetre) else {
+            panic!("a curve")
+        };
+        assert_eq!((mm.degree, &mm.knots), (c.degree, &c.knots));
+        assert_eq!(mm.ctrl, c.ctrl.iter().map(|p| *p * 1000.0).collect::<Vec<_>>());
+        assert_eq!(mm.eval(0.3), c.eval(0.3) * 1000.0);
+    }
+
+    #[test]
     fn units_and_dates() {
         assert_eq!("MM".parse::<CadUnit>().unwrap(), CadUnit::Millimetre);
         assert!("ft".parse::<CadUnit>().is_err());

@@ -92,8 +92,10 @@ fn surface_params(s: &BsplineSurface) -> Vec<String> {
     f
 }
 
-/// The IGES file of `shapes`, named `name`, dated `timestamp` (`YYYY-MM-DDThh:mm:ss`).
+/// The IGES file of `shapes` (in metres) in `unit`, named `name`, dated `timestamp`
+/// (`YYYY-MM-DDThh:mm:ss`).
 pub fn iges_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str) -> Result<String> {
+    let shapes: Vec<CadShape> = shapes.iter().map(|s| s.in_unit(unit)).collect();
     if shapes.is_empty() {
         return Err(Error::invalid("nothing to export"));
     }
@@ -135,7 +137,7 @@ pub fn iges_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str
         "1".into(),
         "1.".into(),
         hollerith(&date),
-        "1.E-7".into(),
+        real(unit.resolution()),
         real(largest),
         hollerith("bezchain"),
         String::new(),
@@ -156,7 +158,7 @@ pub fn iges_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str
     }
     // Parameter data first (its line numbers go into the directory entries).
     let mut params: Vec<(u32, Vec<String>)> = Vec::with_capacity(shapes.len());
-    for s in shapes {
+    for s in &shapes {
         params.push(match s {
             CadShape::Curve(c) => (126, wrap(&curve_params(c), 64)),
             CadShape::Surface(s) => (128, wrap(&surface_params(s), 64)),

@@ -28,6 +28,16 @@ pub(crate) fn real(x: f64) -> String {
     format!("{mantissa}E{exp}")
 }
 
+/// The length uncertainty in `unit` ([`CadUnit::resolution`]) with a two-digit exponent, as
+/// OpenCASCADE writes it (`1.E-07`).
+fn uncertainty(unit: CadUnit) -> String {
+    let r = real(unit.resolution());
+    match r.split_once("E-") {
+        Some((m, e)) if e.len() == 1 => format!("{m}E-0{e}"),
+        _ => r,
+    }
+}
+
 /// A STEP string literal: printable ASCII only (others become `_`), `'` and `\` doubled.
 fn string(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + 2);
@@ -145,8 +155,10 @@ fn emit(out: &mut String, id: usize, body: &str) {
     out.push_str(";\n");
 }
 
-/// The STEP file of `shapes` (all curves or all surfaces), product `name`, dated `timestamp`.
+/// The STEP file of `shapes` (all curves or all surfaces, in metres) in `unit`, product
+/// `name`, dated `timestamp`.
 pub fn step_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str) -> Result<String> {
+    let shapes: Vec<CadShape> = shapes.iter().map(|s| s.in_unit(unit)).collect();
     let curves: Vec<&BsplineCurve> = shapes
         .iter()
         .filter_map(|s| match s {
@@ -201,7 +213,8 @@ pub fn step_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str
     let angle = e.add("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )".into());
     let solid = e.add("( NAMED_UNIT(*) SI_UNIT($,.STERADIAN.) SOLID_ANGLE_UNIT() )".into());
     let uncertainty = e.add(format!(
-        "UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-07),#{length},'distance_accuracy_value','confusion accuracy')"
+        "UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE({}),#{length},'distance_accuracy_value','confusion accuracy')",
+        uncertainty(unit)
     ));
     e.set(
         context,
