@@ -531,6 +531,46 @@ fn observed_lsq(
         .ok_or_else(|| Error::Numerical("lsq: no fit".into()))
 }
 
+/// How far, in diagonals of the cloud's bounding box, a fitted control point may lie outside
+/// that box: a net that reaches further has patches the cloud does not hold in place (too few
+/// points across them), and its surface, exported to CAD, bulges far off the blade.
+pub const NET_REACH: f64 = 10.0;
+
+/// Refuse a control net that leaves the bounding box of `points` by more than [`NET_REACH`]
+/// times its diagonal, with advice (an input error: the layout asked for is the cause).
+pub fn check_net_bounded(points: &[DVec3], net: &[DVec3]) -> Result<()> {
+    let lo = points.iter().fold(DVec3::splat(f64::INFINITY), |a, &p| a.min(p));
+    let hi = points
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, &p| a.max(p));
+    let diagonal = (hi - lo).length();
+    let outside = |p: DVec3| {
+        if p.is_finite() {
+            (lo - p).max(p - hi).max(DVec3::ZERO).length()
+        } else {
+            f64::INFINITY
+        }
+    };
+    let Some((k, far)) = net
+        .iter()
+        .map(|&p| outside(p))
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return Ok(());
+    };
+    if far.is_finite() && far <= NET_REACH * diagonal {
+        return Ok(());
+    }
+    Err(Error::invalid(format!(
+        "the fitted control net leaves the cloud's bounding box by {far:.4e} ({:.0} times its \
+         diagonal of {diagonal:.4e}) at control point {k}: some patches have too few points across \
+         them to hold them in place. Use fewer patches, breaks at the data's sections \
+         (--breaks-v stations:BLADE), or adapt-surface, which chooses the layout",
+        far / diagonal
+    )))
+}
+
 /// [`fit_surface`] with hooks into an evolutionary run (progress, checkpoints, resume).
 pub fn fit_surface_with(
     points: &[DVec3],
@@ -611,6 +651,7 @@ pub fn fit_surface_with(
     progress(SurfaceProgress::Offsets { points: n });
     let (stats, feet) = full.closest_stats(&design, Some(&params));
     let grid = full.patch_grid(&design)?;
+    check_net_bounded(points, grid.net())?;
     let (iterations, evaluations) = stages.iter().fold((0, 0), |(i, e), s| {
         (i + s.report.iterations, e + s.report.evaluations)
     });
@@ -635,6 +676,29 @@ pub fn fit_surface_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A net inside the cloud's box, or out by a few diagonals, passes; one 30 km from a 100 m
+    /// blade is refused, naming the distance and advice.
+    #[test]
+    fn control_nets_far_outside_the_cloud_are_refused() {
+        let cloud = [DVec3::ZERO, DVec3::new(4.0, 1.0, 100.0)];
+        let diag = cloud[1].length();
+        let ok = [
+            DVec3::new(2.0, 0.5, 50.0),
+            DVec3::new(4.0 + 5.0 * diag, 1.0, 100.0),
+        ];
+        assert!(check_net_bounded(&cloud, &ok).is_ok());
+        let far = [DVec3::new(2.0, 0.5, 50.0), DVec3::new(2.0, 30_000.0, 50.0)];
+        let e = check_net_bounded(&cloud, &far).unwrap_err();
+        assert!(e.is_user_error());
+        let msg = e.to_string();
+        assert!(
+            msg.contains("control point 1") && msg.contains("fewer patches"),
+            "{msg}"
+        );
+        let nan = [DVec3::new(f64::NAN, 0.0, 0.0)];
+        assert!(check_net_bounded(&cloud, &nan).is_err());
+    }
 
     fn stage(name: &'static str, stop: StopReason) -> SurfaceStage {
         SurfaceStage {
