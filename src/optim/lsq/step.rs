@@ -324,17 +324,11 @@ pub(super) fn each_entry<S: Shape<K>, const K: usize, F: FnMut(usize, usize, f64
 /// Adds the diagonal of `S` to `diag` (flat design indices): of the entries [`each_entry`]
 /// visits, those of a support point's coordinate with itself, in the same order.
 pub(super) fn add_diagonal<S: Shape<K>, const K: usize>(shape: &S, normal: &Normal, diag: &mut [f64]) {
-    let dim = S::Point::DIM;
-    for cell in 0..shape.cell_count() {
-        let support = shape.support(cell);
-        let n = support.len();
-        let block = normal.cell(cell, dim).0;
-        for (a, &ia) in support.iter().enumerate() {
-            for c in 0..dim {
-                diag[ia as usize * dim + c] += block[pair(c, c, dim) * n * n + a * n + a];
-            }
+    each_entry(shape, normal, &mut |row, col, value| {
+        if row == col {
+            diag[row] += value;
         }
-    }
+    });
 }
 
 /// Index of the coordinate pair `(c1, c2)`, `c1 <= c2 < dim`, in row-major upper-triangle
