@@ -42,6 +42,10 @@ const DIM: u32 = 3u;
 // 1: Newton steps may cross patch borders (reloading control points as they go); 0: they are
 // clamped to the patch the point starts on.
 const CROSS: u32 = 0u;
+// 1: the foot-point search also descends from candidate starts (`seed`, config.seeds a patch
+// side); 0: from the start parameters only. A constant, so that a kernel without them carries
+// none of their code (lavapipe runs the body of an `if` masked even when no lane takes it).
+const SEEDED: u32 = 0u;
 // Individuals per invocation, a divisor of 64 (specialised by the host: 1 on GPUs, more on
 // CPU adapters, where they share the per-point loads and loop overhead).
 const PER: u32 = 1u;
@@ -565,7 +569,7 @@ fn foot_point_sq(k: u32, ind: u32, t: Target, rj: RefJet) -> f32 {
     let f = frame_of(t);
     let start = descend(k, ind, t, rj, f, Seed(0.0, 0.0, t.u, t.v, 1.0, 1.0));
     var e2 = start.x;
-    if (config.seeds != 0u) {
+    if (SEEDED != 0u) {
         let pick = seed(k, ind, t, rj, f);
         let a = descend_from(k, ind, t, rj, f, pick.first);
         let b = descend_from(k, ind, t, rj, f, pick.second);

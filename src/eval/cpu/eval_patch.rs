@@ -103,37 +103,6 @@ fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: 
     }
 }
 
-/// `main`'s walk over point group `group`: every run of points on one patch with that patch
-/// loaded for all lanes, `point(p, cp, held)` giving point `p`'s squared offsets; their sums
-/// and maxima into `partials`.
-#[inline(always)]
-fn walk(
-    b: &Bindings<'_>,
-    group: usize,
-    cp: &mut [Point],
-    partials: &mut [Partial; LANES],
-    mut point: impl FnMut(usize, &mut [Point], &mut [u32; LANES]) -> Lanes,
-) {
-    let (first, last) = group_range(b.config, group);
-    let mut sum = [0.0f32; LANES];
-    let mut worst = [0.0f32; LANES];
-    let mut held = [NONE; LANES];
-    let mut p = first;
-    while p < last {
-        let end = run_end(b.targets, p, last);
-        load_patch(b.config, b.net, b.targets[p].patch_id, cp, &mut held);
-        while p < end {
-            let e2 = point(p, cp, &mut held);
-            for l in 0..LANES {
-                sum[l] += e2[l];
-                worst[l] = worst[l].max(e2[l]);
-            }
-            p += 1;
-        }
-    }
-    store(&sum, &worst, partials);
-}
-
 /// `main` with `newton == 0` for point group `group`: `offset_sq_fixed` over every point,
 /// all lanes at once.
 #[inline(always)]
@@ -145,30 +114,43 @@ pub(crate) fn fixed<A: Arith, const DIM: usize>(
 ) {
     let config = b.config;
     let ncp = (config.degree_u as usize + 1) * (config.degree_v as usize + 1);
-    walk(b, group, cp, partials, |p, cp, _| {
-        let t = &b.targets[p];
-        let w = &b.weights[p * ncp..(p + 1) * ncp];
-        let r0 = [t.rx, t.ry, t.rz];
-        // Coordinates one after the other: one accumulator in registers; each still adds its
-        // terms in the shader's order.
-        let mut s = [[0.0f32; LANES]; DIM];
-        for (c, sc) in s.iter_mut().enumerate() {
-            let mut acc = [r0[c]; LANES];
-            for (&wk, q) in w.iter().zip(&cp[..ncp]) {
-                for l in 0..LANES {
-                    acc[l] = A::fma(wk, q[c][l], acc[l]);
+    let (first, last) = group_range(config, group);
+    let mut sum = [0.0f32; LANES];
+    let mut worst = [0.0f32; LANES];
+    let mut held = [NONE; LANES];
+    let mut p = first;
+    while p < last {
+        let end = run_end(b.targets, p, last);
+        load_patch(config, b.net, b.targets[p].patch_id, cp, &mut held);
+        for (t, w) in b.targets[p..end]
+            .iter()
+            .zip(b.weights[p * ncp..end * ncp].chunks_exact(ncp))
+        {
+            let r0 = [t.rx, t.ry, t.rz];
+            // Coordinates one after the other: one accumulator in registers; each still adds
+            // its terms in the shader's order.
+            let mut s = [[0.0f32; LANES]; DIM];
+            for (c, sc) in s.iter_mut().enumerate() {
+                let mut acc = [r0[c]; LANES];
+                for (&wk, q) in w.iter().zip(&cp[..ncp]) {
+                    for l in 0..LANES {
+                        acc[l] = A::fma(wk, q[c][l], acc[l]);
+                    }
                 }
+                *sc = acc;
             }
-            *sc = acc;
-        }
-        let mut e2 = [0.0f32; LANES];
-        for l in 0..LANES {
-            for sc in &s {
-                e2[l] = A::fma(sc[l], sc[l], e2[l]);
+            for l in 0..LANES {
+                let mut e2 = 0.0f32;
+                for sc in &s {
+                    e2 = A::fma(sc[l], sc[l], e2);
+                }
+                sum[l] += e2;
+                worst[l] = worst[l].max(e2);
             }
         }
-        e2
-    });
+        p = end;
+    }
+    store(&sum, &worst, partials);
 }
 
 /// `main` with `newton >= 1` for point group `group`: `foot_point_sq` over every point.
@@ -180,9 +162,24 @@ pub(crate) fn newton<A: Arith, const DIM: usize>(
     work: &mut NewtonWork,
     partials: &mut [Partial; LANES],
 ) {
-    walk(b, group, cp, partials, |p, cp, held| {
-        foot_point_sq::<A, DIM>(b, p, cp, held, work)
-    });
+    let (first, last) = group_range(b.config, group);
+    let mut sum = [0.0f32; LANES];
+    let mut worst = [0.0f32; LANES];
+    let mut held = [NONE; LANES];
+    let mut p = first;
+    while p < last {
+        let end = run_end(b.targets, p, last);
+        load_patch(b.config, b.net, b.targets[p].patch_id, cp, &mut held);
+        while p < end {
+            let e2 = foot_point_sq::<A, DIM>(b, p, cp, &mut held, work);
+            for l in 0..LANES {
+                sum[l] += e2[l];
+                worst[l] = worst[l].max(e2[l]);
+            }
+            p += 1;
+        }
+    }
+    store(&sum, &worst, partials);
 }
 
 /// `offset_sq`: the squared length of `base` plus the held patch at per-lane (u, v).

@@ -526,6 +526,8 @@ pub struct GpuEvaluator {
     /// Individuals per invocation of `eval`, and the adapter's (or the options') choice.
     per: u32,
     per_chosen: u32,
+    /// Whether `eval` was built with candidate starts (`SEEDED`).
+    seeded: bool,
     reduce: wgpu::ComputePipeline,
     config: wgpu::Buffer,
     /// The targets and the reference's partials there, interleaved (see [`point_data`]).
@@ -574,6 +576,7 @@ fn eval_pipeline(
         ("DU", problem.du as u32),
         ("DV", problem.dv as u32),
         ("CROSS", u32::from(problem.cross)),
+        ("SEEDED", u32::from(problem.seeds != 0)),
         ("PER", per),
     ];
     let src = prepare_with(source::EVAL_PATCH, &consts, &includes)?;
@@ -630,6 +633,7 @@ impl GpuEvaluator {
             eval,
             per,
             per_chosen: per,
+            seeded: false,
             reduce,
             config,
             points,
@@ -733,19 +737,18 @@ impl HoldsProblem for GpuEvaluator {
         self.upload_targets();
     }
 
-    /// The seeded search runs one individual an invocation: on lavapipe, two an invocation
-    /// gave wrong sums with candidate starts on (measured: 30-40 % low on a bicubic grid and on
+    /// The kernel is specialised on whether candidate starts are on (`SEEDED`), and the
+    /// seeded search runs one individual an invocation: on lavapipe, two an invocation gave
+    /// wrong sums with candidate starts on (measured: 30-40 % low on a bicubic grid and on
     /// partly filled workgroups of curves, from `seed` alone, its result unused), and one
     /// gives the CPU mirror's sums to the bit.
     fn seeds_changed(&mut self) -> Result<()> {
-        let per = if self.problem.seeds != 0 {
-            1
-        } else {
-            self.per_chosen
-        };
-        if per != self.per {
+        let seeded = self.problem.seeds != 0;
+        let per = if seeded { 1 } else { self.per_chosen };
+        if per != self.per || seeded != self.seeded {
             self.eval = eval_pipeline(&self.ctx, &self.problem, per, self.options.subgroups)?;
             self.per = per;
+            self.seeded = seeded;
             // Bind groups belong to the pipeline they were made for.
             self.work = None;
         }
@@ -823,7 +826,7 @@ mod tests {
 
     #[test]
     fn every_shader_declares_what_the_evaluator_specialises() {
-        let consts = [("DIM", 3), ("DU", 2), ("DV", 4), ("CROSS", 1)];
+        let consts = [("DIM", 3), ("DU", 2), ("DV", 4), ("CROSS", 1), ("SEEDED", 1)];
         assert!(prepare(source::EVAL_PATCH, &consts).is_ok());
         assert!(prepare(source::DENSE_GRID, &consts[..3]).is_ok());
         assert!(prepare(source::EXPAND, &consts[..1]).is_ok());
