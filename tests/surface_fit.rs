@@ -196,15 +196,34 @@ fn a_noisy_unordered_blade_cloud_is_fitted_to_the_noise() {
         .unwrap();
     assert!(cloud.grid.is_none());
     let stations: Vec<f64> = blade.stations.iter().map(|s| s.radius).collect();
-    let layout = SurfaceLayout {
-        breaks_v: Breaks::Span(stations),
-        ..SurfaceLayout::uniform([3, 3], [8, 11], [Continuity::C1, Continuity::C1])
-    };
     let opts = SurfaceOptions {
         params: ParamSource::Blade,
         subsample: 6000,
         ..SurfaceOptions::default()
     };
+    // Breaks at every station make a patch 9 mm wide at the tip (stations 1.496 and 1.505),
+    // which the 80 sections, 15 mm apart, barely reach: the fit puts a control point 5 km
+    // off this 1.2 m blade, and is refused with advice.
+    let every = SurfaceLayout {
+        breaks_v: Breaks::Span(stations.clone()),
+        ..SurfaceLayout::uniform([3, 3], [8, 11], [Continuity::C1, Continuity::C1])
+    };
+    let Err(e) = fit_surface(&cloud.points, None, &every, &opts, &mut |_| {}) else {
+        panic!("a net far off the cloud was accepted")
+    };
+    assert!(e.is_user_error() && e.to_string().contains("fewer patches"), "{e}");
+    // With sections 3 mm apart every patch holds several: the fit stays near the blade and
+    // reaches the noise.
+    let cloud = blade
+        .loft(&LoftOptions {
+            points_per_section: Some(60),
+            sections: Some(400),
+            noise,
+            shuffle: true,
+            seed: 11,
+        })
+        .unwrap();
+    let layout = every;
     let fit = fit_surface(&cloud.points, None, &layout, &opts, &mut |_| {}).unwrap();
     assert_eq!(fit.param_source, "blade");
     assert_eq!(
