@@ -321,9 +321,18 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
             "--json",
         ])
         .arg(&json)
+        .arg("--png")
+        .arg(dir.join("r.png"))
+        .arg("--svg")
+        .arg(dir.join("r.svg"))
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
+    // The pictures of fit-surface, drawn for the adapted surface.
+    let png = std::fs::read(dir.join("r.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 10_000);
+    let svg = std::fs::read_to_string(dir.join("r.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     assert_eq!(
         out.status.code(),
         Some(0),

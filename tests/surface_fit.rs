@@ -211,7 +211,10 @@ fn a_noisy_unordered_blade_cloud_is_fitted_to_the_noise() {
     let Err(e) = fit_surface(&cloud.points, None, &every, &opts, &mut |_| {}) else {
         panic!("a net far off the cloud was accepted")
     };
-    assert!(e.is_user_error() && e.to_string().contains("fewer patches"), "{e}");
+    assert!(
+        e.is_user_error() && e.to_string().contains("fewer patches"),
+        "{e}"
+    );
     // With sections 3 mm apart every patch holds several: the fit stays near the blade and
     // reaches the noise.
     let cloud = blade

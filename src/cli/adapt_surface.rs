@@ -7,9 +7,11 @@ use super::progress::Generations;
 use super::{usage, warn_all};
 use anyhow::Result;
 use bezchain::adaptive::{adapt_surface_with, ChordRule, SurfaceAdaptOptions, SurfaceProgress};
-use bezchain::export::InputInfo;
+use bezchain::closest::{grid_feet, FootOptions};
 use bezchain::export::{summary, SurfaceAdaptReport};
+use bezchain::export::{InputInfo, RenderOptions};
 use bezchain::geometry::read_cloud;
+use glam::DVec3;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
@@ -43,6 +45,9 @@ pub struct Args {
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// The pictures of the surface (of the last tolerance's, with several).
+    #[command(flatten)]
+    pub picture: super::picture::PictureArgs,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
     /// No progress bar or progress lines (the families of the search as they end).
@@ -61,11 +66,28 @@ pub enum ChordArg {
     Off,
 }
 
+/// The axis along which `points` extend furthest (a blade's span).
+fn span_direction(points: &[DVec3]) -> DVec3 {
+    let lo = points.iter().fold(DVec3::splat(f64::INFINITY), |a, &p| a.min(p));
+    let hi = points
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, &p| a.max(p));
+    let d = hi - lo;
+    if d.z >= d.x && d.z >= d.y {
+        DVec3::Z
+    } else if d.y >= d.x {
+        DVec3::Y
+    } else {
+        DVec3::X
+    }
+}
+
 /// Run the search(es), print the summary, write the report.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let cad = args.cad.add(&mut outs)?;
+    let pictures = args.picture.add(&mut outs)?;
     let tols = args.tolerance.list("a patch grid")?;
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
@@ -105,6 +127,7 @@ pub fn run(args: Args) -> Result<()> {
         path: name.clone(),
         points: points.len(),
     };
+    let mut last = None;
     let reports = search_each(&tols, scale, &args.cloud, |tol| {
         let opts = SurfaceAdaptOptions { tol, ..base };
         let label = format!("{name} at {:.3e}", opts.tol);
@@ -135,8 +158,19 @@ pub fn run(args: Args) -> Result<()> {
                 &r,
             ));
         }
-        Ok(SurfaceAdaptReport::new(&r, &opts, input.clone()))
+        let report = SurfaceAdaptReport::new(&r, &opts, input.clone());
+        last = Some(r.grid);
+        Ok(report)
     })?;
+    if let (true, Some(grid)) = (pictures.wanted(), &last) {
+        let params: Vec<[f64; 2]> = grid_feet(grid, points, &FootOptions::default())
+            .iter()
+            .map(|f| f.t)
+            .collect();
+        let [w, h] = pictures.size();
+        let ropts = RenderOptions::of_surface(grid, &params, span_direction(points), points, w, h);
+        pictures.put(&mut outs, grid, &ropts)?;
+    }
     finish(
         outs,
         json,

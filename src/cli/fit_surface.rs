@@ -6,7 +6,7 @@ use super::output::Outputs;
 use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{render, render_svg, summary, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::export::{summary, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
 use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, parse_surface_method, Breaks, Method, ParamSource, SurfaceFit, SurfaceLayout,
@@ -85,15 +85,8 @@ pub struct Args {
     /// Mesh samples per patch side for --obj and --stl.
     #[arg(long, default_value_t = 16)]
     pub mesh_density: usize,
-    /// Write a PNG picture of the surface and its control net (two views) here.
-    #[arg(long)]
-    pub png: Option<PathBuf>,
-    /// Write the same views as an SVG drawing (surface iso-curves, control net, points) here.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
-    /// Size of the picture (PNG and SVG), WxH pixels.
-    #[arg(long, default_value = "1600x900", value_parser = parse_pair)]
-    pub png_size: [usize; 2],
+    #[command(flatten)]
+    pub picture: super::picture::PictureArgs,
     #[command(flatten)]
     pub evo: EvoArgs,
 }
@@ -160,17 +153,12 @@ pub fn run(args: Args) -> Result<()> {
     if args.mesh_density == 0 || args.mesh_density > 1024 {
         return Err(usage("--mesh-density must be between 1 and 1024"));
     }
-    let [png_w, png_h] = args.png_size;
-    if !(16..=16384).contains(&png_w) || !(16..=16384).contains(&png_h) {
-        return Err(usage("--png-size must be between 16x16 and 16384x16384"));
-    }
     // Every output is checked (and its temporary file made) now, not after a long fit.
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let obj = outs.add_opt("--obj", args.obj.as_deref())?;
     let stl = outs.add_opt("--stl", args.stl.as_deref())?;
-    let png = outs.add_opt("--png", args.png.as_deref())?;
-    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let pictures = args.picture.add(&mut outs)?;
     let cad = args.cad.add(&mut outs)?;
     let mut monitor = Monitor::new(&args.evo, &mut outs)?;
     let loaded = read_cloud(&args.cloud)?;
@@ -271,15 +259,13 @@ pub fn run(args: Args) -> Result<()> {
             outs.put(o, &mesh.to_stl(&name))?;
         }
     }
-    if png.is_some() || svg.is_some() {
-        let ropts = RenderOptions::of_fit(&fit, &loaded.points, png_w as u32, png_h as u32);
-        if let Some(o) = png {
-            let image = render(&fit.grid, &ropts)?;
-            outs.put(o, &image.to_png()?)?;
-        }
-        if let Some(o) = svg {
-            outs.put(o, render_svg(&fit.grid, &ropts)?.as_bytes())?;
-        }
+    if pictures.wanted() {
+        let [w, h] = pictures.size();
+        pictures.put(
+            &mut outs,
+            &fit.grid,
+            &RenderOptions::of_fit(&fit, &loaded.points, w, h),
+        )?;
     }
     if args.cad.wanted() {
         let shape = bezchain::export::CadShape::from_surface_report(&rep)?;

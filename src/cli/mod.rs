@@ -15,6 +15,7 @@ pub mod fit_surface;
 pub mod naca;
 pub mod optimise;
 pub mod output;
+pub mod picture;
 pub mod progress;
 pub mod sample;
 

@@ -403,6 +403,20 @@ impl RenderOptions {
     /// is thinnest along x (a windIO or AeroDyn blade in its blade-root axes).
     #[must_use]
     pub fn of_fit(fit: &SurfaceFit, points: &[DVec3], width: u32, height: u32) -> RenderOptions {
+        RenderOptions::of_surface(&fit.grid, &fit.params, fit.axis.dir, points, width, height)
+    }
+
+    /// [`of_fit`](Self::of_fit) for any `grid` fitted to `points`, their closest-point
+    /// parameters `params` on it and the span direction `span`.
+    #[must_use]
+    pub fn of_surface(
+        grid: &PatchGrid<DVec3>,
+        params: &[[f64; 2]],
+        span: DVec3,
+        points: &[DVec3],
+        width: u32,
+        height: u32,
+    ) -> RenderOptions {
         let mut o = RenderOptions {
             width,
             height,
@@ -410,11 +424,10 @@ impl RenderOptions {
         };
         let step = points.len().div_ceil(20_000).max(1);
         o.cloud = points.iter().step_by(step).copied().collect();
-        o.offsets = fit
-            .params
+        o.offsets = params
             .iter()
             .zip(points)
-            .map(|(&[u, v], p)| ([u, v], (fit.grid.eval(u, v) - *p).length()))
+            .map(|(&[u, v], p)| ([u, v], (grid.eval(u, v) - *p).length()))
             .collect();
         let extent = |axis: DVec3| {
             let (lo, hi) = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
@@ -422,9 +435,9 @@ impl RenderOptions {
             });
             hi - lo
         };
-        let thin_x = fit.axis.dir.x.abs() < 0.5 && extent(DVec3::X) < extent(DVec3::Y);
+        let thin_x = span.x.abs() < 0.5 && extent(DVec3::X) < extent(DVec3::Y);
         for v in o.views.iter_mut() {
-            v.right = fit.axis.dir;
+            v.right = span;
             if thin_x {
                 v.eye = DVec3::new(v.eye.y, v.eye.x, v.eye.z);
             }
