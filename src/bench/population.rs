@@ -280,6 +280,7 @@ pub fn run(options: &BenchOptions) -> Result<BenchReport> {
         backend: options.backend,
         newton: options.newton,
         cross_patches: false,
+        seeds: 0,
         gpu: options.gpu.clone(),
     };
     let mut evaluator: Box<dyn PopulationEvaluator> = match (options.simd, options.backend) {

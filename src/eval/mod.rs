@@ -184,6 +184,9 @@ pub struct EvalOptions {
     /// over the whole domain; otherwise they are clamped to the patch each point starts on,
     /// which is cheaper on the GPU. Default: false.
     pub cross_patches: bool,
+    /// Candidate starts of the foot-point search (see [`PopulationEvaluator::set_seeds`]).
+    /// Default: 0.
+    pub seeds: u32,
     /// GPU settings. Default: [`GpuOptions::default`].
     pub gpu: GpuOptions,
 }
@@ -194,6 +197,7 @@ impl Default for EvalOptions {
             backend: Backend::Auto,
             newton: 0,
             cross_patches: false,
+            seeds: 0,
             gpu: GpuOptions::default(),
         }
     }
@@ -208,6 +212,7 @@ impl EvalOptions {
             backend,
             newton,
             cross_patches: true,
+            seeds: 0,
             gpu: gpu.clone(),
         }
     }
@@ -297,12 +302,14 @@ pub trait PopulationEvaluator: Send + HoldsProblem {
         self.problem_mut().newton = newton;
     }
 
-    /// Set the candidate starts of the foot-point search: `seeds` samples per patch side (one
-    /// along v for a curve) over the start patch and its neighbours (the whole chain for a
-    /// curve), the nearest of them and the start parameters chosen per point and individual
-    /// before the Newton steps. 0 (the default): Newton starts at the start parameters, which
+    /// Set the candidate starts of the foot-point search: `seeds + 1` samples per patch side
+    /// (one along v for a curve) over the start patch and its neighbours (the whole chain for
+    /// a curve); per point and individual, Newton steps also run from the two deepest local
+    /// minima among them, and a descent that ends at a foot point other than the start's and
+    /// lower replaces it. 0 (the default): Newton starts at the start parameters only, which
     /// suits a population near the reference; with samples that resolve every basin, every
-    /// backend finds the global closest point within reach.
+    /// backend finds the global closest point within reach. The GPU rebuilds its kernel when
+    /// this turns the candidates on or off ([`EvalOptions::seeds`] builds it so at once).
     fn set_seeds(&mut self, seeds: u32) -> Result<()> {
         self.problem_mut().seeds = seeds;
         self.seeds_changed()
@@ -337,16 +344,18 @@ pub fn build_evaluator(
     targets: &Targets,
     options: &EvalOptions,
 ) -> Result<Box<dyn PopulationEvaluator>> {
-    let cpu =
-        || CpuEvaluator::new(layout, targets, options.newton).map(|e| e.crossing(options.cross_patches));
+    let cpu = || -> Result<CpuEvaluator> {
+        let mut e = CpuEvaluator::new(layout, targets, options.newton)?.crossing(options.cross_patches);
+        e.set_seeds(options.seeds)?;
+        Ok(e)
+    };
     let gpu = || {
         GpuContext::shared().and_then(|ctx| {
-            GpuEvaluator::new(
+            GpuEvaluator::with_seeds(
                 &ctx,
                 layout,
                 targets,
-                options.newton,
-                options.cross_patches,
+                (options.newton, options.cross_patches, options.seeds),
                 &options.gpu,
             )
         })

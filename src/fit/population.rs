@@ -460,9 +460,11 @@ fn first_row<T: Gene>(population: &[T], n_vars: usize) -> Result<Vec<f64>> {
 /// Evaluate a population of chains of `layout` against `points` (rows of `x0,y0,x1,y1,…`
 /// over the design points): every point starts at its closest point on the first individual
 /// (f64) and follows [`BatchOptions::newton`] Newton steps of its own on every individual
-/// (f32), free to cross segment borders. For individuals in the first one's basin (a GA or
-/// CMA-ES population around a design) that is the closest-point distance to f32 accuracy;
-/// for an unrelated shape an upper bound.
+/// (f32), free to cross segment borders, and as many from the deepest of
+/// [`BatchOptions::seeds`] candidate starts a segment over the whole chain: the closest-point
+/// distance to f32 accuracy wherever the samples resolve the basins, for individuals far from
+/// the first one too (folds, the ends parted at a trailing edge). With `seeds` 0, the start's
+/// descent only: exact for individuals in the first one's basin, an upper bound beyond it.
 ///
 /// The rows may be f32 or f64 (designs far from the origin). The evaluator keeps its default
 /// reference, the centre of the data (see [`crate::eval::kernel`]): exact for any
@@ -515,17 +517,14 @@ fn run<T: Gene>(
     population: &[T],
     options: &BatchOptions,
 ) -> Result<BatchResult> {
-    let mut evaluator = build_evaluator(
-        &layout,
-        targets,
-        &EvalOptions::crossing(options.backend, options.newton, &options.gpu),
-    )?;
     let curve = matches!(layout, EvalLayout::Curve(_));
-    evaluator.set_seeds(
-        options
+    let eval_options = EvalOptions {
+        seeds: options
             .seeds
             .unwrap_or(if curve { CURVE_SEEDS } else { GRID_SEEDS }),
-    )?;
+        ..EvalOptions::crossing(options.backend, options.newton, &options.gpu)
+    };
+    let mut evaluator = build_evaluator(&layout, targets, &eval_options)?;
     let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
     T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
     let mut times: Vec<f64> = (0..options.repeat)

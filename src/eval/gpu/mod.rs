@@ -558,6 +558,18 @@ fn point_data(problem: &Problem) -> Vec<[u32; 24]> {
         .collect()
 }
 
+/// Individuals per invocation of the population kernel: `chosen` (the options' or the
+/// adapter's), except 1 with candidate starts on. On lavapipe, two an invocation gave wrong
+/// sums with them (measured: 30-40 % low on a bicubic grid and on partly filled workgroups of
+/// curves, from `seed` alone, its result unused); one gives the CPU mirror's sums to the bit.
+fn per_for(seeds: u32, chosen: u32) -> u32 {
+    if seeds != 0 {
+        1
+    } else {
+        chosen
+    }
+}
+
 /// The population kernel for `problem` with `per` individuals per invocation, reading its
 /// points with subgroup operations where `subgroups` asks and the device has them.
 fn eval_pipeline(
@@ -594,17 +606,31 @@ impl GpuEvaluator {
         cross: bool,
         options: &GpuOptions,
     ) -> Result<Self> {
+        GpuEvaluator::with_seeds(ctx, layout, targets, (newton, cross, 0), options)
+    }
+
+    /// [`new`](Self::new) with the foot-point search's candidate starts set from the start
+    /// (`(newton, cross, seeds)`), so that the kernel is built once, as they need it.
+    pub fn with_seeds(
+        ctx: &GpuContext,
+        layout: &EvalLayout,
+        targets: &Targets,
+        (newton, cross, seeds): (u32, bool, u32),
+        options: &GpuOptions,
+    ) -> Result<Self> {
         let mut problem = Problem::new(layout, targets, newton)?;
         problem.cross = cross;
+        problem.seeds = seeds;
         let held = ((problem.du + 1) * (problem.dv + 1) * problem.dim) as u32;
-        let per = options
+        let per_chosen = options
             .per_invocation
             .unwrap_or_else(|| ctx.per_invocation(held, newton));
-        if !(WORKGROUP as u32).is_multiple_of(per) {
+        if !(WORKGROUP as u32).is_multiple_of(per_chosen) {
             return Err(Error::invalid(format!(
-                "{per} individuals per invocation: must divide {WORKGROUP}"
+                "{per_chosen} individuals per invocation: must divide {WORKGROUP}"
             )));
         }
+        let per = per_for(seeds, per_chosen);
         let expand = Expand::new(ctx, &problem)?;
         let eval = eval_pipeline(ctx, &problem, per, options.subgroups)?;
         let reduce = ctx.pipeline("reduce", &prepare(source::REDUCE, &[])?)?;
@@ -632,8 +658,8 @@ impl GpuEvaluator {
             expand,
             eval,
             per,
-            per_chosen: per,
-            seeded: false,
+            per_chosen,
+            seeded: seeds != 0,
             reduce,
             config,
             points,
@@ -737,14 +763,11 @@ impl HoldsProblem for GpuEvaluator {
         self.upload_targets();
     }
 
-    /// The kernel is specialised on whether candidate starts are on (`SEEDED`), and the
-    /// seeded search runs one individual an invocation: on lavapipe, two an invocation gave
-    /// wrong sums with candidate starts on (measured: 30-40 % low on a bicubic grid and on
-    /// partly filled workgroups of curves, from `seed` alone, its result unused), and one
-    /// gives the CPU mirror's sums to the bit.
+    /// The kernel is specialised on whether candidate starts are on (`SEEDED`) and takes
+    /// [`per_for`] individuals an invocation: rebuilt when either changes.
     fn seeds_changed(&mut self) -> Result<()> {
         let seeded = self.problem.seeds != 0;
-        let per = if seeded { 1 } else { self.per_chosen };
+        let per = per_for(self.problem.seeds, self.per_chosen);
         if per != self.per || seeded != self.seeded {
             self.eval = eval_pipeline(&self.ctx, &self.problem, per, self.options.subgroups)?;
             self.per = per;
