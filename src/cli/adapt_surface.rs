@@ -11,7 +11,7 @@ use bezchain::closest::{grid_feet, FootOptions};
 use bezchain::export::{summary, SurfaceAdaptReport};
 use bezchain::export::{InputInfo, RenderOptions};
 use bezchain::geometry::read_cloud;
-use glam::DVec3;
+use bezchain::problem::section_params;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
@@ -64,22 +64,6 @@ pub enum ChordArg {
     On,
     /// Never the chord rule.
     Off,
-}
-
-/// The axis along which `points` extend furthest (a blade's span).
-fn span_direction(points: &[DVec3]) -> DVec3 {
-    let lo = points.iter().fold(DVec3::splat(f64::INFINITY), |a, &p| a.min(p));
-    let hi = points
-        .iter()
-        .fold(DVec3::splat(f64::NEG_INFINITY), |a, &p| a.max(p));
-    let d = hi - lo;
-    if d.z >= d.x && d.z >= d.y {
-        DVec3::Z
-    } else if d.y >= d.x {
-        DVec3::Y
-    } else {
-        DVec3::X
-    }
 }
 
 /// Run the search(es), print the summary, write the report.
@@ -162,14 +146,16 @@ pub fn run(args: Args) -> Result<()> {
         last = Some(r.grid);
         Ok(report)
     })?;
-    if let (true, Some(grid)) = (pictures.wanted(), &last) {
-        let params: Vec<[f64; 2]> = grid_feet(grid, points, &FootOptions::default())
+    if let (true, Some(surface)) = (pictures.wanted(), &last) {
+        let params: Vec<[f64; 2]> = grid_feet(surface, points, &FootOptions::default())
             .iter()
             .map(|f| f.t)
             .collect();
+        // The span axis fit-surface draws a sectioned cloud along.
+        let (_, axis) = section_params(points, grid, None)?;
         let [w, h] = pictures.size();
-        let ropts = RenderOptions::of_surface(grid, &params, span_direction(points), points, w, h);
-        pictures.put(&mut outs, grid, &ropts)?;
+        let ropts = RenderOptions::of_surface(surface, &params, axis.dir, points, w, h);
+        pictures.put(&mut outs, surface, &ropts)?;
     }
     finish(
         outs,

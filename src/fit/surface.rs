@@ -565,8 +565,8 @@ pub fn check_net_bounded(points: &[DVec3], net: &[DVec3]) -> Result<()> {
     Err(Error::invalid(format!(
         "the fitted control net leaves the cloud's bounding box by {far:.4e} ({:.0} times its \
          diagonal of {diagonal:.4e}) at control point {k}: some patches have too few points across \
-         them to hold them in place. Use fewer patches, breaks at the data's sections \
-         (--breaks-v stations:BLADE), or adapt-surface, which chooses the layout",
+         them to hold them in place. Use fewer patches, breaks that leave several of the data's \
+         sections in every patch, or adapt-surface, which chooses the layout",
         far / diagonal
     )))
 }
