@@ -443,7 +443,7 @@ fn eval_finds_the_global_closest_point_on_every_backend() {
     use bezchain::fit::population::{eval_curve_population, BatchOptions};
     use bezchain::fit::{fit_curve, FitOptions};
     use glam::DVec2;
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
     let points = bezchain::geometry::read_curve(std::path::Path::new(concat!(
@@ -458,15 +458,13 @@ fn eval_finds_the_global_closest_point_on_every_backend() {
     let ctx = gpu();
     for (name, step) in [("sigma 0.002 (i mod 7)", 0.002), ("sigma up to 0.05", 0.05 / 6.0)] {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let mut normal = || {
-            let (a, b): (f64, f64) = (rng.random_range(1e-12..1.0), rng.random());
-            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-        };
         let size = 700;
         let population: Vec<f64> = (0..size)
             .flat_map(|i| {
                 let sigma = step * (i % 7) as f64;
-                base.iter().map(|&x| x + sigma * normal()).collect::<Vec<_>>()
+                base.iter()
+                    .map(|&x| x + sigma * gauss(&mut rng))
+                    .collect::<Vec<_>>()
             })
             .collect();
         let run = |backend| {

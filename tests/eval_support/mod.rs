@@ -74,8 +74,8 @@ fn breaks(rng: &mut ChaCha8Rng, segments: usize) -> Vec<f64> {
     b
 }
 
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    // Box-Muller; enough for test noise.
+/// A standard normal draw (Box-Muller; enough for test noise).
+pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     let (a, b): (f64, f64) = (rng.random_range(1e-12..1.0), rng.random());
     (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
 }
