@@ -36,8 +36,9 @@ pub mod surface;
 pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
 pub use surface::{
-    adapt_surface, adapt_surface_with, sampled_offsets, AdaptedSurface, CheckedOffsets, ChordRule, SpanRule,
-    SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress,
+    adapt_blade, adapt_surface, adapt_surface_with, sampled_offsets, AdaptedBlade, AdaptedSurface,
+    BetweenSections, CheckedOffsets, ChordRule, SpanFairness, SpanRule, SurfaceAdaptOptions, SurfaceCount,
+    SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE,
 };
 
 use crate::chain::CurveChain;

@@ -274,11 +274,6 @@ pub fn leading_edge_param(contour: &dyn Contour) -> f64 {
     0.5 * (a + b)
 }
 
-/// Twice the signed area of the polygon `p` (positive when counterclockwise).
-fn signed_area2(p: &[DVec2]) -> f64 {
-    (0..p.len()).map(|i| p[i].perp_dot(p[(i + 1) % p.len()])).sum()
-}
-
 /// The parameters of the panel nodes on `contour` by XFOIL's paneling rule (see the module
 /// documentation), ordered so that the nodes run counterclockwise: increasing from 0 to 1 for
 /// a counterclockwise contour, decreasing from 1 to 0 for a clockwise one.
@@ -357,7 +352,7 @@ pub fn panel_params(contour: &dyn Contour, paneling: &Paneling) -> Result<Vec<f6
         params.push(sm.t[i - 1] + u * (sm.t[i] - sm.t[i - 1]));
     }
     params.push(sm.t[sm.t.len() - 1]);
-    if signed_area2(&sm.p) < 0.0 {
+    if crate::geometry::twice_signed_area(&sm.p) < 0.0 {
         params.reverse();
     }
     Ok(params)

@@ -4,14 +4,15 @@
 use super::adapt::{finish, parse_degrees, search_each, Tolerances};
 use super::output::Outputs;
 use super::progress::Generations;
-use super::{usage, warn_all};
-use anyhow::Result;
-use bezchain::adaptive::{adapt_surface_with, ChordRule, SurfaceAdaptOptions, SurfaceProgress};
+use super::{note_all, usage, warn_all};
+use anyhow::{Context, Result};
+use bezchain::adaptive::{adapt_blade, adapt_surface_with, ChordRule, SurfaceAdaptOptions, SurfaceProgress};
 use bezchain::closest::{grid_feet, FootOptions};
 use bezchain::export::{summary, SurfaceAdaptReport};
 use bezchain::export::{InputInfo, RenderOptions};
-use bezchain::geometry::read_cloud;
+use bezchain::geometry::{read_cloud, Blade, Grid, LoftOptions};
 use bezchain::problem::section_params;
+use glam::DVec3;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
@@ -20,8 +21,13 @@ use std::sync::Mutex;
 pub struct Args {
     /// Cloud: a CSV whose header names `x`, `y`, `z` and `section` (or `station`) columns, the
     /// points of a section ordered by `index` (or `point`), every section alike (e.g. from
-    /// `bezchain blade`).
+    /// `bezchain blade`). Or a blade definition (windIO YAML, bezchain JSON, an AeroDyn 15
+    /// primary file): lofted at its stations, and the surface also checked against sections
+    /// lofted half-way between them.
     pub cloud: PathBuf,
+    /// Points per section when lofting a blade definition (default: its aerofoils' own count).
+    #[arg(long)]
+    pub points_per_section: Option<usize>,
     #[command(flatten)]
     pub tolerance: Tolerances,
     /// Degrees searched around the sections, `LO-HI` or one degree (2 to 7).
@@ -66,6 +72,50 @@ pub enum ChordArg {
     Off,
 }
 
+/// The sectioned cloud to fit (for a blade definition, lofted at its stations), and the
+/// definition with its loft options.
+fn read_input(args: &Args) -> Result<(Vec<DVec3>, Grid, Option<(Blade, LoftOptions)>)> {
+    let path = &args.cloud;
+    if Blade::is_definition(path) {
+        super::bounded(
+            "--points-per-section",
+            args.points_per_section.unwrap_or(0) as u64,
+            100_000,
+            "a few hundred points a section resolve an aerofoil",
+        )?;
+        let blade = Blade::from_file(path)?;
+        warn_all(path, &blade.warnings);
+        note_all(path, &blade.notes);
+        let opts = LoftOptions {
+            points_per_section: args.points_per_section,
+            ..LoftOptions::default()
+        };
+        let cloud = blade
+            .loft(&opts)
+            .with_context(|| format!("{}: lofting", path.display()))?;
+        let grid = cloud
+            .grid
+            .ok_or_else(|| usage(format!("{}: the lofted cloud has no sections", path.display())))?;
+        return Ok((cloud.points, grid, Some((blade, opts))));
+    }
+    if args.points_per_section.is_some() {
+        return Err(usage(format!(
+            "{}: --points-per-section lofts a blade definition; this is a point cloud",
+            path.display()
+        )));
+    }
+    let loaded = read_cloud(path)?;
+    warn_all(path, &loaded.warnings);
+    let Some(grid) = loaded.grid else {
+        return Err(usage(format!(
+            "{}: adapt-surface needs a sectioned cloud (CSV with complete section,index columns) or a \
+             blade definition",
+            path.display()
+        )));
+    };
+    Ok((loaded.points, grid, None))
+}
+
 /// Run the search(es), print the summary, write the report.
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
@@ -73,15 +123,8 @@ pub fn run(args: Args) -> Result<()> {
     let cad = args.cad.add(&mut outs)?;
     let pictures = args.picture.add(&mut outs)?;
     let tols = args.tolerance.list("a patch grid")?;
-    let loaded = read_cloud(&args.cloud)?;
-    warn_all(&args.cloud, &loaded.warnings);
-    let Some(grid) = loaded.grid else {
-        return Err(usage(format!(
-            "{}: adapt-surface needs a sectioned cloud (CSV with complete section,index columns)",
-            args.cloud.display()
-        )));
-    };
-    let points = &loaded.points;
+    let (points, grid, definition) = read_input(&args)?;
+    let points = &points;
     let scale = if args.tolerance.relative {
         grid.largest_chord(points)
     } else {
@@ -128,25 +171,52 @@ pub fn run(args: Args) -> Result<()> {
             let msg = format!("{} pass: {} {}{best}", p.pass, f.family, f.outcome);
             bar.show(&label, p.done as u64, p.total as u64, msg);
         };
-        let r = adapt_surface_with(points, grid, &opts, &shown);
+        let r = match &definition {
+            None => adapt_surface_with(points, grid, None, &opts, &shown).map(|r| (r, None)),
+            Some((blade, loft)) => adapt_blade(blade, loft, &opts, &shown).map(|b| {
+                let added = b.radii.len() - b.stations;
+                (b.surface, Some((b.cloud, added, b.rounds)))
+            }),
+        };
         if let Ok(mut bar) = bar.lock() {
             bar.finish();
         }
-        let r = r?;
+        let (r, refined) = r?;
+        let fitted = refined.as_ref().map_or(&points[..], |c| &c.0.points[..]);
+        if let Some((_, added, rounds)) = refined.as_ref().filter(|c| c.1 > 0) {
+            outs.say(&format!(
+                "note: {name}: {added} section(s) lofted between stations joined the data where the surface \
+                 left the definition between them ({rounds} searches)\n"
+            ));
+        }
         if tols.len() == 1 {
             outs.say(&summary::adapted_surface(
                 &name,
-                points.len(),
+                fitted.len(),
                 opts.tol,
                 opts.norm,
                 &r,
             ));
         }
-        let report = SurfaceAdaptReport::new(&r, &opts, input.clone());
-        last = Some(r.grid);
+        let input = InputInfo {
+            points: fitted.len(),
+            ..input.clone()
+        };
+        let report = SurfaceAdaptReport::new(&r, &opts, input);
+        last = Some((
+            r.grid,
+            refined.map_or_else(
+                || (points.clone(), grid),
+                |c| {
+                    let g = c.0.grid.unwrap_or(grid);
+                    (c.0.points, g)
+                },
+            ),
+        ));
         Ok(report)
     })?;
-    if let (true, Some(surface)) = (pictures.wanted(), &last) {
+    if let (true, Some((surface, (points, grid)))) = (pictures.wanted(), &last) {
+        let (points, grid) = (&points[..], *grid);
         let params: Vec<[f64; 2]> = grid_feet(surface, points, &FootOptions::default())
             .iter()
             .map(|f| f.t)

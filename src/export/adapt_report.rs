@@ -6,8 +6,8 @@
 
 use crate::adaptive::encoding::{Encoding, ScalarCount};
 use crate::adaptive::surface::{
-    AdaptedSurface, CheckedOffsets, FoldCheck, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding,
-    SurfaceFamilyTrace,
+    AdaptedSurface, BetweenSections, CheckedOffsets, FoldCheck, SpanFairness, SurfaceAdaptOptions,
+    SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
 use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
@@ -138,6 +138,13 @@ pub struct SurfaceAdaptBlock {
     /// most 1.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub projection_agreement: Option<f64>,
+    /// The cuts at the mid-stations against their neighbours (chord, thickness, centroid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fairness: Option<SpanFairness>,
+    /// The surface between the sections: against the blade definition's lofted
+    /// mid-stations, or left one section out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_sections: Option<BetweenSections>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -168,6 +175,8 @@ impl SurfaceAdaptReport {
                 held_out: r.held_out,
                 fold: Some(r.fold),
                 projection_agreement: Some(r.agreement),
+                fairness: r.fairness.clone(),
+                between_sections: r.between.clone(),
                 fits: r.fits,
                 search: r.trace.clone(),
             },

@@ -325,6 +325,45 @@ pub fn adapted_surface(name: &str, points: usize, tol: f64, norm: Norm, r: &Adap
         if r.fold.passes { "no fold" } else { "FOLDS" },
         r.agreement
     );
+    match &r.fairness {
+        Some(f) => {
+            let _ = writeln!(
+                s,
+                "  mid-stations   {} cut: worst {} {:.2} of its allowance (span {:.4}; chord and thickness within the neighbours' ± {:.0} % of the chord + tol, centroid within {:.0} %): {}",
+                f.stations,
+                f.measure,
+                f.worst,
+                f.span,
+                100.0 * crate::adaptive::FAIR_SHAPE,
+                100.0 * crate::adaptive::FAIR_CENTROID,
+                if f.passes { "fair" } else { "NOT FAIR" }
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  mid-stations   not cut (the sections are not planes of one axis)"
+            );
+        }
+    }
+    if let Some(b) = &r.between {
+        let skipped = if b.skipped > 0 {
+            format!(", {} could not be refitted without them", b.skipped)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            s,
+            "  between        max {:.3e} ({:.2} tol) at span {:.4}, rms {:.3e} ({}: {} sections, {} points{skipped})",
+            b.max,
+            b.max / tol,
+            b.span,
+            b.rms,
+            b.method,
+            b.sections,
+            b.points
+        );
+    }
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
     s

@@ -279,12 +279,6 @@ pub(crate) fn merge_coincident(
     )))
 }
 
-/// Twice the signed area of the closed polygon through `points` (positive counter-clockwise).
-fn twice_signed_area(points: &[DVec2]) -> f64 {
-    let n = points.len();
-    (0..n).map(|i| points[i].perp_dot(points[(i + 1) % n])).sum()
-}
-
 /// An aerofoil contour in chord fractions, checked and put into Selig order (trailing edge →
 /// upper surface → leading edge → lower surface → trailing edge): the orientation is decided by
 /// the signed area of the closed contour (counter-clockwise is Selig order), never assumed;
@@ -308,7 +302,7 @@ pub(crate) fn unit_contour(mut points: Vec<DVec2>) -> std::result::Result<(Vec<D
             "x runs from {lo} to {hi}; expected chord fractions (leading edge near 0, trailing edge near 1)"
         ));
     }
-    let area = twice_signed_area(&points);
+    let area = super::twice_signed_area(&points);
     if area.abs() <= 1e-12 {
         return Err("the contour encloses no area (is it a camber line or one surface only?)".into());
     }

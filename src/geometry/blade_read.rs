@@ -78,6 +78,23 @@ impl Blade {
         }
     }
 
+    /// Whether `path` names a blade definition rather than a point file: a `.yaml`, `.yml` or
+    /// `.json` file, or (another extension but `.csv`, `.txt`, `.xyz` and standard input) an
+    /// AeroDyn 15 primary file.
+    #[must_use]
+    pub fn is_definition(path: &Path) -> bool {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("yaml" | "yml" | "json") => true,
+            Some("csv" | "txt" | "xyz") => false,
+            _ if path.as_os_str() == "-" => false,
+            _ => io::read_text(path).is_ok_and(|t| super::aerodyn::is_primary(&t)),
+        }
+    }
+
     /// Parse blade JSON; `path` names it in errors and anchors relative aerofoil paths.
     pub fn from_json(text: &str, path: &Path) -> Result<Blade> {
         let bad = |message: String| Error::Input {

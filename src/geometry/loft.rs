@@ -139,6 +139,17 @@ enum Shapes {
     Thickness { masters: ShapePchip, rthick: Vec<f64> },
 }
 
+/// `m` sections of `n` points, when a cloud may have that many.
+fn bounded_total(m: usize, n: usize) -> Result<usize> {
+    m.checked_mul(n)
+        .filter(|&t| t <= MAX_CLOUD_POINTS)
+        .ok_or_else(|| {
+            Error::invalid(format!(
+                "{m} sections x {n} points is more than the {MAX_CLOUD_POINTS} points a cloud may have"
+            ))
+        })
+}
+
 /// Move the leading edge (the point of smallest x) of a blended shape to the origin and scale
 /// its x extent to 1, as WISDEM does after blending by thickness.
 fn normalise(shape: &mut [DVec2]) {
@@ -242,6 +253,40 @@ impl Blade {
     /// with a [`Grid`] unless shuffled. Noise and shuffle are reproducible from the seed
     /// (the same cloud on any number of threads).
     pub fn loft(&self, opts: &LoftOptions) -> Result<Cloud> {
+        if opts.sections.is_some_and(|m| m < 2) {
+            return Err(Error::invalid(format!(
+                "sections must be at least 2 (got {})",
+                opts.sections.unwrap_or(0)
+            )));
+        }
+        // Bounded before the radii are made.
+        if let Some(m) = opts.sections {
+            bounded_total(m, self.points_per_section(opts))?;
+        }
+        let at = opts.sections.map(|_| self.section_radii(opts));
+        self.loft_sections(at.as_deref(), opts)
+    }
+
+    /// Loft sections at the given radii (within the first and last stations', increasing),
+    /// interpolated as [`LoftOptions::sections`] interpolates them; `opts.sections` is
+    /// ignored. The blade between its stations: where a surface fitted to the stations is
+    /// checked.
+    pub fn loft_at(&self, radii: &[f64], opts: &LoftOptions) -> Result<Cloud> {
+        let (first, last) = match (self.stations.first(), self.stations.last()) {
+            (Some(a), Some(b)) => (a.radius, b.radius),
+            _ => return Err(Error::invalid("a blade needs at least 2 stations")),
+        };
+        let inside = radii.iter().all(|r| r.is_finite() && (first..=last).contains(r));
+        if radii.is_empty() || !inside || !radii.windows(2).all(|w| w[0] < w[1]) {
+            return Err(Error::invalid(format!(
+                "loft radii must be increasing and within the stations' {first} ..= {last}"
+            )));
+        }
+        self.loft_sections(Some(radii), opts)
+    }
+
+    /// Loft at the stations (`at` none) or at the radii `at`.
+    fn loft_sections(&self, at: Option<&[f64]>, opts: &LoftOptions) -> Result<Cloud> {
         let n = self.points_per_section(opts);
         if n < MIN_SECTION_POINTS {
             return Err(Error::invalid(match opts.points_per_section {
@@ -252,12 +297,6 @@ impl Blade {
                 ),
             }));
         }
-        if opts.sections.is_some_and(|m| m < 2) {
-            return Err(Error::invalid(format!(
-                "sections must be at least 2 (got {})",
-                opts.sections.unwrap_or(0)
-            )));
-        }
         if !(opts.noise.is_finite() && opts.noise >= 0.0) {
             return Err(Error::invalid(format!(
                 "noise must be a finite fraction >= 0 of the largest chord (got {})",
@@ -265,17 +304,8 @@ impl Blade {
             )));
         }
         self.check()?;
-        // Bounded before the radii are made.
-        let m = opts.sections.unwrap_or(self.stations.len());
-        let total = m
-            .checked_mul(n)
-            .filter(|&t| t <= MAX_CLOUD_POINTS)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "{m} sections x {n} points is more than the {MAX_CLOUD_POINTS} points a cloud may have"
-                ))
-            })?;
-        let radii = self.section_radii(opts);
+        let m = at.map_or(self.stations.len(), <[f64]>::len);
+        let total = bounded_total(m, n)?;
 
         let alike = self.aerofoils.len() > 1;
         let sampled = self
@@ -290,9 +320,9 @@ impl Blade {
             } else {
                 let t: Vec<f64> = masters.iter().map(|m| m.0).collect();
                 let shapes = masters.iter().map(|m| sampled[m.1].clone()).collect();
-                let rthick = match opts.sections {
+                let rthick = match at {
                     None => rthick.clone(),
-                    Some(_) => {
+                    Some(radii) => {
                         let f = Pchip::new(&radii_of_stations, rthick);
                         radii.iter().map(|&r| f.eval(r)).collect()
                     }
@@ -310,12 +340,12 @@ impl Blade {
                 .iter()
                 .map(|s| sampled[s.aerofoil].clone())
                 .collect();
-            match opts.sections {
+            match at {
                 None => Shapes::PerStation(per_station),
                 Some(_) => Shapes::Blend(ShapePchip::new(&radii_of_stations, per_station)),
             }
         };
-        let placements: Vec<Placement> = match opts.sections {
+        let placements: Vec<Placement> = match at {
             None => self
                 .stations
                 .iter()
@@ -329,7 +359,7 @@ impl Blade {
                     normal_offset: s.normal_offset,
                 })
                 .collect(),
-            Some(_) => {
+            Some(radii) => {
                 let profile = Profile::new(self);
                 radii.iter().map(|&r| profile.at(r)).collect()
             }

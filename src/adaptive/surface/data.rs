@@ -2,6 +2,7 @@
 //! blade's chord rule and trailing-edge data, and the held-out split.
 
 use super::super::blade::{section_frame, section_params, SectionFrame};
+use super::span::{Between, Stations};
 use super::SpanRule;
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
@@ -24,6 +25,10 @@ pub(super) struct Data<'a> {
     pub(super) u0_te: Option<Vec<f64>>,
     /// Every section's frame, when the chord rule is used.
     pub(super) blade: Option<Vec<SectionFrame>>,
+    /// The sections' shapes and mid-stations, when the span rule holds.
+    pub(super) stations: Option<Stations>,
+    /// Sections lofted between the data's, from a blade definition ([`Data::with_between`]).
+    pub(super) between: Option<Between>,
 }
 
 pub(super) fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
@@ -172,6 +177,7 @@ impl<'a> Data<'a> {
             u0 = params(false);
             u0_te = Some(params(true));
         }
+        let stations = span.and_then(|_| Stations::new(points, per, &v, [axes[0], axes[1]]));
         Ok(Data {
             points,
             per,
@@ -182,7 +188,37 @@ impl<'a> Data<'a> {
             u0,
             u0_te,
             blade,
+            stations,
+            between: None,
         })
+    }
+
+    /// With sections lofted between the data's (`points`, `per` a section, each in a plane of
+    /// the span axis within the data's span): the search then checks the surface against them.
+    /// `None` when the span rule does not hold or they do not fit it.
+    pub(super) fn with_between(mut self, points: &[DVec3], per: usize) -> Option<Self> {
+        let rule = self.span?;
+        if per == 0 || points.is_empty() || !points.len().is_multiple_of(per) {
+            return None;
+        }
+        let (lo, hi) = (rule.ends[0].min(rule.ends[1]), rule.ends[0].max(rule.ends[1]));
+        let extent = points.iter().fold(0.0_f64, |m, p| m.max(p.abs().max_element()));
+        let v = points
+            .chunks(per)
+            .map(|sec| {
+                let s = sec[0][rule.axis];
+                let planar = sec
+                    .iter()
+                    .all(|p| (p[rule.axis] - s).abs() <= 1e-12 * extent.max(1e-300));
+                (planar && (lo..=hi).contains(&s)).then(|| (s - rule.ends[0]) / (rule.ends[1] - rule.ends[0]))
+            })
+            .collect::<Option<Vec<f64>>>()?;
+        self.between = Some(Between {
+            points: points.to_vec(),
+            per,
+            v,
+        });
+        Some(self)
     }
 
     /// The initial `u` of every point, for a trailing-edge family (`te`) or another.

@@ -45,14 +45,18 @@
 #![allow(clippy::needless_range_loop)]
 
 mod data;
+mod definition;
 mod encoding;
 mod fitter;
 mod search;
+mod span;
 
 use data::Data;
+pub use definition::{adapt_blade, AdaptedBlade, MAX_ROUNDS};
 pub use encoding::{SurfaceCount, SurfaceEncoding};
 use fitter::{closest_offsets, norm_of, Fitter};
 use search::{encode, store, Cand, Family, Growth, Search};
+pub use span::{BetweenSections, SpanFairness, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE};
 
 use super::blade::TE_DEGREE;
 use super::{HeldOut, Norm};
@@ -65,7 +69,7 @@ pub const FOLD_SAMPLES: usize = 16;
 
 /// Equal u segments the bulk families start from (a break at the leading edge).
 const BULK_START: usize = 8;
-use crate::geometry::Grid;
+use crate::geometry::{Cloud, Grid};
 use crate::problem::OffsetStats;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -99,6 +103,10 @@ pub struct SurfaceAdaptOptions {
     pub held_out: bool,
     /// A family gives up after this many fits. Default 80.
     pub max_family_fits: usize,
+    /// The search rejects layouts that fail the mid-station checks ([`mod@span`]: fairness,
+    /// and a blade definition's sections between the data's). Default true; the result's
+    /// `met` holds them either way.
+    pub span_checks: bool,
 }
 
 impl Default for SurfaceAdaptOptions {
@@ -114,6 +122,7 @@ impl Default for SurfaceAdaptOptions {
             minimax: true,
             held_out: true,
             max_family_fits: 80,
+            span_checks: true,
         }
     }
 }
@@ -200,10 +209,26 @@ pub struct AdaptedSurface {
     pub held_out: Option<HeldOut>,
     /// The fold check of the grid ([`fold_check`], [`FOLD_SAMPLES`] samples a patch).
     pub fold: FoldCheck,
+    /// The fairness of the surface's cuts at the mid-stations ([`SpanFairness`]; `None`
+    /// where the sections are not planes of one axis).
+    pub fairness: Option<SpanFairness>,
+    /// The surface between the data's sections ([`BetweenSections`]): against a blade
+    /// definition's lofted mid-stations, or left-one-section-out on a bare cloud (with
+    /// [`SurfaceAdaptOptions::held_out`]).
+    pub between: Option<BetweenSections>,
     /// The checker's max over the true closest-point max: the projection check agrees with
     /// the exact offsets within 10 % when it is at most 1.1.
     pub agreement: f64,
-    /// True when the tolerance holds, by the true closest-point offsets and by the checker's.
+    /// True when the tolerance holds at the data's sections, by the true closest-point
+    /// offsets and by the checker's (the mid-stations aside).
+    pub at_sections: bool,
+    /// The span coordinates of the mid-stations where the surface fails the checks between
+    /// the sections ([`span`]'s fairness, or a blade definition's lofted section there more
+    /// than [`BETWEEN_FACTOR`] tolerances away); empty when it passes.
+    pub faults: Vec<f64>,
+    /// True when the tolerance holds, by the true closest-point offsets and by the checker's,
+    /// the mid-stations' cuts are fair and, against a blade definition, the surface is within
+    /// [`BETWEEN_FACTOR`] tolerances of it between the sections.
     pub met: bool,
     /// Why not, when it does not.
     pub message: Option<String>,
@@ -222,13 +247,16 @@ pub struct AdaptedSurface {
 /// `opts.norm`. When none does, the result holds the closest layout found, `met` false and a
 /// message.
 pub fn adapt_surface(points: &[DVec3], grid: Grid, opts: &SurfaceAdaptOptions) -> Result<AdaptedSurface> {
-    adapt_surface_with(points, grid, opts, &|_| {})
+    adapt_surface_with(points, grid, None, opts, &|_| {})
 }
 
-/// [`adapt_surface`], calling `progress` as each family of the search ends.
+/// [`adapt_surface`], checked against `between` (sections lofted from the blade definition
+/// between the data's sections, [`crate::geometry::Blade::loft_at`]) when given, calling
+/// `progress` as each family of the search ends.
 pub fn adapt_surface_with(
     points: &[DVec3],
     grid: Grid,
+    between: Option<&Cloud>,
     opts: &SurfaceAdaptOptions,
     progress: &(dyn Fn(&SurfaceProgress<'_>) + Sync),
 ) -> Result<AdaptedSurface> {
@@ -253,12 +281,27 @@ pub fn adapt_surface_with(
     }
     let limit_scalars = opts.max_scalars.unwrap_or(usize::MAX).min(3 * points.len() - 1);
     let chord = opts.chord_rule != ChordRule::Off;
-    let mut data = Data::new(points, grid, opts.span_rule, chord)?;
+    let data_of = |chord: bool| -> Result<Data<'_>> {
+        let data = Data::new(points, grid, opts.span_rule, chord)?;
+        match between {
+            None => Ok(data),
+            Some(b) => {
+                let per = b.grid.map_or(0, |g| g.per_section);
+                data.with_between(&b.points, per).ok_or_else(|| {
+                    Error::invalid(
+                        "adapt-surface: the sections between the data's must be planes of the data \
+                         sections' span axis, within their span",
+                    )
+                })
+            }
+        }
+    };
+    let mut data = data_of(chord)?;
     let (mut results, mut fits) = run_families(&data, opts, limit_scalars, progress);
     let mut trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
     let none_met = |r: &[FamilyResult]| r.iter().all(|r| r.1.is_none());
     if data.blade.is_some() && opts.chord_rule == ChordRule::Auto && none_met(&results) {
-        let plain = Data::new(points, grid, opts.span_rule, false)?;
+        let plain = data_of(false)?;
         let (more, f) = run_families(&plain, opts, limit_scalars, progress);
         fits += f;
         trace.extend(more.iter().map(|r| r.3.clone()));
@@ -322,8 +365,45 @@ pub fn adapt_surface_with(
         Norm::Max => checked.max,
         Norm::Rms => checked.rms,
     };
-    let met = met && measure <= opts.tol && checked_measure <= opts.tol;
+    let fairness = span::fairness(&data, &grid_fit, opts.tol);
+    let between = match span::between_check(&data, &grid_fit) {
+        Some(b) => Some(b),
+        None if opts.held_out => leave_one_out_check(&data, &fam, &cand, opts),
+        None => None,
+    };
+    let fair = fairness.as_ref().is_none_or(|f| f.passes);
+    let lofted = between
+        .as_ref()
+        .filter(|b| b.method == "loft")
+        .is_none_or(|b| b.max <= BETWEEN_FACTOR * opts.tol);
+    let at_sections = met && measure <= opts.tol && checked_measure <= opts.tol;
+    let faults: Vec<f64> = span::faults(&data, &grid_fit, opts.tol)
+        .into_iter()
+        .map(|v| span::span_at(&data, v))
+        .collect();
+    let met = at_sections && fair && lofted;
     let message = (!met).then(|| {
+        if at_sections {
+            let mut why = Vec::new();
+            if let Some(f) = fairness.as_ref().filter(|f| !f.passes) {
+                why.push(format!(
+                    "its cut at span {:.4} has its {} {:.2} times the allowance from its neighbours",
+                    f.span, f.measure, f.worst
+                ));
+            }
+            if let Some(b) = between.as_ref().filter(|_| !lofted) {
+                why.push(format!(
+                    "it is {:.3e} from the blade definition between the sections (span {:.4}), over \
+                     {BETWEEN_FACTOR} times the tolerance",
+                    b.max, b.span
+                ));
+            }
+            return format!(
+                "tolerance {:e} met at the sections but not between them: {}",
+                opts.tol,
+                why.join("; ")
+            );
+        }
         format!(
             "tolerance {:e} ({}) not met: no family met it within the data's limits (at most half a \
              section's points around, one design column per section along the span, fewer stored \
@@ -353,7 +433,11 @@ pub fn adapt_surface_with(
         checked,
         held_out,
         fold,
+        fairness,
+        between,
         agreement,
+        at_sections,
+        faults,
         met,
         message,
         family: fam.name(),
@@ -483,14 +567,49 @@ fn run_families(
 /// Refit the winner's layout on every other point of each section (both ends kept) and
 /// measure the others' true closest-point offsets.
 fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOptions) -> Option<HeldOut> {
+    let per = data.per;
+    let (fitted, stats) = refit_without(data, fam, c, opts, &|p| {
+        let i = p % per;
+        i.is_multiple_of(2) || i == per - 1
+    })?;
+    Some(HeldOut {
+        fitted,
+        measured: stats.points,
+        max: stats.max,
+        rms: stats.rms,
+    })
+}
+
+/// Refit the winner's layout without each interior section in turn and measure that
+/// section's true closest-point offsets ([`span::leave_one_out`]).
+fn leave_one_out_check(
+    data: &Data<'_>,
+    fam: &Family,
+    c: &Cand,
+    opts: &SurfaceAdaptOptions,
+) -> Option<BetweenSections> {
+    let per = data.per;
+    span::leave_one_out(data, &|k| {
+        refit_without(data, fam, c, opts, &|p| p / per != k).map(|r| r.1)
+    })
+}
+
+/// Refit the winner's layout on the points `keep` says to and measure the others' true
+/// closest-point offsets: the points fitted, and the others' offsets.
+fn refit_without(
+    data: &Data<'_>,
+    fam: &Family,
+    c: &Cand,
+    opts: &SurfaceAdaptOptions,
+    keep: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<(usize, OffsetStats<DVec3>)> {
     let lu = fam.layout(fam.du, fam.ou, &c.bu)?;
     let lv = fam.layout(fam.dv, fam.ov, &c.bv)?;
     let per = data.per;
-    let fitted = |p: usize| {
-        let i = p % per;
-        i.is_multiple_of(2) || i == per - 1
-    };
-    let (kept, rest): (Vec<usize>, Vec<usize>) = (0..data.points.len()).partition(|&p| fitted(p));
+    let (kept, rest): (Vec<usize>, Vec<usize>) = (0..data.points.len()).partition(|&p| keep(p));
+    if rest.is_empty() {
+        return None;
+    }
     let points: Vec<DVec3> = kept.iter().map(|&p| data.points[p]).collect();
     let v = data.point_v();
     let ends: Vec<(usize, f64)> = (0..kept.len())
@@ -518,12 +637,7 @@ fn held_out_check(data: &Data<'_>, fam: &Family, c: &Cand, opts: &SurfaceAdaptOp
     let rest: Vec<DVec3> = rest.iter().map(|&p| data.points[p]).collect();
     let checked = sampled_offsets(&grid, &rest);
     let stats = closest_offsets(&grid, &rest, &checked, None).ok()?;
-    Some(HeldOut {
-        fitted: data.points.len() - rest.len(),
-        measured: rest.len(),
-        max: stats.max,
-        rms: stats.rms,
-    })
+    Some((kept.len(), stats))
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ use super::super::Norm;
 use super::data::Data;
 use super::encoding::SurfaceEncoding;
 use super::fitter::{fold_at, norm_of, span_maxima, Fitted, Fitter};
+use super::span::span_fault;
 use super::{sampled_offsets, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
 use crate::chain::{ChainLayout, PatchGrid};
 use glam::DVec3;
@@ -170,7 +171,18 @@ impl<'d, 'a> Search<'d, 'a> {
         self.checkable(fam, c).is_some_and(|grid| {
             !(fam.bulk() && fold_at(&grid).is_some())
                 && norm_of(&sampled_offsets(&grid, self.data.points), self.opts.norm) <= self.opts.tol
+                && self.span_fault(&grid).is_none()
         })
+    }
+
+    /// Where a grid fails the mid-station checks ([`span_fault`]), when the search holds
+    /// them ([`SurfaceAdaptOptions::span_checks`]).
+    fn span_fault(&self, grid: &PatchGrid<DVec3>) -> Option<f64> {
+        if self.opts.span_checks {
+            span_fault(self.data, grid, self.opts.tol)
+        } else {
+            None
+        }
     }
 
     /// The checker's offsets ([`sampled_offsets`]) of a candidate whose own offsets meet the
@@ -303,7 +315,10 @@ impl<'d, 'a> Search<'d, 'a> {
             let mut fold = None;
             let err = match self.check(fam, &c) {
                 Some((e, grid)) if norm_of(&e, self.opts.norm) <= tol => match fold_at(&grid) {
-                    None => return Some(c),
+                    None if self.span_fault(&grid).is_none() => return Some(c),
+                    // Meets the tolerance but not between the sections: refine where the
+                    // offsets are largest, as when the checker misses.
+                    None => e,
                     // Meets the tolerance but folds: split the u segment of the fold.
                     Some(u) => {
                         fold = Some(u);
@@ -406,12 +421,29 @@ impl<'d, 'a> Search<'d, 'a> {
                 trace.outcome = format!("pruned (as many stored scalars as the {bound} met before)");
                 break None;
             }
-            let checked = self.check(&fam, &cur).map(|(e, _)| e);
-            if checked
-                .as_ref()
-                .is_some_and(|e| norm_of(e, self.opts.norm) <= self.opts.tol)
-            {
-                break Some(cur);
+            let checked = self.check(&fam, &cur);
+            let mut between = None;
+            if let Some((e, grid)) = &checked {
+                if norm_of(e, self.opts.norm) <= self.opts.tol {
+                    between = self.span_fault(grid);
+                    if between.is_none() {
+                        break Some(cur);
+                    }
+                }
+            }
+            let checked = checked.map(|(e, _)| e);
+            // Meets the tolerance at the sections but not between them: a span break at the
+            // worst mid-station, so the neighbours there are followed on their own.
+            if let Some(v) = between {
+                let mut bv = cur.bv.clone();
+                if !bv.iter().any(|b| (b - v).abs() < 1e-9) {
+                    bv.push(v);
+                    bv.sort_by(f64::total_cmp);
+                    if let Some(next) = self.fit(&mut nfits, &fam, &cur.bu, &bv, &cur.fit.u) {
+                        cur = next;
+                        continue;
+                    }
+                }
             }
             if nfits >= self.opts.max_family_fits {
                 trace.outcome = "gave up (fits per family)".into();
