@@ -15,6 +15,7 @@ mod naca;
 mod points;
 mod population;
 mod scale;
+mod scatter;
 mod section;
 mod windio;
 
@@ -33,5 +34,6 @@ pub use points::{
 };
 pub use population::{parse_population, read_population};
 pub use scale::{check_design_scale, check_scale, Precision, MIN_EXTENT_F32, MIN_EXTENT_F64};
+pub use scatter::{curve_scatter, section_scatter, Scatter};
 pub(crate) use section::twice_signed_area;
 pub use section::SectionShape;
