@@ -1735,7 +1735,7 @@ mod tests {
         // grows downwards), the small ones light yellow; the bar is right of the surface, the
         // caption under it (from y = 166).
         let is_dark = |c: Rgb| lightness(c) < 35.0 && c[2] > c[1] + 20 && c[0] > c[1];
-        let is_light = |c: Rgb| c[0] > 180 && c[1] > 180 && c[2] < 120;
+        let is_light = |c: Rgb| lightness(c) > 70.0 && c[2] < 120;
         let surface_dark: Vec<_> = pixels
             .iter()
             .filter(|p| p.0 < 330 && p.1 < 166 && is_dark(p.2))
