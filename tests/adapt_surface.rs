@@ -495,6 +495,9 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
     assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 10_000);
     let svg = std::fs::read_to_string(dir.join("r.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    // Coloured as fit-surface colours: both scales, the worst point, the stations.
+    assert!(svg.contains(r#"class="percent-of-local-chord""#) && svg.contains(r#"class="data-units""#));
+    assert!(svg.contains(r#"<g class="worst-point""#) && svg.contains(r#"class="station""#));
     assert_eq!(
         out.status.code(),
         Some(0),

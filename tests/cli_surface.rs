@@ -224,6 +224,22 @@ fn the_papers_blade_end_to_end_with_a_report_checked_from_its_json() {
         text.matches("<circle").count() >= 2 * 13 * 7,
         "two views of the net"
     );
+    // Coloured by offset / local chord: a colour bar with both scales, the worst point ringed
+    // and labelled with its section, the 12 stations drawn and numbered.
+    let bar = &text[text.find(r#"<g id="colour-bar""#).expect("a colour bar")..];
+    assert_eq!(bar.matches(r#"class="percent-of-local-chord""#).count(), 5);
+    assert_eq!(bar.matches(r#"class="data-units""#).count(), 5);
+    assert!(
+        bar.contains("at largest chord"),
+        "the data-unit scale names its chord"
+    );
+    assert_eq!(
+        text.matches(r#"<g class="worst-point""#).count(),
+        2,
+        "one ring a view"
+    );
+    assert!(text.contains("of local chord: ") && text.contains(", section "));
+    assert!(text.contains(r#"class="station""#) && text.contains(r#"class="station-numbers""#));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

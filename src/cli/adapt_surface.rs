@@ -224,7 +224,7 @@ pub fn run(args: Args) -> Result<()> {
         // The span axis fit-surface draws a sectioned cloud along.
         let (_, axis) = section_params(points, grid, None)?;
         let [w, h] = pictures.size();
-        let ropts = RenderOptions::of_surface(surface, &params, axis.dir, points, w, h);
+        let ropts = RenderOptions::of_surface(surface, &params, axis.dir, points, Some(grid), w, h);
         pictures.put(&mut outs, surface, &ropts)?;
     }
     finish(

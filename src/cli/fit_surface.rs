@@ -264,7 +264,7 @@ pub fn run(args: Args) -> Result<()> {
         pictures.put(
             &mut outs,
             &fit.grid,
-            &RenderOptions::of_fit(&fit, &loaded.points, w, h),
+            &RenderOptions::of_fit(&fit, &loaded.points, loaded.grid, w, h),
         )?;
     }
     if args.cad.wanted() {

@@ -7,6 +7,7 @@ mod cad;
 mod cp_plot;
 mod iges;
 mod mesh;
+mod offset_map;
 mod render;
 mod step;
 pub mod summary;
@@ -23,9 +24,10 @@ pub use cad::{utc_now, write_cad};
 pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
 pub use mesh::SurfaceMesh;
+pub use offset_map::{lightness, Colouring, Marked, CHORD_FLOOR};
 pub use render::{
-    local_offsets, offset_colour, render, render_svg, Image, RenderOptions, Rgb, View, BACKGROUND, BORDER,
-    DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
+    local_offsets, offset_colour, render, render_svg, Image, OffsetPoint, RenderOptions, Rgb, Station, View,
+    BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
 pub use step::step_text;
 pub use svg::CurvePlot;

@@ -2,18 +2,20 @@
 //! a CPU rasteriser with a z-buffer, the surface shaded, the net drawn as lines, design points
 //! and generated points as dots of two colours, one panel per view. Given the data's offsets,
 //! the surface is coloured by the local offset (the largest offset of the data points whose
-//! closest points fall near each place), with a labelled colour bar.
+//! closest points fall near each place), relative to the local chord when the cloud has
+//! sections ([`super::offset_map`] says what and why), with a colour bar of two scales, the
+//! worst points ringed, the stations drawn across the surface and a caption.
 
 use super::mesh::SurfaceMesh;
+pub use super::offset_map::{offset_colour, OffsetPoint, Rgb, Station};
+use super::offset_map::{offset_label, stations, Colouring, Marked};
 use crate::chain::PatchGrid;
 use crate::error::{Error, Result};
 use crate::eval::dense::{dense_grid, uniform, DensePoint};
 use crate::eval::Backend;
 use crate::fit::SurfaceFit;
+use crate::geometry::Grid;
 use glam::DVec3;
-
-/// An RGB colour.
-pub type Rgb = [u8; 3];
 
 /// The background.
 pub const BACKGROUND: Rgb = [255, 255, 255];
@@ -57,10 +59,15 @@ pub struct RenderOptions {
     /// Data points to draw as small dots (e.g. the fitted cloud or a sample of it). Default
     /// none.
     pub cloud: Vec<DVec3>,
-    /// The closest-point parameters `(u, v)` on the surface of the data points and their
-    /// offsets (model units). When given, the surface is coloured by the local offset (see
-    /// [`local_offsets`]) from 0 to the largest, with a colour bar on the right. Default none.
-    pub offsets: Vec<([f64; 2], f64)>,
+    /// The data points with their closest-point parameters on the surface and offsets. When
+    /// given, the surface is coloured by the local offset (see [`local_offsets`]; relative to
+    /// the local chord when every point has a station, see [`super::offset_map`]) from 0 to the
+    /// largest, with a colour bar on the right, the worst points ringed and a caption below.
+    /// Default none.
+    pub offsets: Vec<OffsetPoint>,
+    /// The data's sections (stations), which [`OffsetPoint::section`] indexes: drawn as lines
+    /// across the surface and numbered under it. Default none.
+    pub stations: Vec<Station>,
 }
 
 impl Default for RenderOptions {
@@ -82,6 +89,7 @@ impl Default for RenderOptions {
             supersample: 2,
             cloud: Vec::new(),
             offsets: Vec::new(),
+            stations: Vec::new(),
         }
     }
 }
@@ -240,30 +248,6 @@ fn columns_of(points: &[DensePoint], cols: usize) -> Vec<Vec<DVec3>> {
         .collect()
 }
 
-/// The colour of `t ∈ [0, 1]` on a sequential map that stays light where the offsets are
-/// small (so the shading reads) and turns dark red where they are largest (ColorBrewer's
-/// YlOrRd, by linear interpolation between its 9 classes): pale yellow for 0, dark red for 1.
-#[must_use]
-pub fn offset_colour(t: f64) -> Rgb {
-    const STOPS: [[f32; 3]; 9] = [
-        [255.0, 255.0, 204.0],
-        [255.0, 237.0, 160.0],
-        [254.0, 217.0, 118.0],
-        [254.0, 178.0, 76.0],
-        [253.0, 141.0, 60.0],
-        [252.0, 78.0, 42.0],
-        [227.0, 26.0, 28.0],
-        [189.0, 0.0, 38.0],
-        [128.0, 0.0, 38.0],
-    ];
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
-    let x = t * (STOPS.len() - 1) as f64;
-    let k = (x.floor() as usize).min(STOPS.len() - 2);
-    let f = (x - k as f64) as f32;
-    let (a, b) = (STOPS[k], STOPS[k + 1]);
-    [0, 1, 2].map(|c| (a[c] + (b[c] - a[c]) * f).round() as u8)
-}
-
 /// The local offset at every vertex of `mesh`: the largest offset of the data points whose
 /// closest points fall in one of the mesh cells around the vertex; vertices with no such data
 /// take the value of the nearest vertex that has (by grid steps). `None` without data.
@@ -317,9 +301,10 @@ pub fn local_offsets(mesh: &SurfaceMesh, offsets: &[([f64; 2], f64)]) -> Option<
 }
 
 /// 5 x 7 pixel glyphs (one row a byte, the low 5 bits, most significant bit leftmost) for the
-/// colour bar's labels.
+/// picture's labels: digits, lower-case letters (capitals are drawn lower-case) and the signs
+/// the labels use.
 fn glyph(c: char) -> Option<[u8; 7]> {
-    Some(match c {
+    Some(match c.to_ascii_lowercase() {
         '0' => [0x0e, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0e],
         '1' => [0x04, 0x0c, 0x04, 0x04, 0x04, 0x04, 0x0e],
         '2' => [0x0e, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1f],
@@ -331,16 +316,43 @@ fn glyph(c: char) -> Option<[u8; 7]> {
         '8' => [0x0e, 0x11, 0x11, 0x0e, 0x11, 0x11, 0x0e],
         '9' => [0x0e, 0x11, 0x11, 0x0f, 0x01, 0x02, 0x0c],
         '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0c, 0x0c],
+        ',' => [0x00, 0x00, 0x00, 0x00, 0x0c, 0x04, 0x08],
+        ':' => [0x00, 0x0c, 0x0c, 0x00, 0x0c, 0x0c, 0x00],
+        ';' => [0x00, 0x0c, 0x0c, 0x00, 0x0c, 0x04, 0x08],
         '-' => [0x00, 0x00, 0x00, 0x1f, 0x00, 0x00, 0x00],
         '+' => [0x00, 0x04, 0x04, 0x1f, 0x04, 0x04, 0x00],
+        '=' => [0x00, 0x00, 0x1f, 0x00, 0x1f, 0x00, 0x00],
+        '/' => [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00],
+        '%' => [0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03],
+        '\'' => [0x04, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00],
+        '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
+        ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
+        'a' => [0x00, 0x00, 0x0e, 0x01, 0x0f, 0x11, 0x0f],
+        'b' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1e],
+        'c' => [0x00, 0x00, 0x0e, 0x10, 0x10, 0x11, 0x0e],
+        'd' => [0x01, 0x01, 0x0d, 0x13, 0x11, 0x11, 0x0f],
         'e' => [0x00, 0x00, 0x0e, 0x11, 0x1f, 0x10, 0x0e],
-        'o' => [0x00, 0x00, 0x0e, 0x11, 0x11, 0x11, 0x0e],
         'f' => [0x06, 0x09, 0x08, 0x1c, 0x08, 0x08, 0x08],
+        'g' => [0x00, 0x0f, 0x11, 0x11, 0x0f, 0x01, 0x0e],
+        'h' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11],
+        'i' => [0x04, 0x00, 0x0c, 0x04, 0x04, 0x04, 0x0e],
+        'j' => [0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0c],
+        'k' => [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12],
+        'l' => [0x0c, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0e],
+        'm' => [0x00, 0x00, 0x1a, 0x15, 0x15, 0x11, 0x11],
+        'n' => [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11],
+        'o' => [0x00, 0x00, 0x0e, 0x11, 0x11, 0x11, 0x0e],
+        'p' => [0x00, 0x00, 0x1e, 0x11, 0x1e, 0x10, 0x10],
+        'q' => [0x00, 0x00, 0x0d, 0x13, 0x0f, 0x01, 0x01],
+        'r' => [0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10],
         's' => [0x00, 0x00, 0x0f, 0x10, 0x0e, 0x01, 0x1e],
         't' => [0x08, 0x08, 0x1c, 0x08, 0x08, 0x09, 0x06],
-        'm' => [0x00, 0x00, 0x1a, 0x15, 0x15, 0x11, 0x11],
-        'a' => [0x00, 0x00, 0x0e, 0x01, 0x0f, 0x11, 0x0f],
+        'u' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0d],
+        'v' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x0a, 0x04],
+        'w' => [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0a],
         'x' => [0x00, 0x00, 0x11, 0x0a, 0x04, 0x0a, 0x11],
+        'y' => [0x00, 0x00, 0x11, 0x11, 0x0f, 0x01, 0x0e],
+        'z' => [0x00, 0x00, 0x1f, 0x02, 0x04, 0x08, 0x1f],
         ' ' => [0; 7],
         _ => return None,
     })
@@ -365,34 +377,263 @@ fn draw_text(canvas: &mut Canvas, x: i64, y: i64, text: &str, scale: i64, colour
     }
 }
 
-/// A label for an offset: three significant digits, exponent form (`1.23e-3`).
-fn offset_label(x: f64) -> String {
-    if x == 0.0 {
-        return "0".into();
+/// Text on a light box (so that it reads over any colour), top-left at `(x, y)`.
+fn draw_boxed_text(canvas: &mut Canvas, x: i64, y: i64, text: &str, scale: i64) {
+    let (bw, bh) = (text.chars().count() as i64 * 6 * scale + 2 * scale, 9 * scale);
+    for yy in y - scale..y - scale + bh {
+        for xx in x - scale..x - scale + bw {
+            canvas.blend(xx, yy, BACKGROUND, 0.8);
+        }
     }
-    let s = format!("{x:.2e}");
-    s.replace("e-0", "e-").replace("e0", "e")
+    draw_text(canvas, x, y, text, scale, NET);
 }
 
-/// The colour bar: a vertical strip from `lo` (bottom) to `hi` (top) of offset 0 to `max`,
-/// ticks and labels at 0, 1/4, ..., 1 of `max`, and the title `offset` above.
-fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, width: i64, max: f64, scale: i64) {
+/// The colour bar: a vertical strip from `top` to `bottom` of the colouring's 0 (bottom) to its
+/// largest value (top), ticks at 0, 1/4, ..., 1 with the data-unit labels on the right and,
+/// for a relative colouring, the % of local chord on the left; the title and the two scales'
+/// names above it. `x` is the left edge of the bar's room.
+fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, colouring: &Colouring, scale: i64) {
+    let width = 8 * scale;
+    let left_room = if colouring.relative { 44 * scale } else { 0 };
+    let bx = x + left_room;
     let height = (bottom - top).max(1);
     for y in top..=bottom {
         let c = offset_colour((bottom - y) as f64 / height as f64);
         for dx in 0..width {
-            canvas.blend(x + dx, y, c, 1.0);
+            canvas.blend(bx + dx, y, c, 1.0);
         }
     }
-    for q in 0..=4 {
-        let y = bottom - height * q / 4;
-        for dx in 0..(width / 3).max(2) {
-            canvas.blend(x + width + dx, y, NET, 1.0);
+    for (q, (left, right)) in colouring.ticks().into_iter().enumerate() {
+        let y = bottom - height * q as i64 / 4;
+        for dx in 0..2 * scale {
+            canvas.blend(bx + width + dx, y, NET, 1.0);
+            if left.is_some() {
+                canvas.blend(bx - 1 - dx, y, NET, 1.0);
+            }
         }
-        let label = offset_label(max * q as f64 / 4.0);
-        draw_text(canvas, x + width + width / 2, y - 3 * scale, &label, scale, NET);
+        draw_text(canvas, bx + width + 3 * scale, y - 3 * scale, &right, scale, NET);
+        if let Some(l) = left {
+            let lw = l.chars().count() as i64 * 6 * scale;
+            draw_text(canvas, bx - 3 * scale - lw, y - 3 * scale, &l, scale, NET);
+        }
     }
-    draw_text(canvas, x, top - 12 * scale, "offset", scale, NET);
+    draw_text(canvas, x, top - 22 * scale, colouring.title(), scale, NET);
+    if colouring.relative {
+        draw_text(canvas, x, top - 11 * scale, "% chord", scale, NET);
+        draw_text(
+            canvas,
+            bx + width + 3 * scale,
+            top - 11 * scale,
+            "at max c",
+            scale,
+            NET,
+        );
+        let c = format!("max chord {}", offset_label(colouring.reference));
+        draw_text(canvas, x, bottom + 6 * scale, &c, scale, NET);
+    }
+}
+
+/// A ring around a marked point: a solid black ring with a white halo for the primary mark,
+/// a thinner dashed one for the other; half as opaque where the surface hides the point.
+fn draw_ring(canvas: &mut Canvas, at: (f64, f64), radius: f64, scale: f64, primary: bool, hidden: bool) {
+    let alpha = if hidden { 0.5 } else { 1.0 };
+    let steps = (2.0 * std::f64::consts::PI * radius * 2.0).ceil().max(16.0) as usize;
+    let (halo, line) = if primary {
+        (1.4 * scale, 0.7 * scale)
+    } else {
+        (0.9 * scale, 0.4 * scale)
+    };
+    for (width, colour) in [(halo, BACKGROUND), (line, [0, 0, 0])] {
+        for s in 0..steps {
+            let a = 2.0 * std::f64::consts::PI * s as f64 / steps as f64;
+            if !primary && (a / (std::f64::consts::PI / 8.0)) as usize % 2 == 1 {
+                continue;
+            }
+            let (x, y) = (at.0 + radius * a.cos(), at.1 + radius * a.sin());
+            let r = width.ceil() as i64;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                    let d = ((px as f64 - x).powi(2) + (py as f64 - y).powi(2)).sqrt();
+                    if d <= width {
+                        canvas.blend(px, py, colour, alpha);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Where a station is numbered under a panel: the screen x of every station's centroid, and
+/// the ones to label (no two labels closer than `gap`; the first and the last always).
+fn station_ticks(xs: &[f64], gap: f64) -> Vec<bool> {
+    let mut order: Vec<usize> = (0..xs.len()).filter(|&k| xs[k].is_finite()).collect();
+    order.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
+    let mut shown = vec![false; xs.len()];
+    let mut last: Option<usize> = None;
+    for &k in &order {
+        if last.is_none_or(|p| xs[k] - xs[p] >= gap) {
+            shown[k] = true;
+            last = Some(k);
+        }
+    }
+    if let (Some(&end), Some(prev)) = (order.last(), last) {
+        if prev != end {
+            shown[end] = true;
+            if xs[end] - xs[prev] < gap && order.first() != Some(&prev) {
+                shown[prev] = false;
+            }
+        }
+    }
+    shown
+}
+
+/// True when the surface (its projected triangles) lies in front of `p` by more than `tol`.
+fn hidden_by(screen: &[(f64, f64, f64)], triangles: &[[u32; 3]], p: (f64, f64, f64), tol: f64) -> bool {
+    triangles.iter().any(|t| {
+        let [a, b, c] = t.map(|i| screen[i as usize]);
+        let area = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
+        if area.abs() <= 1e-12 || !area.is_finite() {
+            return false;
+        }
+        let w0 = ((b.0 - p.0) * (c.1 - p.1) - (c.0 - p.0) * (b.1 - p.1)) / area;
+        let w1 = ((c.0 - p.0) * (a.1 - p.1) - (a.0 - p.0) * (c.1 - p.1)) / area;
+        let w2 = 1.0 - w0 - w1;
+        w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 && w0 * a.2 + w1 * b.2 + w2 * c.2 > p.2 + tol
+    })
+}
+
+/// The offsets as the colouring's values at their parameters, for [`local_offsets`].
+fn value_points(opts: &RenderOptions, c: &Colouring) -> Vec<([f64; 2], f64)> {
+    opts.offsets
+        .iter()
+        .zip(&c.values)
+        .map(|(p, &v)| (p.uv, v))
+        .collect()
+}
+
+/// The label of a ring, noting when the surface hides its point in this view.
+fn marker_label(m: &Marked, relative: bool, hidden: bool) -> String {
+    let mut text = m.label(relative);
+    if hidden {
+        text.push_str(" (far side)");
+    }
+    text
+}
+
+/// The top-left corner of a label beside a ring at `p` of `radius`: right of it, or left of it
+/// when that runs out of the panel, kept in the panel, and below the labels `placed` before it
+/// (their boxes) when it would overlap one.
+fn place_label(
+    p: (f64, f64, f64),
+    radius: f64,
+    text: &str,
+    scale: f64,
+    panel: (f64, f64, f64, f64),
+    placed: &mut Vec<(f64, f64, f64, f64)>,
+) -> (f64, f64) {
+    let (px, py, pw, ph) = panel;
+    let (bw, bh) = (text.chars().count() as f64 * 6.0 * scale, 10.0 * scale);
+    let gap = radius + 2.0 * scale;
+    let (mut x, mut y) = (p.0 + gap, p.1 - 3.5 * scale);
+    if x + bw > px + pw {
+        x = p.0 - gap - bw;
+    }
+    if x < px {
+        // Neither side has room: centred under the ring (over it near the panel's bottom).
+        x = p.0 - 0.5 * bw;
+        y = if p.1 + gap + bh < py + ph {
+            p.1 + gap
+        } else {
+            p.1 - gap - bh
+        };
+    }
+    x = x.clamp(px + scale, (px + pw - bw - scale).max(px + scale));
+    y = y.clamp(py + scale, (py + ph - bh).max(py + scale));
+    while placed
+        .iter()
+        .any(|&(ox, oy, ow, oh)| x < ox + ow && ox < x + bw && y < oy + oh && oy < y + bh)
+    {
+        y += bh;
+    }
+    placed.push((x, y, bw, bh));
+    (x, y)
+}
+
+/// The boxes of the rings around `marked` in `cam`'s view, which labels keep clear of.
+fn ring_boxes(cam: &Camera, marked: &[Marked], radius: f64) -> Vec<(f64, f64, f64, f64)> {
+    marked
+        .iter()
+        .map(|m| {
+            let p = cam.project(m.position);
+            (p.0 - radius, p.1 - radius, 2.0 * radius, 2.0 * radius)
+        })
+        .collect()
+}
+
+/// The screen x of a station (its centroid's), for its number under the panel.
+fn station_x(cam: &Camera, st: &Station) -> f64 {
+    let n = st.points.len().max(1) as f64;
+    cam.project(st.points.iter().copied().sum::<DVec3>() / n).0
+}
+
+/// Per mesh vertex, the diffuse factor and the highlight in `cam`'s light: from above left of
+/// the camera, so curvature shows as a gradient, with a soft highlight (Blinn-Phong) for the
+/// sheen of a smooth surface; both sides lit alike. Over a surface coloured by offsets the
+/// light is softer, so that the colour, not the shading, sets the lightness a grey print shows.
+fn shading(mesh: &SurfaceMesh, cam: &Camera, coloured: bool) -> Vec<[f32; 2]> {
+    let light = (cam.eye * 0.6 + cam.up * 1.0 - cam.right * 0.35).normalize();
+    let half = (light + cam.eye).normalize();
+    let (ambient, diffuse, sheen) = if coloured {
+        (0.72, 0.32, 0.12)
+    } else {
+        (0.3, 0.72, 0.45)
+    };
+    mesh.normals
+        .iter()
+        .map(|n| {
+            let n = if n.dot(cam.eye) < 0.0 { -*n } else { *n };
+            let d = ambient + diffuse * n.dot(light).max(0.0);
+            let s = sheen * n.dot(half).max(0.0).powi(40);
+            [d as f32, s as f32]
+        })
+        .collect()
+}
+
+/// The text scale of a picture `h` canvas pixels high at supersampling `ss`.
+fn text_scale(h: usize, ss: usize) -> i64 {
+    ((h as f64 / 450.0).round() as i64).max(ss as i64)
+}
+
+/// The picture's layout when coloured, at text scale `scale` (canvas pixels a font pixel):
+/// the colour bar's room on the right, the caption's height at the bottom, and the caption's
+/// lines, wrapped at words to the picture's width.
+fn bar_and_caption(
+    colouring: Option<&Colouring>,
+    stations: bool,
+    w: f64,
+    scale: f64,
+) -> (f64, f64, Vec<String>) {
+    let Some(c) = colouring else {
+        return (0.0, 0.0, Vec::new());
+    };
+    let bar = if c.relative { 126.0 } else { 62.0 } * scale;
+    let width = ((w / (6.0 * scale)) as usize).saturating_sub(2).max(20);
+    let mut lines = Vec::new();
+    for text in c.caption(stations) {
+        let mut line = String::new();
+        for word in text.split(' ') {
+            if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+                lines.push(std::mem::take(&mut line));
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+        lines.push(line);
+    }
+    (bar.min(0.4 * w), (lines.len() as f64 * 10.0 + 4.0) * scale, lines)
 }
 
 impl RenderOptions {
@@ -401,9 +642,25 @@ impl RenderOptions {
     /// coloured by the offsets of the fit's points. The default views look at a blade along
     /// +z, its thickness along y; they turn with the fit's span axis, and to x when the cloud
     /// is thinnest along x (a windIO or AeroDyn blade in its blade-root axes).
+    /// With `sections` (the cloud's grid) the colour is relative to each point's local chord
+    /// and the stations are drawn (see [`super::offset_map`]).
     #[must_use]
-    pub fn of_fit(fit: &SurfaceFit, points: &[DVec3], width: u32, height: u32) -> RenderOptions {
-        RenderOptions::of_surface(&fit.grid, &fit.params, fit.axis.dir, points, width, height)
+    pub fn of_fit(
+        fit: &SurfaceFit,
+        points: &[DVec3],
+        sections: Option<Grid>,
+        width: u32,
+        height: u32,
+    ) -> RenderOptions {
+        RenderOptions::of_surface(
+            &fit.grid,
+            &fit.params,
+            fit.axis.dir,
+            points,
+            sections,
+            width,
+            height,
+        )
     }
 
     /// [`of_fit`](Self::of_fit) for any `grid` fitted to `points`, their closest-point
@@ -414,6 +671,7 @@ impl RenderOptions {
         params: &[[f64; 2]],
         span: DVec3,
         points: &[DVec3],
+        sections: Option<Grid>,
         width: u32,
         height: u32,
     ) -> RenderOptions {
@@ -424,11 +682,20 @@ impl RenderOptions {
         };
         let step = points.len().div_ceil(20_000).max(1);
         o.cloud = points.iter().step_by(step).copied().collect();
+        // A grid that does not match the points (not section-major) names no sections.
+        let sections = sections.filter(|g| g.sections * g.per_section == points.len() && g.per_section > 0);
         o.offsets = params
             .iter()
             .zip(points)
-            .map(|(&[u, v], p)| ([u, v], (grid.eval(u, v) - *p).length()))
+            .enumerate()
+            .map(|(k, (&[u, v], p))| OffsetPoint {
+                uv: [u, v],
+                offset: (grid.eval(u, v) - *p).length(),
+                position: *p,
+                section: sections.map(|g| k / g.per_section),
+            })
             .collect();
+        o.stations = sections.map_or_else(Vec::new, |g| stations(points, g));
         let extent = |axis: DVec3| {
             let (lo, hi) = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
                 (lo.min(p.dot(axis)), hi.max(p.dot(axis)))
@@ -485,42 +752,32 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
         });
     let tol = 2e-3 * (size.1 - size.0).max_element();
     let mut canvas = Canvas::new(w, h);
-    let panel_h = h as f64 / opts.views.len() as f64;
     // The surface's base colour per vertex: by the local offset when given.
-    let local = local_offsets(&mesh, &opts.offsets);
-    let largest = local
+    let colouring = Colouring::new(&opts.offsets, &opts.stations);
+    let local = colouring
         .as_ref()
-        .map_or(0.0, |l| l.iter().fold(0.0, |m: f64, &e| m.max(e)));
+        .and_then(|c| local_offsets(&mesh, &value_points(opts, c)));
+    let colouring = colouring.filter(|_| local.is_some());
     let base: Vec<[f32; 3]> = match &local {
         Some(l) => l
             .iter()
-            .map(|&e| offset_colour(if largest > 0.0 { e / largest } else { 0.0 }).map(f32::from))
+            .map(|&e| offset_colour(colouring.as_ref().map_or(0.0, |c| c.position(e))).map(f32::from))
             .collect(),
         None => vec![SURFACE.map(f32::from); mesh.positions.len()],
     };
-    // Room for the colour bar on the right.
-    let bar_room = if local.is_some() {
-        (0.09 * w as f64).max(60.0 * ss as f64)
-    } else {
-        0.0
-    };
+    // Room for the colour bar on the right and the caption at the bottom.
+    let tscale = text_scale(h, ss);
+    let (bar_room, caption_h, caption) = bar_and_caption(
+        colouring.as_ref(),
+        !opts.stations.is_empty(),
+        w as f64,
+        tscale as f64,
+    );
     let panel_w = w as f64 - bar_room;
+    let panel_h = (h as f64 - caption_h) / opts.views.len() as f64;
     for (k, view) in opts.views.iter().enumerate() {
         let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, panel_w, panel_h))?;
-        // Light from above left of the camera, so curvature shows as a gradient; a soft
-        // highlight (Blinn-Phong) for the sheen of a smooth surface. Both sides are lit alike.
-        let light = (cam.eye * 0.6 + cam.up * 1.0 - cam.right * 0.35).normalize();
-        let half = (light + cam.eye).normalize();
-        let shade: Vec<[f32; 2]> = mesh
-            .normals
-            .iter()
-            .map(|n| {
-                let n = if n.dot(cam.eye) < 0.0 { -*n } else { *n };
-                let diffuse = 0.3 + 0.72 * n.dot(light).max(0.0);
-                let specular = 0.45 * n.dot(half).max(0.0).powi(40);
-                [diffuse as f32, specular as f32]
-            })
-            .collect();
+        let shade = shading(&mesh, &cam, local.is_some());
         let screen: Vec<(f64, f64, f64)> = mesh.positions.iter().map(|p| cam.project(*p)).collect();
         for t in &mesh.triangles {
             let [a, b, c] = t.map(|i| i as usize);
@@ -569,6 +826,55 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                 }
             }
         }
+        // The stations: every data section as a line across the surface (dark with a light
+        // core, so that it shows over light and dark colours alike), numbered under the panel.
+        let panel_bottom = (k + 1) as f64 * panel_h;
+        for st in &opts.stations {
+            let line: Vec<_> = st.points.iter().map(|p| cam.project(*p)).collect();
+            for (width, colour, alpha) in [(0.9, [20, 20, 20], 0.55), (0.35, BACKGROUND, 0.8)] {
+                for s in line.windows(2) {
+                    draw_line(
+                        &mut canvas,
+                        s[0],
+                        s[1],
+                        ss as f64 * width,
+                        tol,
+                        colour,
+                        alpha,
+                        0.0,
+                    );
+                }
+            }
+        }
+        let xs: Vec<f64> = opts.stations.iter().map(|st| station_x(&cam, st)).collect();
+        let label_w = 6.0 * tscale as f64;
+        for (n, shown) in station_ticks(&xs, 4.0 * label_w).into_iter().enumerate() {
+            let x = xs[n];
+            if !(x.is_finite() && x < panel_w) {
+                continue;
+            }
+            let len = if shown { 3 * tscale } else { 2 * tscale };
+            for dy in 0..len {
+                canvas.blend(
+                    x as i64,
+                    (panel_bottom - 12.0 * tscale as f64) as i64 + dy,
+                    NET,
+                    1.0,
+                );
+            }
+            if shown {
+                let text = n.to_string();
+                let tx = x - 0.5 * label_w * text.len() as f64;
+                draw_text(
+                    &mut canvas,
+                    tx as i64,
+                    (panel_bottom - 8.0 * tscale as f64) as i64,
+                    &text,
+                    tscale,
+                    NET,
+                );
+            }
+        }
         // Control net: lines, then generated points, then design points on top.
         let at = |r: usize, c: usize| cam.project(net[r * mv + c]);
         let thick = ss as f64 * 0.6;
@@ -614,8 +920,28 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
                     } else {
                         (GENERATED_POINT, 2.8 * ss as f64)
                     };
-                    draw_disc(&mut canvas, at(r, c), radius, colour, tol);
+                    // Over a surface coloured by offsets: smaller and fainter.
+                    let (radius, alpha) = if local.is_some() {
+                        (0.6 * radius, 0.45)
+                    } else {
+                        (radius, 1.0)
+                    };
+                    draw_disc(&mut canvas, at(r, c), radius, colour, tol, alpha);
                 }
+            }
+        }
+        // The worst points: rings and labels on top of everything.
+        if let Some(c) = &colouring {
+            let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
+            let radius = 6.0 * tscale as f64;
+            let mut placed = ring_boxes(&cam, &c.marked, radius);
+            for m in &c.marked {
+                let p = cam.project(m.position);
+                let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
+                draw_ring(&mut canvas, (p.0, p.1), radius, ss as f64, m.primary, hidden);
+                let text = marker_label(m, c.relative, hidden);
+                let (x, y) = place_label(p, radius, &text, tscale as f64, panel, &mut placed);
+                draw_boxed_text(&mut canvas, x as i64, y as i64, &text, tscale);
             }
         }
         // A thin rule between panels.
@@ -626,19 +952,21 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
             }
         }
     }
-    if local.is_some() {
-        let scale = ((h as f64 / 450.0).round() as i64).max(ss as i64);
-        let bar_w = (bar_room * 0.12).max(6.0) as i64;
-        let x = (panel_w + bar_room * 0.05) as i64;
+    if let Some(c) = &colouring {
+        let bottom = h as f64 - caption_h - 0.06 * h as f64;
+        let top = (0.06 * h as f64 + 24.0 * tscale as f64).min(bottom - 20.0);
         draw_colour_bar(
             &mut canvas,
-            x,
-            (0.12 * h as f64) as i64,
-            (0.9 * h as f64) as i64,
-            bar_w,
-            largest,
-            scale,
+            (panel_w + 2.0 * tscale as f64) as i64,
+            top as i64,
+            bottom as i64,
+            c,
+            tscale,
         );
+        for (n, line) in caption.iter().enumerate() {
+            let y = h as f64 - caption_h + (2 + 10 * n as i64) as f64 * tscale as f64;
+            draw_text(&mut canvas, 4 * tscale, y as i64, line, tscale, NET);
+        }
     }
     // Box-filter down to the requested size.
     let (ow, oh) = (opts.width as usize, opts.height as usize);
@@ -668,9 +996,18 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
 /// The views of [`render`] as an SVG drawing (no supersampling, no hidden-line removal):
 /// iso-parameter curves of the surface (eight per patch side, the patch borders darker), the
 /// control net, generated and design points, and up to 3,000 of `opts.cloud` as dots.
+///
+/// With offsets the surface is drawn instead as coloured triangles (painter's order: far ones
+/// first, with the patch borders and the station lines among them), under the faint net, with
+/// the rings, the station numbers, the colour bar and the caption of [`render`].
 pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<String> {
     use std::fmt::Write as _;
     opts.check()?;
+    if let Some(c) = Colouring::new(&opts.offsets, &opts.stations) {
+        if let Some(svg) = coloured_svg(grid, opts, &c)? {
+            return Ok(svg);
+        }
+    }
     let (w, h) = (f64::from(opts.width), f64::from(opts.height));
     let l = grid.layout();
     let (mu, mv) = l.net_shape();
@@ -791,6 +1128,380 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
     Ok(svg)
 }
 
+/// `#rrggbb`.
+fn hex(c: Rgb) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// Text escaped for SVG.
+fn escaped(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// [`render_svg`] of a surface coloured by `colouring`; `None` when the offsets colour no vertex.
+#[allow(clippy::too_many_lines)]
+fn coloured_svg(
+    grid: &PatchGrid<DVec3>,
+    opts: &RenderOptions,
+    colouring: &Colouring,
+) -> Result<Option<String>> {
+    use std::fmt::Write as _;
+    // At most about 8,000 triangles and 4,000 border segments a view, whatever the grid.
+    let l = grid.layout();
+    let patches = (l.u.segments() * l.v.segments()).max(1);
+    let per_patch = ((4000.0 / patches as f64).sqrt() as usize).clamp(1, (opts.per_patch / 2).max(2));
+    let mesh = SurfaceMesh::from_grid(grid, per_patch)?;
+    let Some(local) = local_offsets(&mesh, &value_points(opts, colouring)) else {
+        return Ok(None);
+    };
+    let base: Vec<[f32; 3]> = local
+        .iter()
+        .map(|&e| offset_colour(colouring.position(e)).map(f32::from))
+        .collect();
+    let (w, h) = (f64::from(opts.width), f64::from(opts.height));
+    let (mu, mv) = l.net_shape();
+    let net = grid.net();
+    let (bu, bv) = (l.u.breaks(), l.v.breaks());
+    let along_n = 4000 / (bu.len() + bv.len()).max(1);
+    let along = uniform((24 * l.u.segments().max(l.v.segments())).clamp(2, along_n.max(2)) + 1);
+    let borders: Vec<Vec<DVec3>> = [
+        rows_of(&dense_grid(grid, bu, &along, Backend::Cpu)?.0, along.len()),
+        columns_of(&dense_grid(grid, &along, bv, Backend::Cpu)?.0, bv.len()),
+    ]
+    .concat();
+    let mut everything: Vec<DVec3> = mesh.positions.clone();
+    everything.extend_from_slice(net);
+    let size = everything
+        .iter()
+        .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let tol = 2e-3 * (size.1 - size.0).max_element();
+    // One font pixel of the PNG's 5 x 7 glyphs: the same layout, in user units.
+    let fp = (h / 450.0).max(1.0);
+    let font = 8.5 * fp;
+    let (bar_room, caption_h, caption) = bar_and_caption(Some(colouring), !opts.stations.is_empty(), w, fp);
+    let panel_w = w - bar_room;
+    let panel_h = (h - caption_h) / opts.views.len() as f64;
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let _ = writeln!(
+        svg,
+        "<!-- {} -->",
+        escaped(&colouring.caption(!opts.stations.is_empty()).join(" | "))
+    );
+    for (k, view) in opts.views.iter().enumerate() {
+        let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, panel_w, panel_h))?;
+        let shade = shading(&mesh, &cam, true);
+        let screen: Vec<(f64, f64, f64)> = mesh.positions.iter().map(|p| cam.project(*p)).collect();
+        // Hidden-surface removal: a depth buffer of the view at the picture's size keeps only
+        // the triangles and line pieces that show (a sample of them in front of the surface);
+        // those are then drawn far to near (the painter's order), lines on the surface a
+        // little nearer than the triangles they lie on.
+        let mut depth = Canvas::new(opts.width as usize, opts.height as usize);
+        for t in &mesh.triangles {
+            let v = t.map(|i| screen[i as usize]);
+            fill_triangle(&mut depth, v, [[0.0; 2]; 3], [[0.0; 3]; 3]);
+        }
+        let shows = |p: (f64, f64, f64)| depth.overlay_alpha(p.0 as i64, p.1 as i64, p.2, tol) >= 1.0;
+        let mut items: Vec<(f64, String)> = Vec::with_capacity(mesh.triangles.len() + 4096);
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| i as usize);
+            let (pa, pb, pc) = (screen[a], screen[b], screen[c]);
+            let centre = (
+                (pa.0 + pb.0 + pc.0) / 3.0,
+                (pa.1 + pb.1 + pc.1) / 3.0,
+                (pa.2 + pb.2 + pc.2) / 3.0,
+            );
+            let toward = |q: (f64, f64, f64)| {
+                (
+                    centre.0 + 0.8 * (q.0 - centre.0),
+                    centre.1 + 0.8 * (q.1 - centre.1),
+                    centre.2 + 0.8 * (q.2 - centre.2),
+                )
+            };
+            if ![centre, toward(pa), toward(pb), toward(pc)]
+                .into_iter()
+                .any(shows)
+            {
+                continue;
+            }
+            let colour = [0, 1, 2].map(|ch| {
+                let base = (base[a][ch] + base[b][ch] + base[c][ch]) / 3.0;
+                let d = (shade[a][0] + shade[b][0] + shade[c][0]) / 3.0;
+                let s = (shade[a][1] + shade[b][1] + shade[c][1]) / 3.0;
+                (base * d + 255.0 * s).clamp(0.0, 255.0).round() as u8
+            });
+            let fill = hex(colour);
+            items.push((
+                (pa.2 + pb.2 + pc.2) / 3.0,
+                format!(
+                    r#"<path d="M{:.1},{:.1}L{:.1},{:.1}L{:.1},{:.1}Z" fill="{fill}" stroke="{fill}" stroke-width="0.5"/>"#,
+                    pa.0, pa.1, pb.0, pb.1, pc.0, pc.1
+                ),
+            ));
+        }
+        let mut segments = |line: &[DVec3], style: &str| {
+            for s in line.windows(2) {
+                let (a, b) = (cam.project(s[0]), cam.project(s[1]));
+                if !shows((0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1), 0.5 * (a.2 + b.2))) {
+                    continue;
+                }
+                items.push((
+                    0.5 * (a.2 + b.2) + tol,
+                    format!(
+                        r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" {style}/>"#,
+                        a.0, a.1, b.0, b.1
+                    ),
+                ));
+            }
+        };
+        let border_style = format!(
+            r#"stroke="{}" stroke-width="1" stroke-opacity="0.35""#,
+            hex(BORDER)
+        );
+        for curve in &borders {
+            segments(curve, &border_style);
+        }
+        let station_style = r##"class="station" stroke="#141414" stroke-width="1.6" stroke-opacity="0.55""##;
+        let core_style = r#"stroke="white" stroke-width="0.6" stroke-opacity="0.8""#;
+        for st in &opts.stations {
+            segments(&st.points, station_style);
+            segments(&st.points, core_style);
+        }
+        items.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let _ = writeln!(svg, r#"<g stroke-linecap="round" stroke-linejoin="round">"#);
+        for (_, item) in &items {
+            svg.push_str(item);
+            svg.push('\n');
+        }
+        let _ = writeln!(svg, "</g>");
+        // The control net, faint over the colours, and its points.
+        let xy = |p: DVec3| {
+            let (x, y, _) = cam.project(p);
+            format!("{x:.1},{y:.1}")
+        };
+        let _ = writeln!(
+            svg,
+            r#"<g fill="none" stroke="{}" stroke-width="0.9" stroke-opacity="0.3">"#,
+            hex(NET)
+        );
+        let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
+        let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
+        for line in rows.chain(cols) {
+            let path: Vec<String> = line.iter().map(|&k| xy(net[k])).collect();
+            let _ = writeln!(svg, r#"<polyline points="{}"/>"#, path.join(" "));
+        }
+        let _ = writeln!(svg, "</g>");
+        for design in [false, true] {
+            let (colour, radius) = if design {
+                (DESIGN_POINT, 1.8)
+            } else {
+                (GENERATED_POINT, 1.7)
+            };
+            let _ = writeln!(
+                svg,
+                r#"<g fill="{}" fill-opacity="0.45" stroke="white" stroke-width="0.5" stroke-opacity="0.45">"#,
+                hex(colour)
+            );
+            for r in 0..mu {
+                for c in 0..mv {
+                    if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
+                        let (x, y, _) = cam.project(net[r * mv + c]);
+                        let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
+                    }
+                }
+            }
+            let _ = writeln!(svg, "</g>");
+        }
+        // The stations' numbers under the panel.
+        let panel_bottom = (k + 1) as f64 * panel_h;
+        let xs: Vec<f64> = opts.stations.iter().map(|st| station_x(&cam, st)).collect();
+        let _ = writeln!(
+            svg,
+            r#"<g class="station-numbers" font-size="{font:.1}" text-anchor="middle" fill="{}">"#,
+            hex(NET)
+        );
+        for (n, shown) in station_ticks(&xs, 24.0 * fp).into_iter().enumerate() {
+            let x = xs[n];
+            if !(x.is_finite() && x < panel_w) {
+                continue;
+            }
+            let (y0, len) = (panel_bottom - 12.0 * fp, if shown { 3.0 } else { 2.0 } * fp);
+            let _ = writeln!(
+                svg,
+                r#"<line x1="{x:.1}" y1="{y0:.1}" x2="{x:.1}" y2="{:.1}" stroke="{}"/>"#,
+                y0 + len,
+                hex(NET)
+            );
+            if shown {
+                let _ = writeln!(
+                    svg,
+                    r#"<text x="{x:.1}" y="{:.1}">{n}</text>"#,
+                    panel_bottom - 1.5 * fp
+                );
+            }
+        }
+        let _ = writeln!(svg, "</g>");
+        // The rings and their labels.
+        let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
+        let radius = 6.0 * fp;
+        let mut placed = ring_boxes(&cam, &colouring.marked, radius);
+        for m in &colouring.marked {
+            let p = cam.project(m.position);
+            let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
+            let text = marker_label(m, colouring.relative, hidden);
+            let (x, y) = place_label(p, radius, &text, fp, panel, &mut placed);
+            let (class, width, dash) = if m.primary {
+                ("worst-point", 1.4, "")
+            } else {
+                ("largest-offset", 0.9, r#" stroke-dasharray="3,3""#)
+            };
+            let opacity = if hidden { 0.5 } else { 1.0 };
+            let _ = writeln!(svg, r#"<g class="{class}" opacity="{opacity}">"#);
+            let _ = writeln!(
+                svg,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="{radius:.1}" fill="none" stroke="white" stroke-width="{:.1}"{dash}/>"#,
+                p.0,
+                p.1,
+                2.0 * width + 1.0
+            );
+            let _ = writeln!(
+                svg,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="{radius:.1}" fill="none" stroke="black" stroke-width="{width}"{dash}/>"#,
+                p.0, p.1
+            );
+            let _ = writeln!(
+                svg,
+                r#"<rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="white" fill-opacity="0.8"/>"#,
+                x - fp,
+                y - fp,
+                text.chars().count() as f64 * 6.0 * fp + 2.0 * fp,
+                9.0 * fp
+            );
+            let _ = writeln!(
+                svg,
+                r#"<text x="{x:.1}" y="{:.1}" font-size="{font:.1}" fill="{}" textLength="{:.1}" lengthAdjust="spacingAndGlyphs">{}</text>"#,
+                y + 7.0 * fp,
+                hex(NET),
+                text.chars().count() as f64 * 6.0 * fp - fp,
+                escaped(&text)
+            );
+            let _ = writeln!(svg, "</g>");
+        }
+        if k > 0 {
+            let y = k as f64 * panel_h;
+            let _ = writeln!(
+                svg,
+                r##"<line x1="0" y1="{y}" x2="{w}" y2="{y}" stroke="#c8c8c8"/>"##
+            );
+        }
+    }
+    // The colour bar: a gradient of the map, its ticks, both scales and their names.
+    let bottom = h - caption_h - 0.06 * h;
+    let top = (0.06 * h + 24.0 * fp).min(bottom - 20.0);
+    let x = panel_w + 2.0 * fp;
+    let left_room = if colouring.relative { 44.0 * fp } else { 0.0 };
+    let (bx, bw) = (x + left_room, 8.0 * fp);
+    let _ = writeln!(
+        svg,
+        r#"<g id="colour-bar" font-size="{font:.1}" fill="{}">"#,
+        hex(NET)
+    );
+    let _ = writeln!(
+        svg,
+        r#"<defs><linearGradient id="offset-map" x1="0" y1="1" x2="0" y2="0">"#
+    );
+    for q in 0..=20 {
+        let t = f64::from(q) / 20.0;
+        let _ = writeln!(
+            svg,
+            r#"<stop offset="{t}" stop-color="{}"/>"#,
+            hex(offset_colour(t))
+        );
+    }
+    let _ = writeln!(svg, "</linearGradient></defs>");
+    let _ = writeln!(
+        svg,
+        r#"<rect x="{bx:.1}" y="{top:.1}" width="{bw:.1}" height="{:.1}" fill="url(#offset-map)" stroke="{}" stroke-width="0.5"/>"#,
+        bottom - top,
+        hex(NET)
+    );
+    for (q, (left, right)) in colouring.ticks().into_iter().enumerate() {
+        let y = bottom - (bottom - top) * q as f64 / 4.0;
+        let _ = writeln!(
+            svg,
+            r#"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{}"/>"#,
+            bx + bw,
+            bx + bw + 2.0 * fp,
+            hex(NET)
+        );
+        let _ = writeln!(
+            svg,
+            r#"<text class="data-units" x="{:.1}" y="{:.1}">{right}</text>"#,
+            bx + bw + 3.0 * fp,
+            y + 3.0 * fp
+        );
+        if let Some(left) = left {
+            let _ = writeln!(
+                svg,
+                r#"<line x1="{:.1}" y1="{y:.1}" x2="{bx:.1}" y2="{y:.1}" stroke="{}"/>"#,
+                bx - 2.0 * fp,
+                hex(NET)
+            );
+            let _ = writeln!(
+                svg,
+                r#"<text class="percent-of-local-chord" x="{:.1}" y="{:.1}" text-anchor="end">{left}</text>"#,
+                bx - 3.0 * fp,
+                y + 3.0 * fp
+            );
+        }
+    }
+    let _ = writeln!(
+        svg,
+        r#"<text x="{x:.1}" y="{:.1}">{}</text>"#,
+        top - 19.0 * fp,
+        escaped(colouring.title())
+    );
+    if colouring.relative {
+        let _ = writeln!(
+            svg,
+            r#"<text x="{x:.1}" y="{:.1}">% of local chord</text>"#,
+            top - 8.0 * fp
+        );
+        let _ = writeln!(
+            svg,
+            r#"<text x="{x:.1}" y="{:.1}">at largest chord {}</text>"#,
+            bottom + 10.0 * fp,
+            offset_label(colouring.reference)
+        );
+    }
+    let _ = writeln!(svg, "</g>");
+    let _ = writeln!(
+        svg,
+        r#"<g class="caption" font-size="{font:.1}" fill="{}">"#,
+        hex(NET)
+    );
+    for (n, line) in caption.iter().enumerate() {
+        let y = h - caption_h + (9 + 10 * n) as f64 * fp;
+        let _ = writeln!(
+            svg,
+            r#"<text x="{:.1}" y="{y:.1}">{}</text>"#,
+            4.0 * fp,
+            escaped(line)
+        );
+    }
+    let _ = writeln!(svg, "</g>");
+    svg.push_str("</svg>\n");
+    Ok(Some(svg))
+}
+
 /// Fill a triangle with per-vertex base colours and shading (diffuse factor, white highlight),
 /// keeping the nearest surface per pixel.
 fn fill_triangle(canvas: &mut Canvas, v: [(f64, f64, f64); 3], shade: [[f32; 2]; 3], base: [[f32; 3]; 3]) {
@@ -880,7 +1591,8 @@ fn draw_line(
 }
 
 /// A filled disc with a thin white rim, opaque in front of the surface, faint behind it.
-fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, tol: f64) {
+/// `opacity` scales both.
+fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, tol: f64, opacity: f32) {
     if !(p.0.is_finite() && p.1.is_finite()) {
         return;
     }
@@ -892,7 +1604,7 @@ fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, 
             if d > radius + 1.0 {
                 continue;
             }
-            let alpha = canvas.overlay_alpha(cx + dx, cy + dy, p.2, tol);
+            let alpha = opacity * canvas.overlay_alpha(cx + dx, cy + dy, p.2, tol);
             let c = if d > radius { BACKGROUND } else { colour };
             canvas.blend(cx + dx, cy + dy, c, alpha);
         }
@@ -901,6 +1613,7 @@ fn draw_disc(canvas: &mut Canvas, p: (f64, f64, f64), radius: f64, colour: Rgb, 
 
 #[cfg(test)]
 mod tests {
+    use super::super::offset_map::lightness;
     use super::*;
     use crate::chain::{Continuity, GridLayout};
 
@@ -966,13 +1679,19 @@ mod tests {
         // The unit square in z = 0, seen from above: u along x, v along y.
         let design = vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1.0, 1.0, 0.0)];
         let grid = PatchGrid::new(layout, design).unwrap();
-        // Offsets: large near (u, v) = (1, 1), small elsewhere.
-        let offsets: Vec<([f64; 2], f64)> = (0..=20)
+        // Offsets: large near (u, v) = (1, 1), small elsewhere; no sections.
+        let offsets: Vec<OffsetPoint> = (0..=20)
             .flat_map(|i| (0..=20).map(move |j| (i as f64 / 20.0, j as f64 / 20.0)))
-            .map(|(u, v)| ([u, v], if u > 0.8 && v > 0.8 { 1e-2 } else { 1e-4 }))
+            .map(|(u, v)| OffsetPoint {
+                uv: [u, v],
+                offset: if u > 0.8 && v > 0.8 { 1e-2 } else { 1e-4 },
+                position: DVec3::new(u, v, 0.0),
+                section: None,
+            })
             .collect();
         let mesh = SurfaceMesh::from_grid(&grid, 16).unwrap();
-        let local = local_offsets(&mesh, &offsets).unwrap();
+        let tuples: Vec<([f64; 2], f64)> = offsets.iter().map(|p| (p.uv, p.offset)).collect();
+        let local = local_offsets(&mesh, &tuples).unwrap();
         assert_eq!(local.len(), mesh.positions.len());
         let at = |u: f64, v: f64| {
             let k = mesh
@@ -999,6 +1718,9 @@ mod tests {
             ..RenderOptions::default()
         };
         let img = render(&grid, &opts).unwrap();
+        if let Ok(dir) = std::env::var("BEZCHAIN_PICTURES") {
+            std::fs::write(format!("{dir}/square.png"), img.to_png().unwrap()).unwrap();
+        }
         let (worst, best) = (offset_colour(1.0), offset_colour(0.0));
         let near = |c: Rgb, want: Rgb, tol: i32| {
             c.iter()
@@ -1009,19 +1731,28 @@ mod tests {
             .flat_map(|y| (0..400).map(move |x| (x, y)))
             .map(|(x, y)| (x, y, img.pixel(x, y)))
             .collect();
-        // The large offsets are drawn red (shaded) where x and y are large (image y grows
-        // downwards), the small ones pale yellow; the bar is right of the surface.
-        let is_red = |c: Rgb| c[0] > 90 && c[1] < 40 && c[2] < 60;
-        let is_pale = |c: Rgb| c[0] > 150 && c[1] > 150 && c[2] > 100;
-        let surface_red: Vec<_> = pixels.iter().filter(|p| p.0 < 330 && is_red(p.2)).collect();
-        assert!(!surface_red.is_empty(), "the worst corner is red");
+        // The large offsets are drawn dark purple (shaded) where x and y are large (image y
+        // grows downwards), the small ones light yellow; the bar is right of the surface, the
+        // caption under it (from y = 166).
+        let is_dark = |c: Rgb| lightness(c) < 35.0 && c[2] > c[1] + 20 && c[0] > c[1];
+        let is_light = |c: Rgb| lightness(c) > 70.0 && c[2] < 120;
+        let surface_dark: Vec<_> = pixels
+            .iter()
+            .filter(|p| p.0 < 330 && p.1 < 166 && is_dark(p.2))
+            .collect();
+        assert!(!surface_dark.is_empty(), "the worst corner is dark");
         assert!(
-            surface_red.iter().all(|p| p.1 < 100),
-            "and it is the upper corner"
+            surface_dark.iter().all(|p| p.1 < 100),
+            "and it is the upper corner: {:?}",
+            surface_dark
+                .iter()
+                .filter(|p| p.1 >= 100)
+                .take(5)
+                .collect::<Vec<_>>()
         );
         assert!(
-            pixels.iter().any(|p| p.0 < 330 && is_pale(p.2)),
-            "the rest is pale"
+            pixels.iter().any(|p| p.0 < 330 && is_light(p.2)),
+            "the rest is light"
         );
         assert!(
             pixels.iter().any(|p| p.0 > 330 && near(p.2, worst, 2)),
@@ -1031,7 +1762,110 @@ mod tests {
             pixels.iter().any(|p| p.0 > 330 && near(p.2, best, 2)),
             "the bar's bottom"
         );
-        assert_eq!(offset_label(1.234e-3), "1.23e-3");
-        assert_eq!(offset_label(0.0), "0");
+    }
+
+    /// A unit square seen from above, fitted to 21 sections of 21 points along x (chord 1,
+    /// except the last three: 0.5), offsets large near (u, v) = (1, 1).
+    fn sectioned_square() -> (PatchGrid<DVec3>, RenderOptions) {
+        let layout = GridLayout::uniform((1, 1), (1, 1), Continuity::C0).unwrap();
+        let design = vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1.0, 1.0, 0.0)];
+        let grid = PatchGrid::new(layout, design).unwrap();
+        let sections = Grid {
+            sections: 21,
+            per_section: 21,
+        };
+        let uv: Vec<[f64; 2]> = (0..21)
+            .flat_map(|j| (0..21).map(move |i| [f64::from(i) / 20.0, f64::from(j) / 20.0]))
+            .map(|[u, v]| if v > 0.85 { [0.5 * u, v] } else { [u, v] })
+            .collect();
+        let points: Vec<DVec3> = uv.iter().map(|&[u, v]| DVec3::new(u, v, 0.0)).collect();
+        let mut opts = RenderOptions::of_surface(&grid, &uv, DVec3::Y, &points, Some(sections), 600, 300);
+        opts.views = vec![View {
+            eye: DVec3::Z,
+            right: DVec3::Y,
+        }];
+        // The points lie on the surface: give them offsets, largest at the 0.5 chords.
+        for p in &mut opts.offsets {
+            p.offset = if p.uv[0] > 0.4 && p.uv[1] > 0.85 {
+                4e-3
+            } else {
+                1e-4 + 1e-3 * p.uv[0] * p.uv[1]
+            };
+        }
+        (grid, opts)
+    }
+
+    #[test]
+    fn the_svg_has_a_bar_of_two_scales_rings_and_stations() {
+        let (grid, opts) = sectioned_square();
+        assert_eq!(opts.stations.len(), 21);
+        assert_eq!(opts.stations[20].chord, 0.5);
+        let svg = render_svg(&grid, &opts).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        let bar = &svg[svg.find(r#"<g id="colour-bar""#).expect("a colour bar")..];
+        assert_eq!(
+            bar.matches(r#"class="percent-of-local-chord""#).count(),
+            5,
+            "% of local chord"
+        );
+        assert_eq!(bar.matches(r#"class="data-units""#).count(), 5, "data units");
+        // The top ticks: 0.4 % of the 0.5 chord, 4e-3 / 0.5 x the largest chord 1.
+        assert!(
+            bar.contains(">0.800%</text>") && bar.contains(">8.00e-3</text>"),
+            "{bar}"
+        );
+        assert!(bar.contains("offset / local chord") && bar.contains("at largest chord 1.00e0"));
+        assert!(bar.contains("linearGradient"));
+        // The worst relative to the local chord is on a half-chord section, section 17 to 20.
+        let ring = &svg[svg.find(r#"<g class="worst-point""#).expect("a worst-point ring")..];
+        assert!(
+            ring.contains("worst 0.800% of local chord: 4.00e-3, section"),
+            "{}",
+            &ring[..600]
+        );
+        assert_eq!(svg.matches(r#"class="worst-point""#).count(), 1);
+        // The largest offset in data units is the same point: one ring only.
+        assert_eq!(svg.matches(r#"class="largest-offset""#).count(), 0);
+        assert!(
+            svg.matches(r#"class="station""#).count() >= 21 * 20,
+            "station lines"
+        );
+        assert!(svg.contains(r#"class="station-numbers""#) && svg.contains(">20</text>"));
+        assert!(svg.contains("lines: the data's stations"));
+    }
+
+    #[test]
+    fn the_png_of_a_sectioned_fit_writes() {
+        let (grid, mut opts) = sectioned_square();
+        // A larger offset in data units on a full chord: two rings.
+        opts.offsets[3 * 21 + 10].offset = 5e-3;
+        let c = Colouring::new(&opts.offsets, &opts.stations).unwrap();
+        assert_eq!(c.marked.len(), 2);
+        assert!(c.relative && c.marked[1].index == 3 * 21 + 10);
+        let img = render(&grid, &opts).unwrap();
+        if let Ok(dir) = std::env::var("BEZCHAIN_PICTURES") {
+            std::fs::write(format!("{dir}/sectioned.png"), img.to_png().unwrap()).unwrap();
+            std::fs::write(format!("{dir}/sectioned.svg"), render_svg(&grid, &opts).unwrap()).unwrap();
+        }
+        assert_eq!((img.width, img.height), (600, 300));
+        let png = img.to_png().unwrap();
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"));
+        let svg = render_svg(&grid, &opts).unwrap();
+        assert_eq!(svg.matches(r#"class="largest-offset""#).count(), 1);
+        assert!(svg.contains("max 5.00e-3 (0.500% of local chord), section 3"));
+        // The picture shows the worst colour on the surface and black rings.
+        let pixels: Vec<Rgb> = (0..300)
+            .flat_map(|y| (0..600).map(move |x| (x, y)))
+            .map(|(x, y)| img.pixel(x, y))
+            .collect();
+        assert!(
+            pixels.iter().any(|&p| p == [0, 0, 0] || lightness(p) < 5.0),
+            "a ring"
+        );
+        assert_eq!(
+            station_ticks(&[0.0, 1.0, 2.0, 30.0, 31.0], 10.0),
+            [true, false, false, false, true]
+        );
+        assert_eq!(station_ticks(&[0.0, 5.0], 10.0), [true, true]);
     }
 }

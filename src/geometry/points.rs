@@ -41,6 +41,16 @@ impl Grid {
     /// this grid's shape): the chord `--relative` patch-grid tolerances are fractions of.
     #[must_use]
     pub fn largest_chord(&self, points: &[DVec3]) -> f64 {
+        self.chords(points).into_iter().fold(0.0, f64::max)
+    }
+
+    /// Every section's chord, in section order: the largest distance between two of its
+    /// points (for an aerofoil section, leading edge to trailing edge). The local chord the
+    /// surface pictures relate offsets to, and the largest of them is [`largest_chord`].
+    ///
+    /// [`largest_chord`]: Self::largest_chord
+    #[must_use]
+    pub fn chords(&self, points: &[DVec3]) -> Vec<f64> {
         points
             .chunks(self.per_section.max(1))
             .map(|s| {
@@ -48,7 +58,7 @@ impl Grid {
                     .flat_map(|a| s.iter().map(move |b| (*a - *b).length()))
                     .fold(0.0, f64::max)
             })
-            .fold(0.0, f64::max)
+            .collect()
     }
 }
 
