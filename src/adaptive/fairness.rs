@@ -232,9 +232,8 @@ pub fn scatter(points: &[DVec2]) -> f64 {
     [2, 3]
         .iter()
         .filter_map(|&m| residual_scatter(points, &s, m))
-        .fold(f64::INFINITY, f64::min)
-        .min(f64::MAX)
-        .max(0.0)
+        .reduce(f64::min)
+        .unwrap_or(0.0)
 }
 
 /// One estimate of [`scatter`]: `m` neighbours either side; `None` with too few points.
@@ -327,9 +326,14 @@ mod tests {
             .collect();
         let spline = SplineContour::new(&pts).unwrap();
         let s = spline.curvature_samples(4);
-        assert!(s
-            .iter()
-            .all(|(p, k)| (k - 1.0).abs() < 1e-2 && (p.length() - 1.0).abs() < 1e-3));
+        assert_eq!(s.len(), 50 * 4 + 1);
+        // The parabolic end intervals bend the curvature at the ends; inside, it is the
+        // circle's to the interpolation error.
+        for (p, k) in &s[8..s.len() - 8] {
+            assert!((k - 1.0).abs() < 1e-2, "{k}");
+            assert!((p.length() - 1.0).abs() < 1e-4, "{p}");
+        }
+        assert!(s.iter().all(|(_, k)| *k > 0.5));
         assert_eq!(Fairness::of_source(&pts).unwrap().source, 0);
     }
 
