@@ -84,3 +84,50 @@ fn both_layouts_of_clark_y_need_the_same_scalars() {
     assert!(a.met && b.met);
     assert_eq!(a.count.total, b.count.total);
 }
+
+/// Issue 29, item 6: "met" includes the held-out check (refitted on every other point, the
+/// others within 3 tolerances) and no more curvature sign changes than a spline through the
+/// source points; at 1e-4 every shipped file either meets all three, or says which fails.
+#[test]
+fn met_includes_the_held_out_check_and_no_extra_waves_at_1e_4() {
+    use bezchain::adaptive::HELD_OUT_FACTOR;
+    let mut table = String::from("file met scalars held-out/tol waves(chain/source)\n");
+    for name in [
+        "e387",
+        "s1223",
+        "naca4412",
+        "naca4415",
+        "clarky",
+        "clarky_lednicer",
+    ] {
+        let tol = 1e-4;
+        let loaded = read_curve(&airfoils_dir().join(format!("{name}.dat"))).unwrap();
+        let r = adapt_curve(
+            &loaded.points,
+            &AdaptOptions {
+                tol,
+                ..AdaptOptions::default()
+            },
+        )
+        .unwrap();
+        let waves = r.sign_changes.expect("a spline goes through every shipped file");
+        let ratio = r.held_out.map(|h| h.max / tol);
+        table += &format!(
+            "{name} {} {} {ratio:?} {}/{}\n",
+            r.met, r.count.total, waves.chain, waves.source
+        );
+        if r.met {
+            assert!(r.offset.max <= tol, "{name}: {:e}", r.offset.max);
+            let ratio = ratio.unwrap_or_else(|| panic!("{name}: met without a held-out check"));
+            assert!(ratio <= HELD_OUT_FACTOR, "{name}: held-out {ratio} tolerances");
+            assert!(waves.chain <= waves.source, "{name}: {waves:?}");
+        } else {
+            let m = r.message.as_deref().unwrap_or_default();
+            let reason = (r.offset.max > tol && m.contains("not met"))
+                || (ratio.is_none_or(|x| x > HELD_OUT_FACTOR) && m.contains("held-out"))
+                || (waves.chain > waves.source && m.contains("waves"));
+            assert!(reason, "{name}: not met without its reason: {m}");
+        }
+    }
+    eprintln!("{table}");
+}

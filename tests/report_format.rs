@@ -291,9 +291,27 @@ fn adapt_reports_regenerate_from_their_encoding() {
                 "fits",
                 "search",
             ],
-            &["message", "held_out"],
+            &["message", "held_out", "held_out_ratio", "sign_changes"],
             "adapt block",
         );
+        if let Some(c) = a.get("sign_changes") {
+            assert_keys(
+                c,
+                &["chain", "source", "threshold", "scatter"],
+                &[],
+                "sign_changes",
+            );
+        }
+        if let (Some(r), Some(h)) = (a.get("held_out_ratio"), a.get("held_out")) {
+            let (r, max, tol) = (
+                r.as_f64().unwrap(),
+                h["max"].as_f64().unwrap(),
+                a["tol"].as_f64().unwrap(),
+            );
+            if a["norm"] == "max" {
+                assert!((r - max / tol).abs() <= 1e-12 * r.max(1.0), "{r} {max} {tol}");
+            }
+        }
         assert_keys(
             &a["scalars"],
             &["x", "y", "rule", "breaks", "total"],

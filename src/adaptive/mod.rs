@@ -5,6 +5,7 @@
 //!   counted, and the control points regenerated from them.
 //! - `engine`: the fast warm-started closest-point fit the search runs on every candidate.
 //! - `search`: growth by splitting, reduction, break tuning, the parallel outer search.
+//! - [`fairness`]: curvature sign changes of a chain and of the spline through its data.
 //! - [`surface`]: [`adapt_surface`], the same search for patch grids fitted to sectioned clouds.
 //!
 //! The search runs *families* in parallel (Fig. 8): a degree, a continuity of the joins
@@ -19,6 +20,14 @@
 //! offsets stall (the data's noise). The winner's breaks are then moved by a coordinate
 //! search so that more of them can go.
 //!
+//! "Met" is three criteria, all judged inside the search on candidates that meet the
+//! tolerance: the held-out check of the layout (refitted on every other point, the others
+//! within [`HELD_OUT_FACTOR`] tolerances) and no more curvature sign changes than the source
+//! ([`fairness`]: counted on the cubic spline through the data points, with a threshold that
+//! rises with the data's estimated scatter, so that on noisy data the interpolant's noise
+//! waves are not taken for the contour's shape). A candidate that fails either is refused and
+//! its family grows on; a result that is not met says which criteria fail.
+//!
 //! The tolerance is judged on the fit's own foot-point distances (local Newton searches,
 //! never below the true distances); the result is re-measured with the global closest-point
 //! search of [`crate::problem::offset_stats`].
@@ -30,11 +39,14 @@
 mod blade;
 pub mod encoding;
 mod engine;
+pub mod fairness;
 mod search;
 pub mod surface;
 
 pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
+pub use fairness::SignChanges;
+pub use search::HELD_OUT_FACTOR;
 pub use surface::{
     adapt_blade, adapt_surface, adapt_surface_with, sampled_offsets, AdaptedBlade, AdaptedSurface,
     BetweenSections, CheckedOffsets, ChordRule, SpanFairness, SpanRule, SurfaceAdaptOptions, SurfaceCount,
@@ -171,9 +183,14 @@ pub struct AdaptedCurve {
     pub offset: OffsetStats<DVec2>,
     /// The held-out check, when asked for and possible.
     pub held_out: Option<HeldOut>,
-    /// True when the tolerance holds.
+    /// Curvature sign changes of the chain and of the source (`None` when no spline goes
+    /// through the data).
+    pub sign_changes: Option<SignChanges>,
+    /// True when the tolerance holds, the held-out check passes (at most
+    /// [`HELD_OUT_FACTOR`] tolerances, when asked for and possible) and the chain's curvature
+    /// changes sign no more often than the source's.
     pub met: bool,
-    /// Why the tolerance does not hold, when it does not.
+    /// Why not, when it is not met: the criteria that fail.
     pub message: Option<String>,
     /// The winning family.
     pub family: String,
@@ -299,27 +316,47 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
         ));
     }
     let keep = subsample(points, opts.search_points);
-    let found = if keep.len() < points.len() {
+    let fairness = fairness::Fairness::of_source(points);
+    let checks = search::Checks {
+        tol: opts.tol,
+        fairness: fairness.as_ref(),
+        full: points,
+        keep: None,
+        held_out: opts.held_out,
+    };
+    let (found, full) = if keep.len() < points.len() {
         // Search on the subsample with a slightly tighter tolerance, then refit the winner on
         // every point; should the tolerance fail there, its family grows on all the points.
         let sub: Vec<DVec2> = keep.iter().map(|&j| points[j]).collect();
         let sub_free = chord_length_params(&sub)?;
         let sub_aero = aero.as_ref().and_then(|_| aerofoil_params(&sub));
-        let search = search::Search::new(&sub, SUBSAMPLE_MARGIN * opts.tol, opts, sub_aero, sub_free);
+        let sub_checks = search::Checks {
+            keep: Some(&keep),
+            ..checks
+        };
+        let search = search::Search::new(
+            &sub,
+            SUBSAMPLE_MARGIN * opts.tol,
+            opts,
+            sub_aero,
+            sub_free,
+            sub_checks,
+        );
         let found = search
             .run()
             .ok_or_else(|| Error::Numerical("no candidate layout could be fitted to the data".into()))?;
-        let full = search::Search::new(points, opts.tol, opts, aero, free_params);
+        let full = search::Search::new(points, opts.tol, opts, aero, free_params, checks);
         let params = spread_params(&keep, &found.best.state.params, points.len());
         // Growing on all the points is allowed a few layouts only when the subsample met
         // the tolerance; otherwise the refit just reports the closest layout.
         let steps = if found.met { FULL_DATA_STEPS } else { 1 };
-        match full.continue_from(&found.best, params, steps) {
+        let found = match full.continue_from(&found.best, params, steps) {
             Some((best, met)) if met || !found.met => search::Found {
                 best,
                 met,
                 trace: found.trace,
                 fits: found.fits + full.fits(),
+                refused: found.refused,
             },
             // The subsample misled the search (structure finer than its spacing): search again
             // on every point.
@@ -330,12 +367,14 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
                 again.fits += found.fits;
                 again
             }
-        }
+        };
+        (found, full)
     } else {
-        let search = search::Search::new(points, opts.tol, opts, aero, free_params);
-        search
+        let search = search::Search::new(points, opts.tol, opts, aero, free_params, checks);
+        let found = search
             .run()
-            .ok_or_else(|| Error::Numerical("no candidate layout could be fitted to the data".into()))?
+            .ok_or_else(|| Error::Numerical("no candidate layout could be fitted to the data".into()))?;
+        (found, search)
     };
     let encoding = found.best.encoding();
     let chain = chain_of(&encoding)?;
@@ -344,40 +383,91 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
         Norm::Max => offset.max,
         Norm::Rms => offset.rms,
     };
-    let met = found.met && measure <= opts.tol;
+    let held_out = if opts.held_out {
+        full.held_out(&found.best)
+    } else {
+        None
+    };
+    let sign_changes = fairness
+        .as_ref()
+        .map(|f| f.report(f.chain_count(chain.layout(), chain.design())));
+    let tol_met = found.met && measure <= opts.tol;
+    let held_measure = held_out.map(|h| match opts.norm {
+        Norm::Max => h.max,
+        Norm::Rms => h.rms,
+    });
+    let held_ok = !opts.held_out || held_measure.is_some_and(|m| m <= HELD_OUT_FACTOR * opts.tol);
+    let waves_ok = sign_changes.is_none_or(|c| c.chain <= c.source);
+    let met = tol_met && held_ok && waves_ok;
     let message = (!met).then(|| {
-        let stalled = found.trace.iter().filter(|t| t.outcome == "stalled").count();
-        let limited = found.trace.iter().filter(|t| t.outcome == "limit").count();
-        let why = if stalled >= limited {
-            "the offsets stopped falling as layouts grew: the tolerance is below what the data's \
-             noise lets a smooth chain reach"
+        let mut failed = Vec::new();
+        if !(measure <= opts.tol) {
+            let stalled = found.trace.iter().filter(|t| t.outcome == "stalled").count();
+            let limited = found.trace.iter().filter(|t| t.outcome == "limit").count();
+            let why = if stalled >= limited {
+                "the offsets stopped falling as layouts grew: the tolerance is below what the \
+                 data's noise lets a smooth chain reach"
+            } else {
+                "every family reached the data's limit before meeting it (at most half as many \
+                 design points as data points, fewer stored scalars than the data's own \
+                 numbers): the tolerance asks for near-interpolation, as it does below the \
+                 data's noise"
+            };
+            failed.push(format!("tolerance {:e} ({}) not met: {why}", opts.tol, opts.norm));
+        }
+        if opts.held_out && held_measure.is_none() {
+            failed.push(format!(
+                "held-out check not possible: the layout's {} design points are too many for \
+                 every other data point to determine",
+                found.best.model.layout.design_count()
+            ));
+        }
+        if let Some(m) = held_measure.filter(|_| !held_ok) {
+            failed.push(format!(
+                "held-out check failed: refitted on every other point, the others are {} {m:.3e} \
+                 away, {:.2} tolerances (at most {HELD_OUT_FACTOR})",
+                opts.norm,
+                m / opts.tol
+            ));
+        }
+        if let Some(c) = sign_changes.filter(|_| !waves_ok) {
+            failed.push(format!(
+                "the chain waves: its curvature changes sign {} times, the source's {} (a \
+                 spline through the points; curvatures below {:.3} ignored)",
+                c.chain, c.source, c.threshold
+            ));
+        }
+        if failed.is_empty() {
+            // The search found no candidate passing every check and its closest passes them
+            // on all the points: say what refused the others.
+            failed.push("no layout passed every check in the search".to_string());
+        }
+        let refused = found.refused;
+        let refusals = if refused.held_out + refused.waves > 0 {
+            format!(
+                " ({} layouts met the tolerance but failed the held-out check, {} waved more \
+                 than the source)",
+                refused.held_out, refused.waves
+            )
         } else {
-            "every family reached the data's limit before meeting it (at most half as many design \
-             points as data points, fewer stored scalars than the data's own numbers): the \
-             tolerance asks for near-interpolation, as it does below the data's noise"
+            String::new()
         };
         format!(
-            "tolerance {:e} ({}) not met: {why}; the closest layout found ({}) has {} {:e} with {} \
-             stored scalars",
-            opts.tol,
-            opts.norm,
+            "{}{refusals}; the closest layout found ({}) has {} {:e} with {} stored scalars",
+            failed.join("; "),
             found.best.fam.name(),
             opts.norm,
             measure,
             encoding.count().total
         )
     });
-    let held_out = if opts.held_out {
-        held_out(points, &found.best, opts)
-    } else {
-        None
-    };
     Ok(AdaptedCurve {
         count: encoding.count(),
         encoding,
         chain,
         offset,
         held_out,
+        sign_changes,
         met,
         message,
         family: found.best.fam.name(),
@@ -393,8 +483,9 @@ pub fn chain_of(encoding: &Encoding) -> Result<CurveChain<DVec2>> {
     CurveChain::new(encoding.layout()?, encoding.coeffs()?)?.to_c1()
 }
 
-/// Refit the winning model on every other point (both ends kept) and measure the others.
-fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Option<HeldOut> {
+/// Refit `best`'s model on every other point (both ends kept) from its unknowns and the
+/// parameters `params` (one per point) and measure the others.
+fn held_out(points: &[DVec2], best: &search::Cand, params: Vec<f64>, opts: &AdaptOptions) -> Option<HeldOut> {
     let n = points.len();
     let mut keep: Vec<usize> = (0..n).step_by(2).collect();
     if keep.last() != Some(&(n - 1)) {
@@ -405,7 +496,7 @@ fn held_out(points: &[DVec2], best: &search::Cand, opts: &AdaptOptions) -> Optio
         return None;
     }
     let sub: Vec<DVec2> = keep.iter().map(|&j| points[j]).collect();
-    let params: Vec<f64> = keep.iter().map(|&j| best.state.params[j]).collect();
+    let params: Vec<f64> = keep.iter().map(|&j| params[j]).collect();
     let data = engine::Data { points: &sub };
     let effort = engine::Effort {
         iterations: 40,

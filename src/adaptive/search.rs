@@ -7,7 +7,8 @@
 
 use super::encoding::{per_side_breaks, Breaks, Encoding, XStore};
 use super::engine::{self, Data, Effort, Model, State, XRule, LE_BREAK};
-use super::{AdaptOptions, FamilyTrace, Norm};
+use super::fairness::Fairness;
+use super::{AdaptOptions, FamilyTrace, HeldOut, Norm};
 use crate::chain::ChainLayout;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -225,6 +226,36 @@ impl Stop {
     }
 }
 
+/// A candidate that meets the tolerance is accepted only when its layout also passes the
+/// held-out check (refitted on every other data point, the others within
+/// [`HELD_OUT_FACTOR`] tolerances) and its chain changes the sign of its curvature no more
+/// often than the source ([`Fairness`]).
+pub const HELD_OUT_FACTOR: f64 = 3.0;
+
+/// What a candidate meeting the tolerance must also pass, and on which data.
+#[derive(Clone, Copy)]
+pub(crate) struct Checks<'a> {
+    /// The user's tolerance (a search on a subsample aims below it).
+    pub tol: f64,
+    /// The sign-change rule and the source's count; `None`: not checked.
+    pub fairness: Option<&'a Fairness>,
+    /// The held-out check runs on these points; with `Some(keep)` the search's data are the
+    /// points `keep` of them, and a candidate's parameters are spread to all of them.
+    pub full: &'a [DVec2],
+    pub keep: Option<&'a [usize]>,
+    /// Run the held-out check in the search.
+    pub held_out: bool,
+}
+
+/// Candidates that met the tolerance but were refused, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Refused {
+    /// The held-out check failed.
+    pub held_out: usize,
+    /// More curvature sign changes than the source.
+    pub waves: usize,
+}
+
 /// The search's shared context.
 pub(crate) struct Search<'a> {
     data: Data<'a>,
@@ -248,6 +279,9 @@ pub(crate) struct Search<'a> {
     fits: AtomicUsize,
     /// First fits shared between families, by x storage and degree (`None`: it failed).
     starts: Mutex<HashMap<(bool, usize), Option<State>>>,
+    checks: Checks<'a>,
+    refused_held_out: AtomicUsize,
+    refused_waves: AtomicUsize,
 }
 
 /// What the search found.
@@ -257,6 +291,8 @@ pub(crate) struct Found {
     pub met: bool,
     pub trace: Vec<FamilyTrace>,
     pub fits: usize,
+    /// Candidates meeting the tolerance that the other checks refused.
+    pub refused: Refused,
 }
 
 impl<'a> Search<'a> {
@@ -266,6 +302,7 @@ impl<'a> Search<'a> {
         opts: &'a AdaptOptions,
         aerofoil_params: Option<Vec<f64>>,
         free_params: Vec<f64>,
+        checks: Checks<'a>,
     ) -> Self {
         let n = points.len();
         let extent = points
@@ -287,7 +324,51 @@ impl<'a> Search<'a> {
             bound: AtomicUsize::new(usize::MAX),
             fits: AtomicUsize::new(0),
             starts: Mutex::new(HashMap::new()),
+            checks,
+            refused_held_out: AtomicUsize::new(0),
+            refused_waves: AtomicUsize::new(0),
         }
+    }
+
+    /// Candidates meeting the tolerance refused so far.
+    pub fn refusals(&self) -> Refused {
+        Refused {
+            held_out: self.refused_held_out.load(Ordering::Relaxed),
+            waves: self.refused_waves.load(Ordering::Relaxed),
+        }
+    }
+
+    /// The held-out check of `c`'s layout on the checks' data (see [`Checks::full`]).
+    pub fn held_out(&self, c: &Cand) -> Option<HeldOut> {
+        let params = match self.checks.keep {
+            Some(keep) => super::spread_params(keep, &c.state.params, self.checks.full.len()),
+            None => c.state.params.clone(),
+        };
+        super::held_out(self.checks.full, c, params, self.opts)
+    }
+
+    /// True when `c`, which meets the tolerance, also passes the held-out check and waves no
+    /// more than the source; a refusal is counted by its reason.
+    fn sound(&self, c: &Cand) -> bool {
+        if let Some(f) = self.checks.fairness {
+            if f.chain_count(&c.model.layout, &c.state.coeffs) > f.source {
+                self.refused_waves.fetch_add(1, Ordering::Relaxed);
+                return false;
+            }
+        }
+        if self.checks.held_out {
+            // A layout too large for the check (more design points than every other data
+            // point can determine) cannot show that it holds between the points: refused too.
+            let m = self.held_out(c).map(|h| match self.norm {
+                Norm::Max => h.max,
+                Norm::Rms => h.rms,
+            });
+            if !m.is_some_and(|m| m <= HELD_OUT_FACTOR * self.checks.tol) {
+                self.refused_held_out.fetch_add(1, Ordering::Relaxed);
+                return false;
+            }
+        }
+        true
     }
 
     fn measure(&self, s: &State) -> f64 {
@@ -334,8 +415,14 @@ impl<'a> Search<'a> {
         Some(Cand::new(fam, model, state))
     }
 
-    /// True when the candidate meets the tolerance, after a minimax polish if it is close.
+    /// True when the candidate meets the tolerance, after a minimax polish if it is close, and
+    /// is sound ([`Search::sound`]).
     fn accept(&self, c: &mut Cand) -> bool {
+        self.meets(c) && self.sound(c)
+    }
+
+    /// True when the candidate meets the tolerance, after a minimax polish if it is close.
+    fn meets(&self, c: &mut Cand) -> bool {
         let mut m = self.measure(&c.state);
         if m <= self.tol {
             return true;
@@ -504,6 +591,7 @@ impl<'a> Search<'a> {
             met,
             trace,
             fits: self.fits.load(Ordering::Relaxed),
+            refused: self.refusals(),
         })
     }
 
@@ -517,7 +605,7 @@ impl<'a> Search<'a> {
             state: engine::state(&cand.model, &self.data, cand.state.coeffs.clone(), params.clone()),
             ..cand.clone()
         };
-        if self.measure(&same.state) <= self.tol {
+        if self.measure(&same.state) <= self.tol && self.sound(&same) {
             return Some((same, true));
         }
         let c = self.fit(

@@ -85,6 +85,17 @@ impl Cubic {
         let (m0, m1) = (self.m[k], self.m[k + 1]);
         a * self.v[k] + b * self.v[k + 1] + h * h / 6.0 * ((a * a * a - a) * m0 + (b * b * b - b) * m1)
     }
+
+    /// The first and second derivatives with respect to `s` at local parameter `u` of
+    /// interval `k`.
+    fn derivs(&self, s: &[f64], k: usize, u: f64) -> (f64, f64) {
+        let h = s[k + 1] - s[k];
+        let (a, b) = (1.0 - u, u);
+        let (m0, m1) = (self.m[k], self.m[k + 1]);
+        let d1 =
+            (self.v[k + 1] - self.v[k]) / h + h / 6.0 * ((3.0 * b * b - 1.0) * m1 - (3.0 * a * a - 1.0) * m0);
+        (d1, a * m0 + b * m1)
+    }
 }
 
 /// Solve a tridiagonal system (Thomas' algorithm): `a` below, `b` on, `c` above the diagonal.
@@ -133,6 +144,35 @@ impl SplineContour {
             y: Cubic::new(&s, &ys),
             s,
         })
+    }
+}
+
+impl SplineContour {
+    /// Points and signed curvatures (positive turning left) at `per` equal steps of every
+    /// interval between data points, the data points included: the spline's second
+    /// derivatives are linear in each interval, so a few steps see every sign change.
+    #[must_use]
+    pub fn curvature_samples(&self, per: usize) -> Vec<(DVec2, f64)> {
+        let per = per.max(1);
+        let n = self.s.len();
+        let mut out = Vec::with_capacity((n - 1) * per + 1);
+        for k in 0..n - 1 {
+            let last = if k + 2 == n { per } else { per - 1 };
+            for i in 0..=last {
+                let u = i as f64 / per as f64;
+                let (x1, x2) = self.x.derivs(&self.s, k, u);
+                let (y1, y2) = self.y.derivs(&self.s, k, u);
+                let speed = x1.hypot(y1);
+                let kappa = if speed > 0.0 {
+                    (x1 * y2 - y1 * x2) / (speed * speed * speed)
+                } else {
+                    0.0
+                };
+                let p = DVec2::new(self.x.eval(&self.s, k, u), self.y.eval(&self.s, k, u));
+                out.push((p, kappa));
+            }
+        }
+        out
     }
 }
 

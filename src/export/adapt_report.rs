@@ -9,7 +9,7 @@ use crate::adaptive::surface::{
     AdaptedSurface, BetweenSections, CheckedOffsets, FoldCheck, SpanFairness, SurfaceAdaptOptions,
     SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
-use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm};
+use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm, SignChanges};
 use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
 use serde::{Deserialize, Serialize};
 
@@ -75,6 +75,14 @@ pub struct AdaptBlock {
     /// The held-out check (refit on every other point, measured on the rest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out: Option<HeldOut>,
+    /// The held-out measure under the norm over the tolerance (met needs at most
+    /// [`crate::adaptive::HELD_OUT_FACTOR`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_out_ratio: Option<f64>,
+    /// Curvature sign changes of the chain and of the source (met needs the chain's at most
+    /// the source's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sign_changes: Option<SignChanges>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -103,6 +111,14 @@ impl AdaptReport {
             adapt: AdaptBlock {
                 outcome: outcome!(opts, r, COUNTING),
                 held_out: r.held_out,
+                held_out_ratio: r.held_out.map(|h| {
+                    let m = match opts.norm {
+                        Norm::Max => h.max,
+                        Norm::Rms => h.rms,
+                    };
+                    m / opts.tol
+                }),
+                sign_changes: r.sign_changes,
                 fits: r.fits,
                 search: r.trace.clone(),
             },

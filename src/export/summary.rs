@@ -248,6 +248,25 @@ pub fn adapted_curve(name: &str, points: usize, tol: f64, norm: Norm, r: &Adapte
         "  offsets        max {:.3e} at ({:.5}, {:.5}), rms {:.3e}",
         r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.rms
     );
+    if let Some(h) = &r.held_out {
+        let m = match norm {
+            Norm::Max => h.max,
+            Norm::Rms => h.rms,
+        };
+        let _ = writeln!(
+            s,
+            "  held-out ratio {:.2} tolerances ({norm}; at most {})",
+            m / tol,
+            crate::adaptive::HELD_OUT_FACTOR
+        );
+    }
+    if let Some(c) = &r.sign_changes {
+        let _ = writeln!(
+            s,
+            "  curvature      {} sign changes, source {} (spline through the points; |curvature| below {:.3} ignored, scatter {:.1e})",
+            c.chain, c.source, c.threshold, c.scatter
+        );
+    }
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
     s
