@@ -17,12 +17,11 @@ use common::{bin, crate_root, scratch};
 use glam::DVec3;
 use std::process::Command;
 
-/// The paper's blade to its last full section (its first 10 stations; the last two close
-/// the tip to a point within 0.9 % of the span, [`a_tip_spike_between_sections_is_not_met`]).
+/// The paper's blade to its last full section (`data/blade_paper_to_tip.json`, its first 10
+/// stations; the last two close the tip to a point within 0.9 % of the span,
+/// [`a_tip_spike_between_sections_is_not_met`]).
 fn paper_to_tip() -> Blade {
-    let mut b = Blade::from_file(&crate_root().join("data/blade_paper.json")).unwrap();
-    b.stations.truncate(10);
-    b
+    Blade::from_file(&crate_root().join("data/blade_paper_to_tip.json")).unwrap()
 }
 
 /// [`paper_to_tip`] lofted with `per` points per section at its 10 stations.
@@ -103,9 +102,9 @@ fn check_met(r: &AdaptedSurface, points: &[DVec3], grid: Grid, tol: f64) {
 /// against those sections, each measured by the test's own code: chord (trailing edge the
 /// mid-point of the ends, leading edge the farthest point), thickness (the largest extent
 /// across the chord, in 200 bins along it), area centroid. `chord` and `thickness`: how far
-/// the cut's lies outside the neighbours' range, over the allowance 2 % of their mean chord
-/// + `tol`; `centroid`: its distance from the mid-point of theirs; `centroid_ratio`: that over
-/// 5 % of the mean chord + tol.
+/// the cut's lies outside the neighbours' range, over the allowance (2 % of their mean chord
+/// plus `tol`); `centroid`: its distance from the mid-point of theirs; `centroid_ratio`: that
+/// over 5 % of the mean chord plus `tol`.
 #[derive(Debug)]
 struct MidStation {
     chord: f64,
@@ -448,14 +447,7 @@ fn checker_search_is_never_below_the_true_distance() {
 fn the_cli_writes_a_report_and_exits_by_the_outcome() {
     let dir = scratch("adapt-surface");
     let cloud = dir.join("b.csv");
-    let blade_json = dir.join("blade.json");
-    let mut paper: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(crate_root().join("data/blade_paper.json")).unwrap())
-            .unwrap();
-    for key in ["radius", "chord", "twist_deg"] {
-        paper[key].as_array_mut().unwrap().truncate(10);
-    }
-    std::fs::write(&blade_json, paper.to_string()).unwrap();
+    let blade_json = crate_root().join("data/blade_paper_to_tip.json");
     let st = Command::new(bin())
         .args([
             "blade",
@@ -589,6 +581,68 @@ fn the_cli_writes_a_report_and_exits_by_the_outcome() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
+}
+
+/// A blade definition read by `adapt-surface` directly: lofted at its stations, checked
+/// against sections lofted half-way between them (`between_sections.method` "loft", within 3
+/// tolerances), fair at every mid-station, the data's scatter reported.
+#[test]
+fn the_cli_checks_a_blade_definition_between_its_stations() {
+    let dir = scratch("adapt-surface-definition");
+    let json = dir.join("r.json");
+    let out = Command::new(bin())
+        .arg("adapt-surface")
+        .arg(crate_root().join("data/blade_paper_to_tip.json"))
+        .args([
+            "--points-per-section",
+            "24",
+            "--tol",
+            "2e-3",
+            "--relative",
+            "--degrees-u",
+            "3-4",
+            "--degrees-v",
+            "2",
+            "--quiet",
+            "--json",
+        ])
+        .arg(&json)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("mid-stations") && stdout.contains("between"),
+        "{stdout}"
+    );
+    let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let a = &rep["adapt"];
+    let tol = a["tol"].as_f64().unwrap();
+    assert_eq!(a["met"], true);
+    assert_eq!(a["between_sections"]["method"], "loft");
+    assert_eq!(a["between_sections"]["sections"], 9);
+    assert!(a["between_sections"]["max"].as_f64().unwrap() <= 3.0 * tol);
+    assert_eq!(a["fairness"]["passes"], true);
+    assert!(a["fairness"]["worst"].as_f64().unwrap() <= 1.0);
+    assert!(a["scatter"]["sigma"].as_f64().unwrap() >= 0.0);
+    // A point cloud takes no loft option.
+    let bad = Command::new(bin())
+        .args([
+            "adapt-surface",
+            "-",
+            "--tol",
+            "1e-3",
+            "--points-per-section",
+            "24",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
 }
 
 /// The bars (run in release: `cargo test --release --test adapt_surface -- --ignored`):

@@ -483,13 +483,17 @@ fn a_station_point_cloud_with_text_columns_fits_and_adapts_like_the_blade_cloud(
     let (cloud, stations) = (dir.join("blade.csv"), dir.join("stations.csv"));
     ok(run(&[
         "blade",
-        "data/blade_paper.json",
+        "data/blade_paper_to_tip.json",
         "--points-per-section",
         "24",
         "-o",
         cloud.to_str().unwrap(),
     ]));
-    station_csv(&cloud, &crate_root().join("data/blade_paper.json"), &stations);
+    station_csv(
+        &cloud,
+        &crate_root().join("data/blade_paper_to_tip.json"),
+        &stations,
+    );
     let points = read_xyz(&cloud);
     let fit = |input: &Path, json: &Path| {
         ok(run(&[
@@ -507,7 +511,7 @@ fn a_station_point_cloud_with_text_columns_fits_and_adapts_like_the_blade_cloud(
     fit(&cloud, &a);
     let out = fit(&stations, &b);
     let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
-    assert!(said.contains("288 points (12 sections x 24 points)"), "{said}");
+    assert!(said.contains("240 points (10 sections x 24 points)"), "{said}");
     assert!(
         stderr(&out).contains("ignored column(s) radius, chord, twist_deg, airfoil"),
         "{}",

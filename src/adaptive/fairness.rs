@@ -11,8 +11,8 @@
 //! point nearest to it: the larger of [`FLOOR`] over the data's size (curvature radii above 50
 //! chords count as straight: a chord-long stretch of that curvature sags by 1/400 of a chord,
 //! while waves of a tolerance's amplitude over a tenth of the chord curve far more) and
-//! [`NOISE_FACTOR`]` · σ / h²`, with `σ` the data's scatter ([`scatter`]: the median distance
-//! of a point from the polynomial through its neighbours, scaled to independent errors) and
+//! [`NOISE_FACTOR`]` · σ / h²`, with `σ` the data's scatter
+//! ([`crate::geometry::curve_scatter`], 0 where too few points estimate it) and
 //! `h` the local point spacing. Independent errors of size `σ` at spacing `h` give an
 //! interpolating cubic spline curvature waves with a standard deviation of about `7 σ / h²`;
 //! with the hysteresis a counted change swings from `+κ₀` to `-κ₀`, about 3 standard
@@ -33,8 +33,8 @@
 //! would hide the worst waves: the S809 chain the search picked at 1e-4 before this check
 //! had a kink 0.004 chords from its leading edge (curvature -1600 and back).
 
-use crate::aero::contour::SplineContour;
 use crate::chain::ChainLayout;
+use crate::geometry::SplineContour;
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
@@ -130,7 +130,9 @@ impl Fairness {
         if !(size > 0.0) {
             return None;
         }
-        let scatter = scatter(points);
+        // The data's own scatter ([`crate::geometry::curve_scatter`]), 0 where too few
+        // points estimate it.
+        let scatter = crate::geometry::curve_scatter(points).sigma.unwrap_or(0.0);
         let n = points.len();
         let thresholds = (0..n)
             .map(|i| {
@@ -216,60 +218,6 @@ impl Fairness {
     }
 }
 
-/// The data's scatter: the smaller of two estimates, each the median over the points of the
-/// distance of a point from the polynomial through its `m` neighbours on either side (by chord
-/// length; `m` = 2 and 3), divided by that residual's gain on independent errors
-/// (`√(1 + Σ w²)` with `w` the interpolation weights) and by 0.674 (the median of `|N(0, 1)|`).
-/// On smooth data the residuals are of the order of `h^(2m)` times the `2m`-th derivative: far
-/// below the scatter of noisy data, and the higher order keeps sparse clean data (60 points on
-/// a thick section) from passing their shape off as scatter.
-#[must_use]
-pub fn scatter(points: &[DVec2]) -> f64 {
-    let mut s = vec![0.0];
-    for w in points.windows(2) {
-        s.push(s[s.len() - 1] + (w[1] - w[0]).length());
-    }
-    [2, 3]
-        .iter()
-        .filter_map(|&m| residual_scatter(points, &s, m))
-        .reduce(f64::min)
-        .unwrap_or(0.0)
-}
-
-/// One estimate of [`scatter`]: `m` neighbours either side; `None` with too few points.
-fn residual_scatter(points: &[DVec2], s: &[f64], m: usize) -> Option<f64> {
-    let n = points.len();
-    if n < 2 * m + 3 {
-        return None;
-    }
-    let mut res: Vec<f64> = (m..n - m)
-        .filter_map(|i| {
-            let idx: Vec<usize> = (i - m..=i + m).filter(|&j| j != i).collect();
-            let (mut p, mut gain) = (DVec2::ZERO, 1.0);
-            for &a in &idx {
-                let mut w = 1.0;
-                for &b in &idx {
-                    if b != a {
-                        let den = s[a] - s[b];
-                        if den == 0.0 {
-                            return None;
-                        }
-                        w *= (s[i] - s[b]) / den;
-                    }
-                }
-                p += points[a] * w;
-                gain += w * w;
-            }
-            Some(p.distance(points[i]) / gain.sqrt())
-        })
-        .collect();
-    if res.is_empty() {
-        return None;
-    }
-    res.sort_by(f64::total_cmp);
-    Some(res[res.len() / 2] / 0.674)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -335,23 +283,5 @@ mod tests {
         }
         assert!(s.iter().all(|(_, k)| *k > 0.5));
         assert_eq!(Fairness::of_source(&pts).unwrap().source, 0);
-    }
-
-    #[test]
-    fn the_scatter_of_rounded_coordinates_is_found() {
-        // A smooth curve: almost no scatter; rounded to 4 decimals: about 1e-4 / √12.
-        let pts: Vec<DVec2> = (0..=80)
-            .map(|i| {
-                let x = i as f64 / 80.0;
-                DVec2::new(x, 0.1 * (2.0 * x).sin())
-            })
-            .collect();
-        assert!(scatter(&pts) < 1e-8, "{}", scatter(&pts));
-        let rounded: Vec<DVec2> = pts
-            .iter()
-            .map(|p| DVec2::new(p.x, (p.y * 1e4).round() / 1e4))
-            .collect();
-        let s = scatter(&rounded);
-        assert!(s > 1e-5 && s < 6e-5, "{s}");
     }
 }

@@ -49,8 +49,9 @@ pub use fairness::SignChanges;
 pub use search::HELD_OUT_FACTOR;
 pub use surface::{
     adapt_blade, adapt_surface, adapt_surface_with, sampled_offsets, AdaptedBlade, AdaptedSurface,
-    BetweenSections, CheckedOffsets, ChordRule, SpanFairness, SpanRule, SurfaceAdaptOptions, SurfaceCount,
-    SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE,
+    BetweenSections, CheckedOffsets, ChordRule, DataScatter, SpanFairness, SpanRule, SurfaceAdaptOptions,
+    SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress, BETWEEN_FACTOR, FAIR_CENTROID,
+    FAIR_SHAPE, SCATTER_FACTOR,
 };
 
 use crate::chain::CurveChain;

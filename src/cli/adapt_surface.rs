@@ -74,7 +74,10 @@ pub enum ChordArg {
 
 /// The sectioned cloud to fit (for a blade definition, lofted at its stations), and the
 /// definition with its loft options.
-fn read_input(args: &Args) -> Result<(Vec<DVec3>, Grid, Option<(Blade, LoftOptions)>)> {
+type Input = (Vec<DVec3>, Grid, Option<(Blade, LoftOptions)>);
+
+/// Read the input: a sectioned cloud or a blade definition.
+fn read_input(args: &Args) -> Result<Input> {
     let path = &args.cloud;
     if Blade::is_definition(path) {
         super::bounded(

@@ -6,8 +6,8 @@
 
 use crate::adaptive::encoding::{Encoding, ScalarCount};
 use crate::adaptive::surface::{
-    AdaptedSurface, BetweenSections, CheckedOffsets, FoldCheck, SpanFairness, SurfaceAdaptOptions,
-    SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+    AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, SpanFairness,
+    SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm, SignChanges};
 use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
@@ -161,6 +161,10 @@ pub struct SurfaceAdaptBlock {
     /// mid-stations, or left one section out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub between_sections: Option<BetweenSections>,
+    /// The data's own scatter (the most scattered section), and whether the tolerance is
+    /// below what it allows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scatter: Option<DataScatter>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -193,6 +197,7 @@ impl SurfaceAdaptReport {
                 projection_agreement: Some(r.agreement),
                 fairness: r.fairness.clone(),
                 between_sections: r.between.clone(),
+                scatter: r.scatter.clone(),
                 fits: r.fits,
                 search: r.trace.clone(),
             },

@@ -383,6 +383,23 @@ pub fn adapted_surface(name: &str, points: usize, tol: f64, norm: Norm, r: &Adap
             b.points
         );
     }
+    if let Some(sc) = &r.scatter {
+        let _ = writeln!(
+            s,
+            "  data scatter   {:.2e} ({:.1e} of the chord, section {}){}",
+            sc.sigma,
+            sc.relative,
+            sc.section,
+            if sc.above_tolerance {
+                format!(
+                    ": the tolerance is below {} times it, so a surface that meets it follows the data's noise",
+                    crate::adaptive::SCATTER_FACTOR
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
     s

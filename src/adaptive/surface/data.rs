@@ -2,11 +2,11 @@
 //! blade's chord rule and trailing-edge data, and the held-out split.
 
 use super::super::blade::{section_frame, section_params, SectionFrame};
-use super::span::{Between, Stations};
 use super::SpanRule;
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
-use glam::DVec3;
+use crate::geometry::SectionShape;
+use glam::{DVec2, DVec3};
 
 /// The cloud's sections, their span parameters and initial point parameters.
 pub(super) struct Data<'a> {
@@ -233,4 +233,50 @@ impl<'a> Data<'a> {
     pub(super) fn point_v(&self) -> Vec<f64> {
         (0..self.points.len()).map(|p| self.v[p / self.per]).collect()
     }
+}
+
+/// Sections lofted between the data's sections, each in a plane of the span axis.
+pub(super) struct Between {
+    pub(super) points: Vec<DVec3>,
+    pub(super) per: usize,
+    /// The span parameter of every section.
+    pub(super) v: Vec<f64>,
+}
+
+/// The data sections' shapes and the mid-stations, when the span rule holds.
+pub(super) struct Stations {
+    /// Neighbouring data sections `(a, b)` in span order, and the mid-station's `v`.
+    pub(super) pairs: Vec<(usize, usize, f64)>,
+    pub(super) shapes: Vec<SectionShape>,
+    pub(super) samples: usize,
+}
+
+impl Stations {
+    pub(super) fn new(points: &[DVec3], per: usize, v: &[f64], axes: [usize; 2]) -> Option<Stations> {
+        let shapes = (0..v.len())
+            .map(|k| SectionShape::of(&flat(&points[k * per..(k + 1) * per], axes)))
+            .collect::<Option<Vec<_>>>()?;
+        let mut order: Vec<usize> = (0..v.len()).collect();
+        order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let pairs = order
+            .windows(2)
+            .map(|w| (w[0], w[1], 0.5 * (v[w[0]] + v[w[1]])))
+            .collect();
+        Some(Stations {
+            pairs,
+            shapes,
+            samples: (CUT_DENSITY * per).max(64),
+        })
+    }
+}
+
+/// Samples of a cut per data point of a section.
+const CUT_DENSITY: usize = 4;
+
+/// The points of a section in its two in-plane axes.
+pub(super) fn flat(points: &[DVec3], axes: [usize; 2]) -> Vec<DVec2> {
+    points
+        .iter()
+        .map(|p| DVec2::new(p[axes[0]], p[axes[1]]))
+        .collect()
 }

@@ -56,7 +56,9 @@ pub use definition::{adapt_blade, AdaptedBlade, MAX_ROUNDS};
 pub use encoding::{SurfaceCount, SurfaceEncoding};
 use fitter::{closest_offsets, norm_of, Fitter};
 use search::{encode, store, Cand, Family, Growth, Search};
-pub use span::{BetweenSections, SpanFairness, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE};
+pub use span::{
+    BetweenSections, DataScatter, SpanFairness, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE, SCATTER_FACTOR,
+};
 
 use super::blade::TE_DEGREE;
 use super::{HeldOut, Norm};
@@ -216,6 +218,8 @@ pub struct AdaptedSurface {
     /// definition's lofted mid-stations, or left-one-section-out on a bare cloud (with
     /// [`SurfaceAdaptOptions::held_out`]).
     pub between: Option<BetweenSections>,
+    /// The data's own scatter, where its sections are long enough to estimate it.
+    pub scatter: Option<DataScatter>,
     /// The checker's max over the true closest-point max: the projection check agrees with
     /// the exact offsets within 10 % when it is at most 1.1.
     pub agreement: f64,
@@ -382,6 +386,18 @@ pub fn adapt_surface_with(
         .map(|v| span::span_at(&data, v))
         .collect();
     let met = at_sections && fair && lofted;
+    let scatter = DataScatter::of(points, grid, opts.tol);
+    // Said with every message when the tolerance is below the data's own scatter.
+    let noisy = scatter
+        .as_ref()
+        .filter(|s| s.above_tolerance)
+        .map_or(String::new(), |s| {
+            format!(
+                "; the data scatter by about {:.2e} ({:.1e} of the chord, section {}): a tolerance below \
+             {SCATTER_FACTOR} times that fits their noise",
+                s.sigma, s.relative, s.section
+            )
+        });
     let message = (!met).then(|| {
         if at_sections {
             let mut why = Vec::new();
@@ -399,7 +415,7 @@ pub fn adapt_surface_with(
                 ));
             }
             return format!(
-                "tolerance {:e} met at the sections but not between them: {}",
+                "tolerance {:e} met at the sections but not between them: {}{noisy}",
                 opts.tol,
                 why.join("; ")
             );
@@ -407,12 +423,17 @@ pub fn adapt_surface_with(
         format!(
             "tolerance {:e} ({}) not met: no family met it within the data's limits (at most half a \
              section's points around, one design column per section along the span, fewer stored \
-             scalars than the data's numbers{}); the closest layout found ({}) has {} {:.3e} ({:.3e} by the \
-             checker's search) with {} stored scalars",
+             scalars than the data's numbers{}{}); the closest layout found ({}) has {} {:.3e} ({:.3e} by the \
+             checker's search) with {} stored scalars{noisy}",
             opts.tol,
             opts.norm,
             opts.max_scalars
                 .map_or(String::new(), |m| format!(", at most {m}")),
+            if opts.span_checks {
+                ", fair and, for a blade definition, within 3 tolerances of it between the sections"
+            } else {
+                ""
+            },
             fam.name(),
             opts.norm,
             measure,
@@ -435,6 +456,7 @@ pub fn adapt_surface_with(
         fold,
         fairness,
         between,
+        scatter,
         agreement,
         at_sections,
         faults,

@@ -21,11 +21,11 @@
 //! check instead ([`leave_one_out`]), not part of `met` (a section left out is a data gap the
 //! search never had, so the check measures the data's spacing as much as the surface).
 
-use super::data::Data;
+use super::data::{flat, Between, Data};
 use crate::chain::PatchGrid;
 use crate::geometry::SectionShape;
 use crate::problem::OffsetStats;
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -35,8 +35,6 @@ pub const FAIR_SHAPE: f64 = 0.02;
 pub const FAIR_CENTROID: f64 = 0.05;
 /// Between the sections the surface may be this many tolerances from the blade definition.
 pub const BETWEEN_FACTOR: f64 = 3.0;
-/// Samples of a cut per data point of a section.
-const CUT_DENSITY: usize = 4;
 
 /// The fairness of the surface's cuts at the mid-stations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -77,46 +75,40 @@ pub struct BetweenSections {
     pub skipped: usize,
 }
 
-/// Sections lofted between the data's sections, each in a plane of the span axis.
-pub(super) struct Between {
-    pub(super) points: Vec<DVec3>,
-    pub(super) per: usize,
-    /// The span parameter of every section.
-    pub(super) v: Vec<f64>,
+/// The tolerance below this many times the data's scatter fits its noise
+/// ([`DataScatter`]): the largest of `n` independent normal errors is about 3 deviations.
+pub const SCATTER_FACTOR: f64 = 3.0;
+
+/// The data's own scatter ([`crate::geometry::section_scatter`]): the section that scatters
+/// most.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DataScatter {
+    /// Its estimated standard deviation normal to the section, model units.
+    pub sigma: f64,
+    /// As a fraction of that section's chord.
+    pub relative: f64,
+    /// The section (0-based, in data order).
+    pub section: usize,
+    /// True when the tolerance is below [`SCATTER_FACTOR`] times it: a surface within the
+    /// tolerance of every point then follows the data's noise.
+    pub above_tolerance: bool,
 }
 
-/// The data sections' shapes and the mid-stations, when the span rule holds.
-pub(super) struct Stations {
-    /// Neighbouring data sections `(a, b)` in span order, and the mid-station's `v`.
-    pairs: Vec<(usize, usize, f64)>,
-    shapes: Vec<SectionShape>,
-    samples: usize,
-}
-
-impl Stations {
-    pub(super) fn new(points: &[DVec3], per: usize, v: &[f64], axes: [usize; 2]) -> Option<Stations> {
-        let shapes = (0..v.len())
-            .map(|k| SectionShape::of(&flat(&points[k * per..(k + 1) * per], axes)))
-            .collect::<Option<Vec<_>>>()?;
-        let mut order: Vec<usize> = (0..v.len()).collect();
-        order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
-        let pairs = order
-            .windows(2)
-            .map(|w| (w[0], w[1], 0.5 * (v[w[0]] + v[w[1]])))
-            .collect();
-        Some(Stations {
-            pairs,
-            shapes,
-            samples: (CUT_DENSITY * per).max(64),
-        })
+impl DataScatter {
+    /// The most scattered section of the sectioned cloud `points` at tolerance `tol`.
+    pub(super) fn of(points: &[DVec3], grid: crate::geometry::Grid, tol: f64) -> Option<DataScatter> {
+        crate::geometry::section_scatter(points, grid)
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| Some((k, s.sigma?, s.relative()?)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(section, sigma, relative)| DataScatter {
+                sigma,
+                relative,
+                section,
+                above_tolerance: tol < SCATTER_FACTOR * sigma,
+            })
     }
-}
-
-fn flat(points: &[DVec3], axes: [usize; 2]) -> Vec<DVec2> {
-    points
-        .iter()
-        .map(|p| DVec2::new(p[axes[0]], p[axes[1]]))
-        .collect()
 }
 
 /// The cut `S(·, v)` sampled at `n` parameters uniform in u.
