@@ -9,7 +9,7 @@
 use super::mesh::SurfaceMesh;
 pub use super::offset_map::{offset_colour, OffsetPoint, Rgb, Station};
 use super::offset_map::{offset_label, stations, Colouring, Marked};
-use crate::chain::PatchGrid;
+use crate::chain::{GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::dense::{dense_grid, uniform, DensePoint};
 use crate::eval::Backend;
@@ -1095,27 +1095,13 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
             }
         }
         let _ = writeln!(svg, "</g>");
-        for design in [false, true] {
-            let (colour, radius) = if design {
-                (DESIGN_POINT, 3.0)
-            } else {
-                (GENERATED_POINT, 2.8)
-            };
-            let _ = writeln!(
-                svg,
-                r#"<g fill="{}" stroke="white" stroke-width="0.8">"#,
-                hex(colour)
-            );
-            for r in 0..mu {
-                for c in 0..mv {
-                    if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
-                        let (x, y, _) = cam.project(net[r * mv + c]);
-                        let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
-                    }
-                }
-            }
-            let _ = writeln!(svg, "</g>");
-        }
+        net_points_svg(
+            &mut svg,
+            &cam,
+            (l, net, mu, mv),
+            [3.0, 2.8],
+            r#"stroke="white" stroke-width="0.8""#,
+        );
         if k > 0 {
             let y = k as f64 * panel_h;
             let _ = writeln!(
@@ -1129,6 +1115,35 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
 }
 
 /// `#rrggbb`.
+/// The control net's points in SVG: the generated ones (join points) first, then the design
+/// points over them, radii `[design, generated]`, each group with the attributes `style`.
+fn net_points_svg(
+    svg: &mut String,
+    cam: &Camera,
+    (l, net, mu, mv): (&GridLayout, &[DVec3], usize, usize),
+    radii: [f64; 2],
+    style: &str,
+) {
+    use std::fmt::Write as _;
+    for design in [false, true] {
+        let (colour, radius) = if design {
+            (DESIGN_POINT, radii[0])
+        } else {
+            (GENERATED_POINT, radii[1])
+        };
+        let _ = writeln!(svg, r#"<g fill="{}" {style}>"#, hex(colour));
+        for r in 0..mu {
+            for c in 0..mv {
+                if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
+                    let (x, y, _) = cam.project(net[r * mv + c]);
+                    let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
+                }
+            }
+        }
+        let _ = writeln!(svg, "</g>");
+    }
+}
+
 fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
@@ -1299,27 +1314,13 @@ fn coloured_svg(
             let _ = writeln!(svg, r#"<polyline points="{}"/>"#, path.join(" "));
         }
         let _ = writeln!(svg, "</g>");
-        for design in [false, true] {
-            let (colour, radius) = if design {
-                (DESIGN_POINT, 1.8)
-            } else {
-                (GENERATED_POINT, 1.7)
-            };
-            let _ = writeln!(
-                svg,
-                r#"<g fill="{}" fill-opacity="0.45" stroke="white" stroke-width="0.5" stroke-opacity="0.45">"#,
-                hex(colour)
-            );
-            for r in 0..mu {
-                for c in 0..mv {
-                    if (l.u.map().is_copy(r) && l.v.map().is_copy(c)) == design {
-                        let (x, y, _) = cam.project(net[r * mv + c]);
-                        let _ = writeln!(svg, r#"<circle cx="{x:.1}" cy="{y:.1}" r="{radius}"/>"#);
-                    }
-                }
-            }
-            let _ = writeln!(svg, "</g>");
-        }
+        net_points_svg(
+            &mut svg,
+            &cam,
+            (l, net, mu, mv),
+            [1.8, 1.7],
+            r#"fill-opacity="0.45" stroke="white" stroke-width="0.5" stroke-opacity="0.45""#,
+        );
         // The stations' numbers under the panel.
         let panel_bottom = (k + 1) as f64 * panel_h;
         let xs: Vec<f64> = opts.stations.iter().map(|st| station_x(&cam, st)).collect();
