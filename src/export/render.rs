@@ -727,6 +727,31 @@ impl RenderOptions {
     }
 }
 
+/// The patch borders of `grid` sampled at `along` (rows at the u breaks, columns at the v
+/// breaks), every point the views frame (the mesh and the control net), and the depth
+/// tolerance of the hidden-line test: 2e-3 of their largest extent.
+fn borders_and_frame(
+    grid: &PatchGrid<DVec3>,
+    mesh: &SurfaceMesh,
+    along: &[f64],
+) -> Result<(Vec<Vec<DVec3>>, Vec<DVec3>, f64)> {
+    let l = grid.layout();
+    let (bu, bv) = (l.u.breaks(), l.v.breaks());
+    let borders: Vec<Vec<DVec3>> = [
+        rows_of(&dense_grid(grid, bu, along, Backend::Cpu)?.0, along.len()),
+        columns_of(&dense_grid(grid, along, bv, Backend::Cpu)?.0, bv.len()),
+    ]
+    .concat();
+    let mut everything: Vec<DVec3> = mesh.positions.clone();
+    everything.extend_from_slice(grid.net());
+    let (lo, hi) = everything
+        .iter()
+        .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    Ok((borders, everything, 2e-3 * (hi - lo).max_element()))
+}
+
 /// Draw `grid` (with its control net) in every view of `opts`.
 pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     opts.check()?;
@@ -734,23 +759,10 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     let (w, h) = (opts.width as usize * ss, opts.height as usize * ss);
     let mesh = SurfaceMesh::from_grid(grid, opts.per_patch.max(1))?;
     let l = grid.layout();
-    let (bu, bv) = (l.u.breaks(), l.v.breaks());
     let along = uniform(401);
-    let borders: Vec<Vec<DVec3>> = [
-        rows_of(&dense_grid(grid, bu, &along, Backend::Cpu)?.0, along.len()),
-        columns_of(&dense_grid(grid, &along, bv, Backend::Cpu)?.0, bv.len()),
-    ]
-    .concat();
+    let (borders, everything, tol) = borders_and_frame(grid, &mesh, &along)?;
     let (mu, mv) = l.net_shape();
     let net = grid.net();
-    let mut everything: Vec<DVec3> = mesh.positions.clone();
-    everything.extend_from_slice(net);
-    let size = everything
-        .iter()
-        .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
-    let tol = 2e-3 * (size.1 - size.0).max_element();
     let mut canvas = Canvas::new(w, h);
     // The surface's base colour per vertex: by the local offset when given.
     let colouring = Colouring::new(&opts.offsets, &opts.stations);
@@ -1181,19 +1193,7 @@ fn coloured_svg(
     let (bu, bv) = (l.u.breaks(), l.v.breaks());
     let along_n = 4000 / (bu.len() + bv.len()).max(1);
     let along = uniform((24 * l.u.segments().max(l.v.segments())).clamp(2, along_n.max(2)) + 1);
-    let borders: Vec<Vec<DVec3>> = [
-        rows_of(&dense_grid(grid, bu, &along, Backend::Cpu)?.0, along.len()),
-        columns_of(&dense_grid(grid, &along, bv, Backend::Cpu)?.0, bv.len()),
-    ]
-    .concat();
-    let mut everything: Vec<DVec3> = mesh.positions.clone();
-    everything.extend_from_slice(net);
-    let size = everything
-        .iter()
-        .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
-    let tol = 2e-3 * (size.1 - size.0).max_element();
+    let (borders, everything, tol) = borders_and_frame(grid, &mesh, &along)?;
     // One font pixel of the PNG's 5 x 7 glyphs: the same layout, in user units.
     let fp = (h / 450.0).max(1.0);
     let font = 8.5 * fp;
