@@ -767,3 +767,33 @@ fn assert_meets_blade_bars(r: &AdaptedSurface, tol: f64, scipy: usize) {
     let h = r.held_out.expect("held-out check");
     assert!(h.max <= 3.0 * tol, "held-out max {:e}", h.max);
 }
+
+/// `adapt_blade`'s "met" seen where a user looks: sections lofted from the definition half-way
+/// between its stations (none of them fitted) lie within 3 tolerances of the surface by the
+/// tests' own closest-point search.
+#[test]
+fn a_met_blade_definition_is_within_three_tolerances_between_its_stations() {
+    let b = paper_to_tip();
+    let loft = LoftOptions {
+        points_per_section: Some(24),
+        ..LoftOptions::default()
+    };
+    let tol = 2e-3 * b.max_chord();
+    let opts = SurfaceAdaptOptions {
+        tol,
+        degrees_u: [3, 4],
+        degrees_v: [2, 2],
+        ..SurfaceAdaptOptions::default()
+    };
+    let r = bezchain::adaptive::adapt_blade(&b, &loft, &opts, &|_| {}).unwrap();
+    assert!(r.surface.met, "{:?}", r.surface.message);
+    let mids: Vec<f64> = r.radii.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+    let between = b.loft_at(&mids, &loft).unwrap();
+    let worst = independent_offsets(&r.surface.grid, &between.points)
+        .into_iter()
+        .fold(0.0_f64, f64::max);
+    assert!(
+        worst <= 3.0 * tol,
+        "independent between-section max {worst:e} > 3 x {tol:e}"
+    );
+}

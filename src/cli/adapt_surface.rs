@@ -206,20 +206,16 @@ pub fn run(args: Args) -> Result<()> {
             ..input.clone()
         };
         let report = SurfaceAdaptReport::new(&r, &opts, input);
-        last = Some((
-            r.grid,
-            refined.map_or_else(
-                || (points.clone(), grid),
-                |c| {
-                    let g = c.0.grid.unwrap_or(grid);
-                    (c.0.points, g)
-                },
-            ),
-        ));
+        // The surface, and for a blade definition the cloud it was fitted to (the input's
+        // otherwise), for the picture.
+        last = Some((r.grid, refined.map(|c| c.0)));
         Ok(report)
     })?;
-    if let (true, Some((surface, (points, grid)))) = (pictures.wanted(), &last) {
-        let (points, grid) = (&points[..], *grid);
+    if let (true, Some((surface, cloud))) = (pictures.wanted(), &last) {
+        let (points, grid) = match cloud {
+            Some(c) => (&c.points[..], c.grid.unwrap_or(grid)),
+            None => (&points[..], grid),
+        };
         let params: Vec<[f64; 2]> = grid_feet(surface, points, &FootOptions::default())
             .iter()
             .map(|f| f.t)

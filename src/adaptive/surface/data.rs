@@ -58,11 +58,7 @@ impl<'a> Data<'a> {
             .then(|| {
                 (0..3).find_map(|a| {
                     let s: Vec<f64> = (0..sections).map(|k| sec(k)[0][a]).collect();
-                    let planar = (0..sections).all(|k| {
-                        sec(k)
-                            .iter()
-                            .all(|p| (p[a] - s[k]).abs() <= 1e-12 * extent.max(1e-300))
-                    });
+                    let planar = (0..sections).all(|k| in_plane(sec(k), a, extent));
                     let up = s.windows(2).all(|w| w[1] > w[0]);
                     let down = s.windows(2).all(|w| w[1] < w[0]);
                     (planar && (up || down)).then(|| SpanRule {
@@ -207,10 +203,8 @@ impl<'a> Data<'a> {
             .chunks(per)
             .map(|sec| {
                 let s = sec[0][rule.axis];
-                let planar = sec
-                    .iter()
-                    .all(|p| (p[rule.axis] - s).abs() <= 1e-12 * extent.max(1e-300));
-                (planar && (lo..=hi).contains(&s)).then(|| (s - rule.ends[0]) / (rule.ends[1] - rule.ends[0]))
+                (in_plane(sec, rule.axis, extent) && (lo..=hi).contains(&s))
+                    .then(|| (s - rule.ends[0]) / (rule.ends[1] - rule.ends[0]))
             })
             .collect::<Option<Vec<f64>>>()?;
         self.between = Some(Between {
@@ -279,4 +273,11 @@ pub(super) fn flat(points: &[DVec3], axes: [usize; 2]) -> Vec<DVec2> {
         .iter()
         .map(|p| DVec2::new(p[axes[0]], p[axes[1]]))
         .collect()
+}
+
+/// Whether coordinate `axis` of every point of the section `sec` equals its first point's, to
+/// 1e-12 of the cloud's `extent` (the section lies in a plane of that axis).
+fn in_plane(sec: &[DVec3], axis: usize, extent: f64) -> bool {
+    sec.iter()
+        .all(|p| (p[axis] - sec[0][axis]).abs() <= 1e-12 * extent.max(1e-300))
 }

@@ -369,21 +369,24 @@ pub fn adapt_surface_with(
         Norm::Max => checked.max,
         Norm::Rms => checked.rms,
     };
-    let fairness = span::fairness(&data, &grid_fit, opts.tol);
-    let between = match span::between_check(&data, &grid_fit) {
-        Some(b) => Some(b),
-        None if opts.held_out => leave_one_out_check(&data, &fam, &cand, opts),
-        None => None,
-    };
+    let span_check = span::check(&data, &grid_fit, opts.tol);
+    let fairness = span_check.fairness;
     let fair = fairness.as_ref().is_none_or(|f| f.passes);
-    let lofted = between
+    let lofted = span_check
+        .between
         .as_ref()
-        .filter(|b| b.method == "loft")
         .is_none_or(|b| b.max <= BETWEEN_FACTOR * opts.tol);
+    // A bare cloud has no sections between its own: the leave-one-section-out check instead.
+    let between = span_check.between.or_else(|| {
+        opts.held_out
+            .then(|| leave_one_out_check(&data, &fam, &cand, opts))
+            .flatten()
+    });
     let at_sections = met && measure <= opts.tol && checked_measure <= opts.tol;
-    let faults: Vec<f64> = span::faults(&data, &grid_fit, opts.tol)
-        .into_iter()
-        .map(|v| span::span_at(&data, v))
+    let faults: Vec<f64> = span_check
+        .faults
+        .iter()
+        .map(|&v| span::span_at(&data, v))
         .collect();
     let met = at_sections && fair && lofted;
     let scatter = DataScatter::of(points, grid, opts.tol);

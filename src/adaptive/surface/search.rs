@@ -7,7 +7,7 @@ use super::super::Norm;
 use super::data::Data;
 use super::encoding::SurfaceEncoding;
 use super::fitter::{fold_at, norm_of, span_maxima, Fitted, Fitter};
-use super::span::span_fault;
+use super::span;
 use super::{sampled_offsets, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
 use crate::chain::{ChainLayout, PatchGrid};
 use glam::DVec3;
@@ -175,11 +175,11 @@ impl<'d, 'a> Search<'d, 'a> {
         })
     }
 
-    /// Where a grid fails the mid-station checks ([`span_fault`]), when the search holds
+    /// Where a grid fails the mid-station checks ([`span::check`]), when the search holds
     /// them ([`SurfaceAdaptOptions::span_checks`]).
     fn span_fault(&self, grid: &PatchGrid<DVec3>) -> Option<f64> {
         if self.opts.span_checks {
-            span_fault(self.data, grid, self.opts.tol)
+            span::check(self.data, grid, self.opts.tol).worst
         } else {
             None
         }

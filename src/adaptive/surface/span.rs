@@ -126,22 +126,6 @@ pub(super) fn span_at(data: &Data<'_>, v: f64) -> f64 {
     data.span.map_or(v, |r| r.ends[0] + v * (r.ends[1] - r.ends[0]))
 }
 
-/// The fairness of `grid` at every mid-station of `data` (`None` without the span rule).
-pub(super) fn fairness(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Option<SpanFairness> {
-    let st = data.stations.as_ref()?;
-    let (worst, what, v) = pair_scores(data, grid, tol)?
-        .into_iter()
-        .max_by(|p, q| p.0.total_cmp(&q.0))
-        .unwrap_or((0.0, "chord", 0.0));
-    Some(SpanFairness {
-        stations: st.pairs.len(),
-        worst,
-        measure: what.into(),
-        span: span_at(data, v),
-        passes: worst <= 1.0,
-    })
-}
-
 /// Every mid-station's fairness ratio (at most 1 passes), what it measures, and its `v`.
 fn pair_scores(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Option<Vec<(f64, &'static str, f64)>> {
     let st = data.stations.as_ref()?;
@@ -224,64 +208,80 @@ fn between_of(data: &Data<'_>, grid: &PatchGrid<DVec3>) -> Option<Vec<(f64, f64,
     Some(between_scores(grid, between, samples))
 }
 
-/// The between-section offsets of a blade definition's lofted mid-stations, when `data` has
-/// them.
-pub(super) fn between_check(data: &Data<'_>, grid: &PatchGrid<DVec3>) -> Option<BetweenSections> {
-    let scores = between_of(data, grid)?;
-    let (max, v) = scores
-        .iter()
-        .map(|s| (s.0, s.2))
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .unwrap_or((0.0, 0.0));
-    let n = data.between.as_ref().map_or(0, |b| b.points.len());
-    Some(BetweenSections {
-        method: "loft".into(),
-        sections: scores.len(),
-        points: n,
-        max,
-        rms: (scores.iter().map(|s| s.1).sum::<f64>() / n.max(1) as f64).sqrt(),
-        span: span_at(data, v),
-        skipped: 0,
-    })
+/// The mid-station checks of one grid, every cut made once.
+pub(super) struct SpanCheck {
+    /// The fairness of the cuts (`None` without the span rule).
+    pub(super) fairness: Option<SpanFairness>,
+    /// A blade definition's lofted mid-stations' offsets, when `data` has them.
+    pub(super) between: Option<BetweenSections>,
+    /// The `v` of every failing mid-station (the cut not fair, or a lofted section there more
+    /// than [`BETWEEN_FACTOR`] tolerances away), in order; empty when the grid passes.
+    pub(super) faults: Vec<f64>,
+    /// The `v` of the worst failing mid-station (by its ratio to the allowance).
+    pub(super) worst: Option<f64>,
 }
 
-/// The `v` of every mid-station where `grid` fails the checks of `data` at `tol`: the cut
-/// not fair, or a blade definition's lofted section there more than [`BETWEEN_FACTOR`]
-/// tolerances away. Empty when it passes.
-pub(super) fn faults(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Vec<f64> {
-    let mut v: Vec<f64> = pair_scores(data, grid, tol)
-        .unwrap_or_default()
-        .into_iter()
-        .filter(|s| !(s.0 <= 1.0))
-        .map(|s| s.2)
+/// The mid-station checks of `grid` on `data` at `tol`.
+pub(super) fn check(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> SpanCheck {
+    let pairs = pair_scores(data, grid, tol);
+    let between = between_of(data, grid);
+    let fairness = data.stations.as_ref().zip(pairs.as_ref()).map(|(st, scored)| {
+        let (worst, what, v) = scored
+            .iter()
+            .copied()
+            .max_by(|p, q| p.0.total_cmp(&q.0))
+            .unwrap_or((0.0, "chord", 0.0));
+        SpanFairness {
+            stations: st.pairs.len(),
+            worst,
+            measure: what.into(),
+            span: span_at(data, v),
+            passes: worst <= 1.0,
+        }
+    });
+    // Every mid-station's ratio to its allowance (at most 1 passes), and its `v`.
+    let ratios: Vec<(f64, f64)> = pairs
+        .iter()
+        .flatten()
+        .map(|s| (s.0, s.2))
         .chain(
-            between_of(data, grid)
-                .unwrap_or_default()
-                .into_iter()
-                .filter(|s| !(s.0 <= BETWEEN_FACTOR * tol))
-                .map(|s| s.2),
+            between
+                .iter()
+                .flatten()
+                .map(|s| (s.0 / BETWEEN_FACTOR / tol, s.2)),
         )
         .collect();
-    v.sort_by(f64::total_cmp);
-    v.dedup_by(|a, b| (*a - *b).abs() <= 1e-12);
-    v
-}
-
-/// The `v` of the worst mid-station where `grid` fails the checks of `data` at `tol`
-/// ([`faults`]), or `None` when it passes.
-pub(super) fn span_fault(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Option<f64> {
-    let pair = pair_scores(data, grid, tol)
-        .unwrap_or_default()
-        .into_iter()
-        .map(|s| (s.0, s.2));
-    let between = between_of(data, grid)
-        .unwrap_or_default()
-        .into_iter()
-        .map(|s| (s.0 / BETWEEN_FACTOR / tol, s.2));
-    pair.chain(between)
+    let worst = ratios
+        .iter()
         .filter(|s| !(s.0 <= 1.0))
         .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|s| s.1)
+        .map(|s| s.1);
+    let mut faults: Vec<f64> = ratios.iter().filter(|s| !(s.0 <= 1.0)).map(|s| s.1).collect();
+    faults.sort_by(f64::total_cmp);
+    faults.dedup_by(|a, b| (*a - *b).abs() <= 1e-12);
+    let between = between.map(|scores| {
+        let (max, v) = scores
+            .iter()
+            .map(|s| (s.0, s.2))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap_or((0.0, 0.0));
+        let n = data.between.as_ref().map_or(0, |b| b.points.len());
+        BetweenSections {
+            method: "loft".into(),
+            sections: scores.len(),
+            points: n,
+            max,
+            rms: (scores.iter().map(|s| s.1).sum::<f64>() / n.max(1) as f64).sqrt(),
+            span: span_at(data, v),
+            skipped: 0,
+        }
+    });
+    SpanCheck {
+        fairness,
+        between,
+        faults,
+        worst,
+    }
 }
 
 /// The leave-one-section-out check of a bare cloud: for every interior section `k` (in span
