@@ -12,6 +12,10 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Print nothing but warnings and errors: no progress, no summary (every command; the
+    /// files asked for are still written, standard output included).
+    #[arg(long, short, global = true)]
+    quiet: bool,
 }
 
 #[derive(Subcommand)]
@@ -50,6 +54,7 @@ enum Command {
 fn main() -> ExitCode {
     give_mesa_a_runtime_dir();
     let cli = Cli::parse();
+    cli::output::set_quiet(cli.quiet);
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
         Command::Fit(args) => cli::fit::run(*args),

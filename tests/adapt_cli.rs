@@ -78,7 +78,8 @@ fn a_sweep_prints_scalars_against_tolerance() {
         .collect();
     assert_eq!(rows.len(), 3, "{table}");
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let reports = v.as_array().unwrap();
+    assert_eq!(v["schema"], "bezchain.sweep/1");
+    let reports = v["reports"].as_array().unwrap();
     let counts: Vec<u64> = reports
         .iter()
         .map(|r| r["adapt"]["stored_scalars"].as_u64().unwrap())

@@ -603,7 +603,6 @@ fn the_cli_checks_a_blade_definition_between_its_stations() {
             "3-4",
             "--degrees-v",
             "2",
-            "--quiet",
             "--json",
         ])
         .arg(&json)

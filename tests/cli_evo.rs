@@ -28,7 +28,6 @@ fn fit(method: &str, extra: &[&str]) -> Output {
         method,
         "--backend",
         "cpu",
-        "--quiet",
     ];
     args.extend_from_slice(extra);
     run(&args)
@@ -338,8 +337,9 @@ fn compare_prints_every_method_on_the_three_cases() {
         "-",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["schema"], "bezchain.compare/1");
+    let rows = report["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 9);
     for (row, method) in rows.iter().zip(["ga", "cmaes", "ga+lsq"].iter().cycle()) {
         assert_eq!(row["method"], *method);

@@ -272,7 +272,6 @@ fn evolutionary_methods_report_their_stages_and_backend() {
         "6",
         "--history",
         history.to_str().unwrap(),
-        "--quiet",
         "--json",
         json.to_str().unwrap(),
     ]));

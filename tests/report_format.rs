@@ -23,7 +23,20 @@ fn run(args: &[&str]) -> Value {
         "{args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    serde_json::from_slice(&out.stdout).expect("a JSON report on standard output")
+    unstamped(serde_json::from_slice(&out.stdout).expect("a JSON report on standard output"))
+}
+
+/// The stamp every report starts with (§5.10; its values are checked against the schemas by
+/// `tests/report_schemas.rs`).
+const STAMP: [&str; 4] = ["bezchain_version", "schema", "command", "units"];
+
+/// `report` without its stamp, which must be there.
+fn unstamped(mut report: Value) -> Value {
+    let map = report.as_object_mut().expect("an object");
+    for k in STAMP {
+        assert!(map.remove(k).is_some(), "no stamp key '{k}'");
+    }
+    report
 }
 
 fn keys(v: &Value) -> BTreeSet<&str> {

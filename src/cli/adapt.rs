@@ -7,7 +7,7 @@ use super::{usage, warn_all};
 use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Mode, Norm};
 use bezchain::export::summary::{self, Adapted, SweepRow};
-use bezchain::export::{AdaptReport, CurvePlot, InputInfo};
+use bezchain::export::{AdaptReport, CurvePlot, InputInfo, Schema, Sweep};
 use bezchain::geometry::read_curve;
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
@@ -70,8 +70,8 @@ pub(crate) fn finish<R: Adapted>(
     }
     match (json, reports) {
         (None, _) => {}
-        (Some(o), [one]) => outs.put_json(o, one)?,
-        (Some(o), many) => outs.put_json(o, &many)?,
+        (Some(o), [one]) => outs.put_json(o, R::SCHEMA, one)?,
+        (Some(o), many) => outs.put_json(o, Schema::Sweep, &Sweep::of(many))?,
     }
     if cad_args.wanted() {
         let shapes = reports
@@ -173,9 +173,9 @@ pub struct Args {
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write an SVG plot of the chain and its offsets.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
+    // The plot of the chain and its offsets (the last tolerance's).
+    #[command(flatten)]
+    pub plot: super::picture::PlotArgs,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
 }
@@ -194,7 +194,7 @@ pub(crate) fn parse_degrees(flag: &str, text: &str) -> Result<(usize, usize)> {
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let plots = args.plot.add(&mut outs)?;
     let cad = args.cad.add(&mut outs)?;
     let tols = args.tolerance.list("a chain")?;
     let loaded = read_curve(&args.input)?;
@@ -240,7 +240,7 @@ pub fn run(args: Args) -> Result<()> {
             r,
         ));
     }
-    if let (Some(o), Some((opts, r))) = (svg, results.last()) {
+    if let (true, Some((opts, r))) = (plots.wanted(), results.last()) {
         let offsets = bezchain::problem::shape_offsets(
             &bezchain::chain::CurveShape::new(r.chain.layout().clone()),
             r.chain.design(),
@@ -263,7 +263,7 @@ pub fn run(args: Args) -> Result<()> {
             chain: &r.chain,
             offsets: &offsets,
         };
-        outs.put(o, plot.to_svg()?.as_bytes())?;
+        plots.put(&mut outs, &plot)?;
     }
     finish(
         outs,

@@ -56,9 +56,6 @@ pub struct Args {
     pub picture: super::picture::PictureArgs,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
-    /// No progress bar or progress lines (the families of the search as they end).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// `--chord-rule`.
@@ -161,7 +158,7 @@ pub fn run(args: Args) -> Result<()> {
     let reports = search_each(&tols, scale, &args.cloud, |tol| {
         let opts = SurfaceAdaptOptions { tol, ..base };
         let label = format!("{name} at {:.3e}", opts.tol);
-        let bar = Mutex::new(Generations::counting(args.quiet, ("family", "family")));
+        let bar = Mutex::new(Generations::counting(("family", "family")));
         let shown = |p: &SurfaceProgress<'_>| {
             let Ok(mut bar) = bar.lock() else { return };
             if !bar.started() {

@@ -6,7 +6,7 @@ use super::{usage, warn};
 use anyhow::Result;
 use bezchain::aero::panel::{MAX_NODES, MIN_NODES};
 use bezchain::aero::{analyse_input, AeroReport, Paneling, DEFAULT_NODES};
-use bezchain::export::CpPlot;
+use bezchain::export::{CpPlot, Schema};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -78,7 +78,7 @@ pub fn run(args: Args) -> Result<()> {
         let _ = writeln!(text, "{:8.3} {:11.5} {:11.5}", c.alpha, c.cl, c.cm);
     }
     if let Some(o) = json {
-        outs.put_json(o, &report)?;
+        outs.put_json(o, Schema::Aero, &report)?;
     }
     if let (Some(o), Some(svg)) = (svg_out, svg) {
         outs.put(o, svg.as_bytes())?;

@@ -7,6 +7,7 @@ use super::{bounded, parse_word};
 use anyhow::Result;
 use bezchain::bench::population::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
+use bezchain::export::Schema;
 use bezchain::optim::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
 use std::path::PathBuf;
 
@@ -40,9 +41,10 @@ pub struct Args {
     /// Where to run: auto, gpu or cpu.
     #[arg(long, default_value = "auto", value_parser = parse_word::<Backend>)]
     pub backend: Backend,
-    /// CPU kernels: avx512, avx2 or portable [default: the best this CPU runs].
+    /// The CPU path's vector instructions: avx512, avx2 or portable [default: the best this
+    /// CPU runs].
     #[arg(long, value_parser = parse_simd)]
-    pub kernels: Option<Simd>,
+    pub simd: Option<Simd>,
     /// Bicubic patches along u and v, `PUxPV`.
     #[arg(long, default_value = "2x2", value_parser = super::parse_pair)]
     pub patches: [usize; 2],
@@ -67,7 +69,7 @@ fn parse_simd(s: &str) -> std::result::Result<Simd, String> {
         "avx2" => Ok(Simd::Avx2),
         "portable" => Ok(Simd::Portable),
         _ => Err(format!(
-            "unknown kernels '{s}' (expected avx512, avx2 or portable)"
+            "unknown --simd '{s}' (expected avx512, avx2 or portable)"
         )),
     }
 }
@@ -97,7 +99,7 @@ pub fn run(args: Args) -> Result<()> {
             runs: args.runs,
             ..Default::default()
         })?;
-        outs.put_json(out, &report)?;
+        outs.put_json(out, Schema::Bench, &report)?;
         return outs.commit();
     }
     if let Some(p) = args.peak {
@@ -144,7 +146,7 @@ pub fn run(args: Args) -> Result<()> {
         points: args.points,
         newton: args.newton,
         backend: args.backend,
-        simd: args.kernels,
+        simd: args.simd,
         patches: args.patches,
         runs: args.runs,
         peak: args.peak,
@@ -152,7 +154,7 @@ pub fn run(args: Args) -> Result<()> {
         ..BenchOptions::default()
     };
     let report = run_bench(&opts)?;
-    outs.put_json(out, &report)?;
+    outs.put_json(out, Schema::Bench, &report)?;
     outs.commit()
 }
 

@@ -91,6 +91,6 @@ pub fn run(args: Args) -> Result<()> {
         args.output.display().to_string()
     };
     outs.commit()?;
-    eprintln!("{}", summary::lofted(&args.blade, &blade, &cloud, &to));
+    tell!("{}", summary::lofted(&args.blade, &blade, &cloud, &to));
     Ok(())
 }

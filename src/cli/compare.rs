@@ -5,6 +5,7 @@ use super::output::Outputs;
 use super::{bounded, usage};
 use anyhow::Result;
 use bezchain::eval::Backend;
+use bezchain::export::Schema;
 use bezchain::fit::{compare, Method};
 use bezchain::optim::evo::{
     CmaesOptions, EvoOptions, GA_GENERATIONS, GA_POPULATION, MAX_GENERATIONS, MAX_POPULATION,
@@ -117,7 +118,13 @@ pub fn run(args: Args) -> Result<()> {
     tail += &format!("\ntotal {:.1} s\n", clock.elapsed().as_secs_f64());
     emit(&tail);
     if let Some(o) = json {
-        outs.put_json(o, &rows)?;
+        outs.put_json(o, Schema::Compare, &CompareReport { rows: &rows })?;
     }
     outs.commit()
+}
+
+/// The JSON report of `compare`: the table's rows, one a case and method.
+#[derive(serde::Serialize)]
+struct CompareReport<'a, T: serde::Serialize> {
+    rows: &'a [T],
 }

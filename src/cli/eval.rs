@@ -123,13 +123,13 @@ pub fn run(args: Args) -> Result<()> {
     }
     outs.put(out, text.as_bytes())?;
     outs.commit()?;
-    eprintln!(
+    tell!(
         "{} individuals evaluated on {}",
         result.fitness.len(),
         result.info
     );
     if let Some(t) = result.seconds_median {
-        eprintln!("median of {} evaluations: {t:.6} s", args.repeat);
+        tell!("median of {} evaluations: {t:.6} s", args.repeat);
     }
     Ok(())
 }

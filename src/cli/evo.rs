@@ -86,9 +86,6 @@ pub struct RunArgs {
     /// method, an optimisation's objective).
     #[arg(long)]
     pub resume: Option<PathBuf>,
-    /// No progress bar or progress lines.
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 impl RunArgs {
@@ -266,14 +263,14 @@ impl Monitor {
     pub fn new(args: &EvoArgs, outs: &mut Outputs) -> Result<Self> {
         let history = outs.add_opt("--history", args.history.as_deref())?;
         let (checkpoint, every) = args.run.add(outs)?;
-        Ok(Monitor::with(args.run.quiet, history, checkpoint, every))
+        Ok(Monitor::with(history, checkpoint, every))
     }
 
-    /// A monitor showing progress unless `quiet`, writing `history` and a `checkpoint` every
+    /// A monitor showing progress unless `--quiet`, writing `history` and a `checkpoint` every
     /// `every` generations (and when the run stops) where given.
-    pub fn with(quiet: bool, history: Option<Output>, checkpoint: Option<Output>, every: u64) -> Self {
+    pub fn with(history: Option<Output>, checkpoint: Option<Output>, every: u64) -> Self {
         Monitor {
-            progress: Generations::new(quiet),
+            progress: Generations::new(),
             started: false,
             history,
             written: 0,

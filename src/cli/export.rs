@@ -107,7 +107,7 @@ pub fn run(args: Args) -> Result<()> {
         .map(|p| p.display().to_string())
         .collect();
     for s in &shapes {
-        eprintln!("{}: {} → {}", args.report.display(), what(s), to.join(", "));
+        tell!("{}: {} → {}", args.report.display(), what(s), to.join(", "));
     }
     Ok(())
 }

@@ -6,7 +6,7 @@ use super::output::Outputs;
 use super::{usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo};
+use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo, Schema};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve_with, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
@@ -38,9 +38,8 @@ pub struct Args {
     /// Write the JSON report here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write an SVG plot (data, chain, design and generated points, offsets) here.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub plot: super::picture::PlotArgs,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
     #[command(flatten)]
@@ -81,7 +80,7 @@ pub fn run(args: Args) -> Result<()> {
     // Every output is checked (and its temporary file made) before the work.
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let svg = outs.add_opt("--svg", args.svg.as_deref())?;
+    let plots = args.plot.add(&mut outs)?;
     let cad = args.cad.add(&mut outs)?;
     let mut monitor = Monitor::new(&args.evo, &mut outs)?;
     let evolutionary = args.method.evolutionary();
@@ -130,14 +129,14 @@ pub fn run(args: Args) -> Result<()> {
         },
     );
     if let Some(o) = json {
-        outs.put_json(o, &rep)?;
+        outs.put_json(o, Schema::Curve, &rep)?;
     }
     if args.cad.wanted() {
         let shape = bezchain::export::CadShape::from_curve_report(&rep)?;
         args.cad
             .put(&mut outs, &cad, &[shape], &super::export::stem(&args.input))?;
     }
-    if let Some(o) = svg {
+    if plots.wanted() {
         let offsets = point_offsets(&fit.chain, &loaded.points)?;
         let l = fit.chain.layout();
         let title = format!(
@@ -151,14 +150,13 @@ pub fn run(args: Args) -> Result<()> {
             fit.closest.sum_sq,
             fit.closest.max
         );
-        let svg = CurvePlot {
+        let plot = CurvePlot {
             title,
             data: &loaded.points,
             chain: &fit.chain,
             offsets: &offsets,
-        }
-        .to_svg()?;
-        outs.put(o, svg.as_bytes())?;
+        };
+        plots.put(&mut outs, &plot)?;
     }
     outs.commit()?;
     outs.say(&summary::curve_fit(&args.input, &loaded, &fit));

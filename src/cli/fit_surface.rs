@@ -6,7 +6,7 @@ use super::output::Outputs;
 use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
-use bezchain::export::{summary, InputInfo, RenderOptions, SurfaceMesh, SurfaceReport};
+use bezchain::export::{summary, InputInfo, RenderOptions, Schema, SurfaceMesh, SurfaceReport};
 use bezchain::fit::surface_breaks::{auto_breaks_v, check_fit, AutoBreaks, BreakSearch};
 use bezchain::fit::{
     fit_surface_with, parse_surface_method, Breaks, Method, ParamSource, SurfaceFit, SurfaceLayout,
@@ -174,7 +174,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(g) => format!("{} sections x {} points", g.sections, g.per_section),
         None => "unordered".into(),
     };
-    eprintln!(
+    tell!(
         "{}: {n} points ({structure}), read in {:.2} s",
         args.cloud.display(),
         clock.elapsed().as_secs_f64()
@@ -248,7 +248,7 @@ pub fn run(args: Args) -> Result<()> {
         .map_or_else(|| "surface".to_string(), |s| s.to_string_lossy().into_owned());
     // Every output is made into its temporary file; all are put in place together at the end.
     if let Some(o) = json {
-        outs.put_json(o, &rep)?;
+        outs.put_json(o, Schema::Surface, &rep)?;
     }
     if obj.is_some() || stl.is_some() {
         let mesh = SurfaceMesh::from_grid(&fit.grid, args.mesh_density)?;
@@ -308,7 +308,7 @@ fn choose_breaks_v(
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
 ) -> Result<Option<BreakSearch>> {
-    let bar = if args.evo.run.quiet {
+    let bar = if super::output::quiet() {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(0)
@@ -327,7 +327,7 @@ fn choose_breaks_v(
         AutoBreaks::Searched(search) => *search,
         AutoBreaks::SinglePatch => return Ok(None),
         AutoBreaks::TooLarge { limit } => {
-            eprintln!(
+            tell!(
                 "breaks v: uniform (the automatic break search runs on clouds of up to {limit} points; \
                  give --breaks-v for this one, e.g. stations:BLADE.json)"
             );
@@ -336,7 +336,7 @@ fn choose_breaks_v(
     };
     let breaks = search.fit.grid.layout().v.breaks().to_vec();
     let passed = search.candidates.iter().filter(|c| c.check.agrees).count();
-    eprintln!(
+    tell!(
         "breaks v: {} (auto: {} fits, {passed} pass the projection check; sum_sq {:.4e}, uniform {:.4e})",
         breaks
             .iter()
@@ -363,7 +363,7 @@ fn fit_with_progress(
 ) -> Result<SurfaceFit> {
     let evolutionary = args.method.evolutionary().is_some();
     // The spinner for least squares; an evolutionary run has the monitor's bar instead.
-    let bar = if evolutionary || args.evo.run.quiet {
+    let bar = if evolutionary || super::output::quiet() {
         ProgressBar::hidden()
     } else {
         ProgressBar::new_spinner()
@@ -393,7 +393,7 @@ fn fit_with_progress(
         opts,
         &mut |p| match p {
             SurfaceProgress::Params { source, seconds } => {
-                bar.suspend(|| eprintln!("parameters: {source} ({seconds:.2} s)"));
+                bar.suspend(|| tell!("parameters: {source} ({seconds:.2} s)"));
             }
             SurfaceProgress::Stage { name, points } => {
                 stage = name;
@@ -403,7 +403,7 @@ fn fit_with_progress(
                 } else {
                     "least squares"
                 };
-                bar.suspend(|| eprintln!("{name}: {what} on {points} points"));
+                bar.suspend(|| tell!("{name}: {what} on {points} points"));
             }
             SurfaceProgress::Iteration(it) => {
                 let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();

@@ -1,6 +1,16 @@
 //! Shared plumbing of the subcommands: error classification, argument bounds, warnings (the
 //! outputs of a run are in [`output`]).
 
+/// `eprintln!` for what a command tells on the way (what it read, what it chose, where it
+/// wrote): nothing under `--quiet`. Warnings and errors use `eprintln!` itself.
+macro_rules! tell {
+    ($($arg:tt)*) => {
+        if !$crate::cli::output::quiet() {
+            eprintln!($($arg)*);
+        }
+    };
+}
+
 pub mod adapt;
 pub mod adapt_surface;
 pub mod aero;
@@ -98,8 +108,11 @@ pub fn warn_all(path: &Path, warnings: &[String]) {
     }
 }
 
-/// Print notes about `path` on stderr, one line each.
+/// Print notes about `path` on stderr, one line each (none under `--quiet`).
 pub fn note_all(path: &Path, notes: &[String]) {
+    if output::quiet() {
+        return;
+    }
     for n in notes {
         eprintln!("note: {}: {n}", path.display());
     }

@@ -9,7 +9,7 @@ use anyhow::Result;
 use bezchain::aero::batch::MAX_GPU_NODES;
 use bezchain::aero::{objectives, Constraints, Method, Optimisation, OptimiseOptions, Setup, DEFAULT_NODES};
 use bezchain::eval::Backend;
-use bezchain::export::CpPlot;
+use bezchain::export::{CpPlot, Schema};
 use bezchain::geometry::write_selig_to;
 use bezchain::optim::evo::Checkpoint;
 use std::path::PathBuf;
@@ -69,9 +69,9 @@ pub struct Args {
     /// Write the curve report (with an `optimise` block) here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write an SVG of the shapes and pressures before and after here.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
+    // The shapes and pressures before and after.
+    #[command(flatten)]
+    pub plot: super::picture::PlotArgs,
     /// Write the result as a Selig `.dat` file here.
     #[arg(long)]
     pub dat: Option<PathBuf>,
@@ -83,7 +83,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let svg_out = outs.add_opt("--svg", args.svg.as_deref())?;
+    let plots = args.plot.add(&mut outs)?;
     let dat = outs.add_opt("--dat", args.dat.as_deref())?;
     let (checkpoint, every) = args.run.add(&mut outs)?;
     let objective = objectives::parse(&args.objective)
@@ -135,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         None => Optimisation::new(&study.problem, args.method, &options)?,
     };
     outs.say(&format!("{} on {}\n", args.method, run.info()));
-    let mut monitor = Monitor::with(args.run.quiet, None, checkpoint, every);
+    let mut monitor = Monitor::with(None, checkpoint, every);
     let stop = run.run(|r| monitor.generation(r, &mut outs));
     monitor.finish();
     let stop = stop?;
@@ -143,17 +143,12 @@ pub fn run(args: Args) -> Result<()> {
         outs.interim(o, &run.checkpoint().to_bytes())?;
     }
     let outcome = study.outcome(run.finish(stop)?, &options)?;
-    // Everything is made before anything is written.
-    let svg = match &args.svg {
-        Some(_) => Some(CpPlot::of_optimisation(&study, &outcome.result)?.to_svg()?),
-        None => None,
-    };
+    if plots.wanted() {
+        plots.put(&mut outs, &CpPlot::of_optimisation(&study, &outcome.result)?)?;
+    }
     let elapsed = clock.elapsed().as_secs_f64();
     if let Some(o) = json {
-        outs.put_json(o, &outcome.report)?;
-    }
-    if let (Some(o), Some(svg)) = (svg_out, svg) {
-        outs.put(o, svg.as_bytes())?;
+        outs.put_json(o, Schema::Optimise, &outcome.report)?;
     }
     if let Some(o) = dat {
         let mut text = Vec::new();

@@ -9,6 +9,7 @@
 
 use super::usage;
 use anyhow::Result;
+use bezchain::export::{Schema, Stamp};
 use bezchain::geometry::{write_atomic, Destination, Staged};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -148,9 +149,11 @@ impl Outputs {
         Ok(())
     }
 
-    /// Set `o`'s content to `value` as pretty JSON with a final newline.
-    pub fn put_json<T: serde::Serialize>(&mut self, o: Output, value: &T) -> Result<()> {
-        let mut text = serde_json::to_string_pretty(value)?;
+    /// Set `o`'s content to the report `value` of `schema` as pretty JSON with a final
+    /// newline, stamped (`bezchain::export::Stamp`) with this run's command line.
+    pub fn put_json<T: serde::Serialize>(&mut self, o: Output, schema: Schema, value: &T) -> Result<()> {
+        let stamp = Stamp::new(schema, std::env::args().collect());
+        let mut text = serde_json::to_string_pretty(&stamp.on(value))?;
         text.push('\n');
         self.put(o, text.as_bytes())
     }
@@ -216,9 +219,25 @@ impl Outputs {
     }
 }
 
+/// Whether `--quiet` was given: nothing but warnings and errors is printed.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Set by `--quiet` (every command takes it).
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether `--quiet` was given.
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Print readable text on standard output, or on standard error when `to_stderr` (an output
-/// goes to standard output); flushed at once.
+/// goes to standard output); flushed at once. Nothing under `--quiet`.
 pub fn say(to_stderr: bool, text: &str) {
+    if quiet() {
+        return;
+    }
     if to_stderr {
         eprint!("{text}");
     } else {

@@ -1,11 +1,12 @@
-//! The pictures of the surface commands: `--png`, `--svg` and `--png-size`, shared by
-//! `fit-surface` and `adapt-surface`.
+//! The pictures of the commands: `--png`, `--svg` and `--png-size` of the surface commands
+//! (`fit-surface`, `adapt-surface`), and `--png` and `--svg` of the 2D plots (`fit`, `adapt`,
+//! `aero`, `optimise`).
 
 use super::output::{Output, Outputs};
 use super::{parse_pair, usage};
 use anyhow::Result;
 use bezchain::chain::PatchGrid;
-use bezchain::export::{render, render_svg, RenderOptions};
+use bezchain::export::{render, render_svg, CpPlot, CurvePlot, RenderOptions};
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -67,6 +68,79 @@ impl Pictures {
         }
         if let Some(o) = self.svg {
             outs.put(o, render_svg(grid, opts)?.as_bytes())?;
+        }
+        Ok(())
+    }
+}
+
+/// The outputs of a 2D plot: the same picture as SVG and as PNG.
+#[derive(clap::Args, Debug, Clone)]
+pub struct PlotArgs {
+    /// Write the plot as an SVG drawing here.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Write the same plot as a PNG picture here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
+
+/// A 2D plot that draws to both formats.
+pub trait Plot {
+    /// The SVG document.
+    fn svg(&self) -> bezchain::Result<String>;
+    /// The PNG bytes.
+    fn png(&self) -> bezchain::Result<Vec<u8>>;
+}
+
+impl Plot for CurvePlot<'_> {
+    fn svg(&self) -> bezchain::Result<String> {
+        self.to_svg()
+    }
+    fn png(&self) -> bezchain::Result<Vec<u8>> {
+        self.to_png()
+    }
+}
+
+impl Plot for CpPlot {
+    fn svg(&self) -> bezchain::Result<String> {
+        self.to_svg()
+    }
+    fn png(&self) -> bezchain::Result<Vec<u8>> {
+        self.to_png()
+    }
+}
+
+/// The plot outputs of a run, from [`PlotArgs::add`].
+#[derive(Clone, Copy, Debug)]
+pub struct Plots {
+    svg: Option<Output>,
+    png: Option<Output>,
+}
+
+impl PlotArgs {
+    /// Check the outputs asked for before any work, and add them to the run's outputs.
+    pub fn add(&self, outs: &mut Outputs) -> Result<Plots> {
+        Ok(Plots {
+            svg: outs.add_opt("--svg", self.svg.as_deref())?,
+            png: outs.add_opt("--png", self.png.as_deref())?,
+        })
+    }
+}
+
+impl Plots {
+    /// True when a plot is asked for.
+    #[must_use]
+    pub fn wanted(&self) -> bool {
+        self.png.is_some() || self.svg.is_some()
+    }
+
+    /// Draw `plot` into the outputs asked for.
+    pub fn put(&self, outs: &mut Outputs, plot: &dyn Plot) -> Result<()> {
+        if let Some(o) = self.svg {
+            outs.put(o, plot.svg()?.as_bytes())?;
+        }
+        if let Some(o) = self.png {
+            outs.put(o, &plot.png()?)?;
         }
         Ok(())
     }

@@ -16,24 +16,28 @@ pub struct Generations {
     bar: Option<ProgressBar>,
     quiet: bool,
     plain: bool,
+    /// When the counter was made, for the estimate of the time left on plain lines.
+    started: Instant,
     last_line: Instant,
     /// What a step is called on a plain line, and on the bar.
     unit: (&'static str, &'static str),
 }
 
 impl Generations {
-    /// Quiet: shows nothing. Otherwise plain lines when standard error is not a terminal,
-    /// and a bar (once [`Generations::start`] is called) when it is.
-    pub fn new(quiet: bool) -> Self {
-        Self::counting(quiet, ("generation", "gen"))
+    /// Under `--quiet`: shows nothing. Otherwise plain lines when standard error is not a
+    /// terminal, and a bar (once [`Generations::start`] is called) when it is.
+    pub fn new() -> Self {
+        Self::counting(("generation", "gen"))
     }
 
     /// As [`Generations::new`], counting steps called `unit` (a plain line's word, the bar's).
-    pub fn counting(quiet: bool, unit: (&'static str, &'static str)) -> Self {
+    pub fn counting(unit: (&'static str, &'static str)) -> Self {
+        let quiet = super::output::quiet();
         Generations {
             bar: None,
             quiet,
             plain: !quiet && !std::io::stderr().is_terminal(),
+            started: Instant::now(),
             last_line: Instant::now(),
             unit,
         }
@@ -52,7 +56,7 @@ impl Generations {
         let bar = ProgressBar::new(total);
         bar.set_style(
             ProgressStyle::with_template(&format!(
-                "{{prefix}} [{{elapsed_precise}}] {{bar:30}} {} {{pos}}/{{len}} {{msg}}",
+                "{{prefix}} [{{elapsed_precise}}] {{bar:30}} {} {{pos}}/{{len}} (about {{eta}} left) {{msg}}",
                 self.unit.1
             ))
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -72,7 +76,11 @@ impl Generations {
             bar.set_position(generation);
             bar.set_message(msg);
         } else if self.plain && (self.last_line.elapsed() >= LINE_EVERY || generation == 1) {
-            eprintln!("{name} {} {generation}/{total}: {msg}", self.unit.0);
+            eprintln!(
+                "{name} {} {generation}/{total}{}: {msg}",
+                self.unit.0,
+                time_left(self.started.elapsed(), generation, total)
+            );
             self.last_line = Instant::now();
         }
     }
@@ -82,6 +90,21 @@ impl Generations {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }
+    }
+}
+
+/// `, about 1 min 20 s left` after `done` of `total` steps in `elapsed`, at the mean pace so
+/// far (nothing before the first step or after the last).
+fn time_left(elapsed: Duration, done: u64, total: u64) -> String {
+    if done == 0 || done >= total {
+        return String::new();
+    }
+    let left = elapsed.as_secs_f64() / done as f64 * (total - done) as f64;
+    let secs = left.round() as u64;
+    if secs >= 60 {
+        format!(", about {} min {} s left", secs / 60, secs % 60)
+    } else {
+        format!(", about {secs} s left")
     }
 }
 
@@ -114,5 +137,21 @@ impl Checkpoints {
             Some(o) if stopped || generation.is_multiple_of(self.every) => outs.interim(o, &bytes()),
             _ => Ok(()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The estimate is the mean pace so far times the steps left, in minutes past a minute,
+    /// and nothing before the first step or after the last.
+    #[test]
+    fn the_time_left_is_the_mean_pace_times_the_steps_left() {
+        let s = Duration::from_secs;
+        assert_eq!(time_left(s(10), 1, 4), ", about 30 s left");
+        assert_eq!(time_left(s(30), 3, 10), ", about 1 min 10 s left");
+        assert_eq!(time_left(s(30), 0, 10), "");
+        assert_eq!(time_left(s(30), 10, 10), "");
     }
 }

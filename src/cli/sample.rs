@@ -72,7 +72,7 @@ pub fn run(args: Args) -> Result<()> {
     write_csv_to(&mut text, &ordered, Some(sections))?;
     outs.put(out, &text)?;
     outs.commit()?;
-    eprintln!(
+    tell!(
         "{}: {} x {} points ({} sections) evaluated in {seconds:.3} s on {info} → {}",
         args.report.display(),
         args.u,

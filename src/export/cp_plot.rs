@@ -102,6 +102,25 @@ impl CpPlot {
 
     /// Render as an SVG document.
     pub fn to_svg(&self) -> Result<String> {
+        let frame = self.frame();
+        let mut out = String::new();
+        {
+            let root = SVGBackend::with_string(&mut out, frame.size()).into_drawing_area();
+            self.draw(&root, &frame)?;
+            root.present().map_err(plot_err)?;
+        }
+        Ok(out)
+    }
+
+    /// The plot of [`to_svg`](Self::to_svg) as a PNG picture of the same size.
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let frame = self.frame();
+        let (w, h) = frame.size();
+        super::plot_png(w, h, |root| self.draw(root, &frame))
+    }
+
+    /// The ranges and the shape panel's height.
+    fn frame(&self) -> Frame {
         let xs = self
             .curves
             .iter()
@@ -125,79 +144,110 @@ impl CpPlot {
         let (cmin, cmax) = cps.fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c), b.max(c)));
         let (cmin, cmax) = if cmax > cmin { (cmin, cmax) } else { (-1.0, 1.0) };
         let cpad = 0.05 * (cmax - cmin);
-        let mut out = String::new();
-        {
-            let root = SVGBackend::with_string(&mut out, (WIDTH, CP_HEIGHT + shape_h)).into_drawing_area();
-            root.fill(&WHITE).map_err(plot_err)?;
-            let (top, bottom) = root.split_vertically(CP_HEIGHT);
-            // Suction up: the axis runs from the largest Cp at the bottom to the smallest on top.
-            let mut chart = ChartBuilder::on(&top)
-                .caption(&self.title, ("sans-serif", 20))
-                .margin(12)
-                .x_label_area_size(35)
-                .y_label_area_size(60)
-                .build_cartesian_2d(x0..x1, (cmax + cpad)..(cmin - cpad))
-                .map_err(plot_err)?;
+        Frame {
+            x: (x0, x1),
+            y: (ylo, yhi),
+            cp: (cmin, cmax, cpad),
+            plot_w,
+            shape_h,
+        }
+    }
+
+    /// Draw both panels on `root`.
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+        f: &Frame,
+    ) -> Result<()> {
+        let Frame {
+            x: (x0, x1),
+            y: (ylo, yhi),
+            cp: (cmin, cmax, cpad),
+            plot_w,
+            shape_h,
+        } = *f;
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (top, bottom) = root.split_vertically(CP_HEIGHT);
+        // Suction up: the axis runs from the largest Cp at the bottom to the smallest on top.
+        let mut chart = ChartBuilder::on(&top)
+            .caption(&self.title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, (cmax + cpad)..(cmin - cpad))
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("x")
+            .y_desc("Cp")
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(plot_err)?;
+        for (k, c) in self.curves.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
             chart
-                .configure_mesh()
-                .x_desc("x")
-                .y_desc("Cp")
-                .light_line_style(RGBColor(235, 235, 235))
-                .draw()
-                .map_err(plot_err)?;
-            for (k, c) in self.curves.iter().enumerate() {
-                let colour = PALETTE[k % PALETTE.len()];
-                chart
-                    .draw_series(LineSeries::new(c.points.iter().copied(), colour.stroke_width(2)))
-                    .map_err(plot_err)?
-                    .label(c.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                    });
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(150, 150, 150))
-                .draw()
-                .map_err(plot_err)?;
-            // Equal scales below.
-            let plot_h = f64::from(shape_h - 80);
-            let span = ((x1 - x0) / plot_w).max((yhi - ylo) / plot_h);
-            let cy = 0.5 * (ylo + yhi);
-            let (y0, y1) = (cy - 0.5 * span * plot_h, cy + 0.5 * span * plot_h);
-            let mut shape = ChartBuilder::on(&bottom)
-                .margin(12)
-                .x_label_area_size(35)
-                .y_label_area_size(60)
-                .build_cartesian_2d(x0..x0 + span * plot_w, y0..y1)
-                .map_err(plot_err)?;
-            draw_xy_mesh(&mut shape)?;
-            for (k, o) in self.outlines.iter().enumerate() {
-                let colour = PALETTE[k % PALETTE.len()];
-                let mut pts: Vec<(f64, f64)> = o.nodes.iter().map(|p| (p.x, p.y)).collect();
-                if let Some(&first) = pts.first() {
-                    pts.push(first);
-                }
-                shape
-                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
-                    .map_err(plot_err)?
-                    .label(o.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                    });
+                .draw_series(LineSeries::new(c.points.iter().copied(), colour.stroke_width(2)))
+                .map_err(plot_err)?
+                .label(c.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(150, 150, 150))
+            .draw()
+            .map_err(plot_err)?;
+        // Equal scales below.
+        let plot_h = f64::from(shape_h - 80);
+        let span = ((x1 - x0) / plot_w).max((yhi - ylo) / plot_h);
+        let cy = 0.5 * (ylo + yhi);
+        let (y0, y1) = (cy - 0.5 * span * plot_h, cy + 0.5 * span * plot_h);
+        let mut shape = ChartBuilder::on(&bottom)
+            .margin(12)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x0 + span * plot_w, y0..y1)
+            .map_err(plot_err)?;
+        draw_xy_mesh(&mut shape)?;
+        for (k, o) in self.outlines.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let mut pts: Vec<(f64, f64)> = o.nodes.iter().map(|p| (p.x, p.y)).collect();
+            if let Some(&first) = pts.first() {
+                pts.push(first);
             }
             shape
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(150, 150, 150))
-                .draw()
-                .map_err(plot_err)?;
-            root.present().map_err(plot_err)?;
+                .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                .map_err(plot_err)?
+                .label(o.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
         }
-        Ok(out)
+        shape
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(150, 150, 150))
+            .draw()
+            .map_err(plot_err)?;
+        Ok(())
+    }
+}
+
+/// The ranges of a [`CpPlot`]: x, the outlines' y, Cp (with its padding), the plot width and
+/// the shape panel's height.
+#[derive(Clone, Copy)]
+struct Frame {
+    x: (f64, f64),
+    y: (f64, f64),
+    cp: (f64, f64, f64),
+    plot_w: f64,
+    shape_h: u32,
+}
+
+impl Frame {
+    /// The picture's size in pixels.
+    fn size(&self) -> (u32, u32) {
+        (WIDTH, CP_HEIGHT + self.shape_h)
     }
 }
 

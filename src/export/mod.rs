@@ -8,7 +8,10 @@ mod cp_plot;
 mod iges;
 mod mesh;
 mod offset_map;
+mod plot_png;
+mod raster;
 mod render;
+mod stamp;
 mod step;
 pub mod summary;
 mod svg;
@@ -25,9 +28,11 @@ pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
 pub use mesh::SurfaceMesh;
 pub use offset_map::{lightness, Colouring, Marked, CHORD_FLOOR};
+pub use plot_png::{plot_png, PixelBackend};
 pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, OffsetPoint, RenderOptions, Rgb, Station, View,
     BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,
 };
+pub use stamp::{Schema, Stamp, Stamped, Sweep, Units, UNITS};
 pub use step::step_text;
 pub use svg::CurvePlot;

@@ -3,6 +3,7 @@
 
 use super::adapt_report::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
 use super::bspline::CadShape;
+use super::stamp::Schema;
 use crate::adaptive::{AdaptedCurve, AdaptedSurface, Breaks, HeldOut, Norm, XStore};
 use crate::error::Result;
 use crate::fit::report::{FitInfo, OffsetReport};
@@ -504,9 +505,12 @@ pub trait Adapted: serde::Serialize {
     fn row(&self) -> SweepRow<'_>;
     /// The shape for the STEP and IGES files.
     fn cad_shape(&self) -> Result<CadShape>;
+    /// The schema of its JSON report.
+    const SCHEMA: Schema;
 }
 
 impl Adapted for AdaptReport {
+    const SCHEMA: Schema = Schema::Curve;
     fn row(&self) -> SweepRow<'_> {
         SweepRow::new(
             &self.adapt.outcome,
@@ -521,6 +525,7 @@ impl Adapted for AdaptReport {
 }
 
 impl Adapted for SurfaceAdaptReport {
+    const SCHEMA: Schema = Schema::Surface;
     fn row(&self) -> SweepRow<'_> {
         SweepRow::new(
             &self.adapt.outcome,

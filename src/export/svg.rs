@@ -55,21 +55,40 @@ impl CurvePlot<'_> {
     /// equal axis scales. Bottom: offset of each data point along the contour, log scale.
     pub fn to_svg(&self) -> Result<String> {
         let mut out = String::new();
-        let (curve, bounds) = self.sampled();
-        // The top panel is as tall as equal axis scales need, within limits.
-        let plot_w = (WIDTH - TOP_FRAME.0) as f64;
-        let aspect = (bounds.3 - bounds.2) / (bounds.1 - bounds.0).max(1e-12);
-        let top_height = ((plot_w * aspect * 1.15) as u32 + TOP_FRAME.1).clamp(320, 900);
         {
-            let root =
-                SVGBackend::with_string(&mut out, (WIDTH, top_height + BOTTOM_HEIGHT)).into_drawing_area();
-            root.fill(&WHITE).map_err(plot_err)?;
-            let (top, bottom) = root.split_vertically(top_height);
-            self.draw_shape(&top, curve, bounds, top_height)?;
-            self.draw_offsets(&bottom)?;
+            let root = SVGBackend::with_string(&mut out, self.size()).into_drawing_area();
+            self.draw(&root)?;
             root.present().map_err(plot_err)?;
         }
         Ok(out)
+    }
+
+    /// The plot of [`to_svg`](Self::to_svg) as a PNG picture of the same size.
+    pub fn to_png(&self) -> Result<Vec<u8>> {
+        let (w, h) = self.size();
+        super::plot_png(w, h, |root| self.draw(root))
+    }
+
+    /// The top panel's height: as tall as equal axis scales need, within limits.
+    fn top_height(bounds: Bounds) -> u32 {
+        let plot_w = (WIDTH - TOP_FRAME.0) as f64;
+        let aspect = (bounds.3 - bounds.2) / (bounds.1 - bounds.0).max(1e-12);
+        ((plot_w * aspect * 1.15) as u32 + TOP_FRAME.1).clamp(320, 900)
+    }
+
+    /// The plot's size in pixels.
+    fn size(&self) -> (u32, u32) {
+        (WIDTH, Self::top_height(self.sampled().1) + BOTTOM_HEIGHT)
+    }
+
+    /// Draw both panels on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, plotters::coord::Shift>) -> Result<()> {
+        let (curve, bounds) = self.sampled();
+        let top_height = Self::top_height(bounds);
+        root.fill(&WHITE).map_err(plot_err)?;
+        let (top, bottom) = root.split_vertically(top_height);
+        self.draw_shape(&top, curve, bounds, top_height)?;
+        self.draw_offsets(&bottom)
     }
 
     /// The chain sampled at 60 points per segment, and the bounds `(x0, x1, y0, y1)` of

@@ -11,7 +11,7 @@ use crate::bezier::Vector;
 use crate::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::{Backend, BackendInfo};
-use crate::geometry::{from_json_value, parse_json, read_text};
+use crate::geometry::{from_json_value, parse_json, read_bytes, read_text};
 use crate::optim::Method;
 use crate::problem::OffsetStats;
 use glam::{DVec2, DVec3};
@@ -449,10 +449,7 @@ pub enum Saved {
 /// Whether `path` holds a JSON report rather than coordinates: its first character, after
 /// white space, is `{`.
 pub fn is_report(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_bytes(path)?;
     Ok(bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{'))
 }
 
@@ -463,12 +460,28 @@ pub fn read_report(path: &Path) -> Result<Saved> {
     Saved::of_text(value, &text, path)
 }
 
-/// Every report of a JSON file: one report, or an array of them (a sweep's; an empty array
-/// gives none). A field of a single report that does not parse is named with its line; one in
-/// an array, with the report's index from the second on (`report 2: `).
+/// Every report of a JSON file: one report, or a sweep's (`{"kind": "sweep", "reports": […]}`,
+/// or a bare array of reports as written before reports were stamped; an empty one gives
+/// none). A field of a single report that does not parse is named with its line; one in a
+/// sweep, with the report's index from the second on (`report 2: `).
 pub fn read_reports(path: &Path) -> Result<Vec<Saved>> {
     let text = read_text(path)?;
-    match parse_json(&text, path, "not JSON")? {
+    let value = parse_json(&text, path, "not JSON")?;
+    let value = match value {
+        serde_json::Value::Object(mut sweep) if kind_of_map(&sweep) == "sweep" => {
+            match sweep.remove("reports") {
+                Some(reports @ serde_json::Value::Array(_)) => reports,
+                _ => {
+                    return Err(Error::Input {
+                        path: path.into(),
+                        message: "a sweep report needs \"reports\", an array of reports".into(),
+                    })
+                }
+            }
+        }
+        other => other,
+    };
+    match value {
         serde_json::Value::Array(items) => items
             .into_iter()
             .enumerate()
@@ -484,6 +497,11 @@ fn not_a_report(path: &Path, at: &str) -> Error {
         path: path.into(),
         message: format!("{at}not a bezchain report (\"kind\" must be \"curve\" or \"surface\")"),
     }
+}
+
+/// The `kind` of a report's JSON object (empty without one).
+fn kind_of_map(map: &serde_json::Map<String, serde_json::Value>) -> &str {
+    map.get("kind").and_then(|k| k.as_str()).unwrap_or_default()
 }
 
 /// The `kind` of a report's JSON value (empty without one).

@@ -332,10 +332,44 @@ pub(crate) fn read_text(path: &Path) -> Result<String> {
     text_from_bytes(read_limited(path, true)?, path)
 }
 
-/// Read `path` in chunks, stopping at the size limit and, for text, at an over-long line or a
-/// NUL byte, before more memory is spent on it.
+/// Whether `path` is `-`, standard input.
+#[must_use]
+pub fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Standard input's bytes, read whole on the first call (a command may read its input twice:
+/// to tell a report from coordinates, then to parse it) up to the size limit of a file's.
+fn stdin_bytes() -> Result<Vec<u8>> {
+    static STDIN: std::sync::Mutex<Option<Vec<u8>>> = std::sync::Mutex::new(None);
+    let mut cached = STDIN.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if cached.is_none() {
+        *cached = Some(read_from(std::io::stdin().lock(), Path::new("-"), None, false)?);
+    }
+    Ok(cached.clone().unwrap_or_default())
+}
+
+/// Read `path` (`-`: standard input) in chunks, stopping at the size limit and, for text, at
+/// an over-long line or a NUL byte, before more memory is spent on it.
 fn read_limited(path: &Path, text: bool) -> Result<Vec<u8>> {
-    use std::io::Read;
+    if is_stdin(path) {
+        let bytes = stdin_bytes()?;
+        return if text {
+            read_from(bytes.as_slice(), path, None, true)
+        } else {
+            Ok(bytes)
+        };
+    }
+    let file = File::open(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let size = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len());
+    read_from(file, path, size, text)
+}
+
+/// [`read_limited`] of an open `reader` that `path` names (`size`: its length, where known).
+fn read_from(mut reader: impl std::io::Read, path: &Path, size: Option<u64>, text: bool) -> Result<Vec<u8>> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
         source,
@@ -347,8 +381,6 @@ fn read_limited(path: &Path, text: bool) -> Result<Vec<u8>> {
             MAX_INPUT_BYTES >> 20
         ),
     };
-    let mut file = File::open(path).map_err(io)?;
-    let size = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len());
     if size.is_some_and(|n| n > MAX_INPUT_BYTES) {
         return Err(too_big());
     }
@@ -358,7 +390,7 @@ fn read_limited(path: &Path, text: bool) -> Result<Vec<u8>> {
     let mut run: u64 = 0;
     let line_at = |out: &[u8]| 1 + out.iter().filter(|&&b| b == b'\n').count();
     loop {
-        let n = match file.read(&mut chunk) {
+        let n = match reader.read(&mut chunk) {
             Ok(0) => break,
             Ok(n) => n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
