@@ -80,7 +80,7 @@ class Evaluator:
 
     def __init__(
         self,
-        layout: Union[Chain, Surface],
+        chain: Union[Chain, Surface],
         points: ArrayLike,
         backend: str = "auto",
         newton: int = 8,

@@ -11,12 +11,14 @@ use bezchain::aero::{
 use bezchain::chain::{ChainLayout, Continuity, CurveChain, GridLayout, PatchGrid};
 use bezchain::eval::Backend;
 use bezchain::export::{AdaptReport, CurveReport, InputInfo, SurfaceAdaptReport};
-use bezchain::fit::population::{self, eval_curve_population, eval_grid_population, BatchOptions, F32Overflow};
+use bezchain::fit::population::{
+    self, eval_curve_population, eval_grid_population, BatchOptions, F32Overflow,
+};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve, parse_report, FitOptions, Method, Saved};
 use bezchain::geometry::{
-    check_scale, parse_cloud, parse_curve, read_cloud, read_curve, Blade, Grid, LoftOptions, Naca, NacaOptions,
-    Precision, Spacing, MAX_NACA_POINTS,
+    check_scale, parse_cloud, parse_curve, read_cloud, read_curve, Blade, Grid, LoftOptions, Naca,
+    NacaOptions, Precision, Spacing, MAX_NACA_POINTS,
 };
 use bezchain::problem::Metric;
 use bezchain::Error;
@@ -115,12 +117,10 @@ fn cloud_points(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<DVec3>,
     let header = match cols {
         3 => "x,y,z",
         5 => "x,y,z,section,index",
-        c => {
-            return Err(PyValueError::new_err(format!(
-                "cloud: expected an (M, 3) array of x, y, z or an (M, 5) array of x, y, z, section, index, got \
+        c => return Err(PyValueError::new_err(format!(
+            "cloud: expected an (M, 3) array of x, y, z or an (M, 5) array of x, y, z, section, index, got \
                  {c} columns"
-            )))
-        }
+        ))),
     };
     let loaded = parse_cloud(&csv(header, &data, cols, 3), Path::new("cloud")).map_err(py_err)?;
     warn_all(py, "cloud", &loaded.warnings)?;
@@ -196,7 +196,9 @@ fn norm(text: &str) -> PyResult<Norm> {
     match text.to_ascii_lowercase().as_str() {
         "max" => Ok(Norm::Max),
         "rms" => Ok(Norm::Rms),
-        _ => Err(PyValueError::new_err(format!("norm '{text}': expected max or rms"))),
+        _ => Err(PyValueError::new_err(format!(
+            "norm '{text}': expected max or rms"
+        ))),
     }
 }
 
@@ -329,9 +331,9 @@ impl Chain {
     /// The JSON report, as `bezchain fit --json` / `adapt --json` write it (a chain from
     /// `with_design` has none: ValueError).
     fn to_json(&self) -> PyResult<String> {
-        self.json
-            .clone()
-            .ok_or_else(|| PyValueError::new_err("a chain made by with_design has no report (no data to measure)"))
+        self.json.clone().ok_or_else(|| {
+            PyValueError::new_err("a chain made by with_design has no report (no data to measure)")
+        })
     }
 
     /// The chain of the same layout with other design points (shape `(n, 2)`, or the `2n`
@@ -423,7 +425,8 @@ impl Surface {
     fn design_net<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let (nu, nv) = self.grid.layout().design_shape();
         let data: Vec<f64> = self.grid.design().iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-        let a = Array3::from_shape_vec((nu, nv, 3), data).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let a =
+            Array3::from_shape_vec((nu, nv, 3), data).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         Ok(a.into_pyarray(py))
     }
 
@@ -749,9 +752,15 @@ fn adapt_surface(
              blade definition"
         )));
     };
-    let scale = if relative { grid.largest_chord(&points) } else { 1.0 };
+    let scale = if relative {
+        grid.largest_chord(&points)
+    } else {
+        1.0
+    };
     if !(tol * scale > 0.0 && (tol * scale).is_finite()) {
-        return Err(PyValueError::new_err(format!("--tol {tol}: the tolerance must be positive")));
+        return Err(PyValueError::new_err(format!(
+            "--tol {tol}: the tolerance must be positive"
+        )));
     }
     let opts = SurfaceAdaptOptions {
         tol: tol * scale,
@@ -787,6 +796,9 @@ fn adapt_surface(
 // ---------------------------------------------------------------------------------------------
 // Population evaluation.
 
+/// The layout and data an [`Evaluator`] measures populations against (one per evaluator,
+/// never in a collection: the variants' sizes do not matter).
+#[allow(clippy::large_enum_variant)]
 enum EvalShape {
     Curve(ChainLayout, Vec<DVec2>),
     Grid(GridLayout, Vec<DVec3>),
@@ -804,28 +816,28 @@ struct Evaluator {
 
 #[pymethods]
 impl Evaluator {
-    /// `layout`: a Chain (or Surface) whose layout the designs use; `points`: the data, an
+    /// `chain`: a Chain (or Surface) whose layout the designs use; `points`: the data, an
     /// `(N, 2)` array for a chain, an `(M, 3)` or `(M, 5)` cloud for a surface; `backend`:
     /// `auto`, `gpu` or `cpu` (as `--backend`); `newton` and `seeds` as `bezchain eval`'s.
     #[new]
-    #[pyo3(signature = (layout, points, backend="auto", newton=8, seeds=None))]
+    #[pyo3(signature = (chain, points, backend="auto", newton=8, seeds=None))]
     fn new(
         py: Python<'_>,
-        layout: &Bound<'_, PyAny>,
+        chain: &Bound<'_, PyAny>,
         points: &Bound<'_, PyAny>,
         backend: &str,
         newton: u32,
         seeds: Option<u32>,
     ) -> PyResult<Evaluator> {
         let backend: Backend = word(backend)?;
-        let shape = if let Ok(c) = layout.cast::<Chain>() {
+        let shape = if let Ok(c) = chain.cast::<Chain>() {
             let pts = curve_points(py, points)?;
             EvalShape::Curve(c.get().chain.layout().clone(), pts)
-        } else if let Ok(s) = layout.cast::<Surface>() {
+        } else if let Ok(s) = chain.cast::<Surface>() {
             let (pts, _) = cloud_points(py, points)?;
             EvalShape::Grid(s.get().grid.layout().clone(), pts)
         } else {
-            return Err(PyValueError::new_err("layout: expected a Chain or a Surface"));
+            return Err(PyValueError::new_err("chain: expected a Chain or a Surface"));
         };
         let check = match &shape {
             EvalShape::Curve(_, p) => check_scale(p, Precision::F32),
@@ -869,7 +881,11 @@ impl Evaluator {
     /// The fitness of every row of `population` (shape `(P, n_vars)`, float64): a `(P, 2)`
     /// array of `(sum_sq, max)`, the numbers `bezchain eval` prints for that population. The
     /// GIL is released while it runs.
-    fn evaluate<'py>(&self, py: Python<'py>, population: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        population: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let (pop, cols) = rows(population, "population")?;
         let n_vars = self.n_vars();
         if cols != n_vars {
@@ -888,7 +904,12 @@ impl Evaluator {
                     format!("points{at}: {message}")
                 }
                 F32Overflow::Individual(k, i, message) => {
-                    format!("population: individual {} (its row {}), variable {}: {message}", k + 1, k + 1, i + 1)
+                    format!(
+                        "population: individual {} (its row {}), variable {}: {message}",
+                        k + 1,
+                        k + 1,
+                        i + 1
+                    )
                 }
             }));
         }
@@ -913,7 +934,15 @@ impl Evaluator {
         if let Ok(mut info) = self.info.lock() {
             *info = result.info.to_string();
         }
-        array2(py, result.fitness.iter().flat_map(|f| [f64::from(f.sum_sq), f64::from(f.max)]).collect(), 2)
+        array2(
+            py,
+            result
+                .fitness
+                .iter()
+                .flat_map(|f| [f64::from(f.sum_sq), f64::from(f.max)])
+                .collect(),
+            2,
+        )
     }
 }
 
@@ -980,8 +1009,22 @@ fn aero<'py>(
     );
     let d = PyDict::new(py);
     d.set_item("alpha", alpha.clone().into_pyarray(py))?;
-    d.set_item("cl", rep.polar.iter().map(|c| c.cl).collect::<Vec<_>>().into_pyarray(py))?;
-    d.set_item("cm", rep.polar.iter().map(|c| c.cm).collect::<Vec<_>>().into_pyarray(py))?;
+    d.set_item(
+        "cl",
+        rep.polar
+            .iter()
+            .map(|c| c.cl)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "cm",
+        rep.polar
+            .iter()
+            .map(|c| c.cm)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
     let nodes = rep.nodes;
     let cp: Vec<f64> = rep.pressure.iter().flat_map(|p| p.cp.iter().copied()).collect();
     d.set_item("cp", array2(py, cp, nodes)?)?;
@@ -1017,8 +1060,8 @@ struct Optimised {
 /// Optimise an aerofoil as `bezchain optimise START --objective OBJ` does: `start` an aerofoil
 /// file (adapted to `tol` first) or an adapt report; `objective` `max-cl` or
 /// `inverse:TARGET`; the other options as the CLI's (same defaults). Returns a dict: `chain`
-/// (the result, a Chain whose `to_json()` is the CLI's report), `design` (the optimised
-/// variables), `history` (per generation: `generation`, `best`, `mean`, `evaluations`,
+/// (the result, a Chain whose `to_json()` is the CLI's report), `design_points` (its design
+/// points), `design` (the optimised variables, the encoding's free numbers), `history` (per generation: `generation`, `best`, `mean`, `evaluations`,
 /// `seconds` arrays), `cl`, `cm`, `thickness`, `objective` (f64, at `alpha`), `selig` (the
 /// result at 241 panel nodes, as `--dat` writes it), `stop`, `generations`, `evaluations`,
 /// `backend`. The GIL is released while it runs.
@@ -1094,7 +1137,15 @@ fn optimise<'py>(
             history: r
                 .history
                 .iter()
-                .map(|h| [h.generation as f64, h.best, h.mean, h.evaluations as f64, h.seconds])
+                .map(|h| {
+                    [
+                        h.generation as f64,
+                        h.best,
+                        h.mean,
+                        h.evaluations as f64,
+                        h.seconds,
+                    ]
+                })
                 .collect(),
             eval: [r.eval.cl, r.eval.cm, r.eval.thickness, r.eval.objective],
             stop: format!("{:?}", r.stop),
@@ -1118,11 +1169,22 @@ fn optimise<'py>(
         met: true,
         message: None,
     };
+    d.set_item("design_points", points2(py, chain.chain.design())?)?;
     d.set_item("chain", Py::new(py, chain)?)?;
     d.set_item("design", o.design.into_pyarray(py))?;
     let h = PyDict::new(py);
-    for (k, name) in ["generation", "best", "mean", "evaluations", "seconds"].iter().enumerate() {
-        h.set_item(*name, o.history.iter().map(|r| r[k]).collect::<Vec<_>>().into_pyarray(py))?;
+    for (k, name) in ["generation", "best", "mean", "evaluations", "seconds"]
+        .iter()
+        .enumerate()
+    {
+        h.set_item(
+            *name,
+            o.history
+                .iter()
+                .map(|r| r[k])
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
     }
     d.set_item("history", h)?;
     for (k, name) in ["cl", "cm", "thickness", "objective"].iter().enumerate() {

@@ -216,6 +216,7 @@ def test_optimise_equals_the_cli(cli, naca4413, tmp_path):
     want = json.loads(rep.read_text())
     got = bezchain.optimise(naca4413, "max-cl", generations=5, backend="cpu")
     np.testing.assert_array_equal(got["chain"].design_points, np.array(want["design_points"]))
+    np.testing.assert_array_equal(got["design_points"], np.array(want["design_points"]))
     assert len(got["history"]["best"]) >= 5
     assert got["history"]["best"][-1] <= got["history"]["best"][0]
     assert got["cl"] > 1.0
