@@ -31,7 +31,7 @@ class MaxLift(Problem):
     """Maximise CL at `alpha` over the y of the design points, each within ±`box` of its
     start, subject to the start contour staying within `max_offset` of the design."""
 
-    def __init__(self, start, points, alpha=4.0, box=0.02, max_offset=0.01, backend="auto"):
+    def __init__(self, start, points, alpha=4.0, box=0.01, max_offset=0.01, backend="auto"):
         self.start = start
         self.alpha = alpha
         self.max_offset = max_offset
@@ -73,7 +73,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     points = bezchain.read_aerofoil(args.aerofoil) if args.aerofoil else bezchain.naca("4413")
-    start = bezchain.fit(points, degree=3, segments=6)
+    start = bezchain.fit(points, degree=3, segments=5)
     problem = MaxLift(start, points, alpha=args.alpha, max_offset=args.max_offset, backend=args.backend)
     result = minimize(
         problem,
