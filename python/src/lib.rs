@@ -17,7 +17,7 @@ use bezchain::fit::population::{
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve, parse_report, FitOptions, Method, Saved};
 use bezchain::geometry::{
-    check_scale, parse_cloud, parse_curve, read_cloud, read_curve, Blade, Grid, LoftOptions, Naca,
+    check_scale, parse_cloud, parse_curve, read_cloud, read_curve, Blade, Grid, Loaded2, LoftOptions, Naca,
     NacaOptions, Precision, Spacing, MAX_NACA_POINTS,
 };
 use bezchain::problem::Metric;
@@ -99,6 +99,11 @@ fn csv(header: &str, data: &[f64], cols: usize, int_from: usize) -> String {
 /// A contour given as an `(N, 2)` array, read by the same reader as a file of its points
 /// (its checks, its repairs as warnings; `points` names it in messages).
 fn curve_points(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Vec<DVec2>> {
+    Ok(curve_loaded(py, obj)?.points)
+}
+
+/// [`curve_points`] with what the reader says of them (their extent, their name).
+fn curve_loaded(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Loaded2> {
     let (data, cols) = rows(obj, "points")?;
     if cols != 2 {
         return Err(PyValueError::new_err(format!(
@@ -107,7 +112,7 @@ fn curve_points(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Vec<DVec2>> 
     }
     let loaded = parse_curve(&csv("x,y", &data, 2, 2), Path::new("points")).map_err(py_err)?;
     warn_all(py, "points", &loaded.warnings)?;
-    Ok(loaded.points)
+    Ok(loaded)
 }
 
 /// A sectioned cloud given as an `(M, 5)` array `x, y, z, section, index` (as [`blade`]
@@ -117,10 +122,12 @@ fn cloud_points(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<(Vec<DVec3>,
     let header = match cols {
         3 => "x,y,z",
         5 => "x,y,z,section,index",
-        c => return Err(PyValueError::new_err(format!(
+        c => {
+            return Err(PyValueError::new_err(format!(
             "cloud: expected an (M, 3) array of x, y, z or an (M, 5) array of x, y, z, section, index, got \
                  {c} columns"
-        ))),
+        )))
+        }
     };
     let loaded = parse_cloud(&csv(header, &data, cols, 3), Path::new("cloud")).map_err(py_err)?;
     warn_all(py, "cloud", &loaded.warnings)?;
@@ -664,16 +671,9 @@ fn adapt(
     check_tol(tol, max_scalars, "a chain")?;
     let [min_degree, max_degree] = self::degrees("--degrees", degrees, [2, 7])?;
     let mode: Mode = word(mode)?;
-    let pts = curve_points(py, points)?;
-    let scale = if relative {
-        let (lo, hi) = pts.iter().fold(
-            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        );
-        (hi - lo).max_element()
-    } else {
-        1.0
-    };
+    let loaded = curve_loaded(py, points)?;
+    let scale = if relative { loaded.extent() } else { 1.0 };
+    let pts = loaded.points;
     let opts = AdaptOptions {
         tol: tol * scale,
         norm: self::norm(norm)?,

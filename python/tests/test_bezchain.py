@@ -150,6 +150,26 @@ def test_evaluator_equals_bezchain_eval(cli, naca4413, tmp_path, backend):
     assert backend in ev.info.lower()
 
 
+def test_evaluator_on_a_surface_equals_bezchain_eval(cli, blade_json, tmp_path):
+    cloud_csv = tmp_path / "b.csv"
+    cli("blade", blade_json, "--points-per-section", 41, "--sections", 4, "-o", cloud_csv)
+    rep = tmp_path / "s.json"
+    cli("adapt-surface", cloud_csv, "--tol", "5e-3", "--relative", "--degrees-u", "3-4", "--degrees-v", "2",
+        "--quiet", "--json", rep)
+    cloud = bezchain.blade(blade_json, points_per_section=41, sections=4)
+    surf = bezchain.adapt_surface(cloud, 5e-3, relative=True, degrees_u="3-4", degrees_v=2)
+    base = surf.design_net.ravel()
+    rng = np.random.default_rng(5)
+    pop = base + 1e-3 * rng.standard_normal((6, base.size))
+    pop[0] = base
+    popfile = tmp_path / "pop.csv"
+    popfile.write_text("\n".join(",".join(repr(float(x)) for x in row) for row in pop) + "\n")
+    p = cli("eval", rep, "--population", popfile, "--points", cloud_csv, "--backend", "cpu")
+    want = np.array([[float(v) for v in l.split(",")] for l in p.stdout.split()])
+    got = bezchain.Evaluator(surf, cloud, backend="cpu").evaluate(pop)
+    np.testing.assert_array_equal(got.astype(np.float32), want.astype(np.float32))
+
+
 def test_evaluate_releases_the_gil(naca4413):
     chain = bezchain.fit(bezchain.read_aerofoil(naca4413))
     pts = bezchain.read_aerofoil(naca4413)
