@@ -1,28 +1,44 @@
 """Type stubs of the Rust extension ``bezchain._bezchain``."""
 
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = [
+    "Chain",
+    "Evaluator",
+    "Surface",
+    "__version__",
+    "adapt",
+    "adapt_surface",
+    "aero",
+    "blade",
+    "fit",
+    "naca",
+    "objectives_list",
+    "optimise",
+    "read_aerofoil",
+]
 
-ArrayLike = npt.ArrayLike
-FloatArray = npt.NDArray[np.float64]
-PathLike = Union[str, "os.PathLike[str]"]
-Degrees = Union[str, int, Tuple[int, int], None]
+_ArrayLike = npt.ArrayLike
+_FloatArray = npt.NDArray[np.float64]
+_PathLike = Union[str, "os.PathLike[str]"]
+_Degrees = Union[str, int, Tuple[int, int], None]
 
+@final
 class Chain:
     """A chain of Bezier curves (a fit, an adapted encoding or a saved curve report)."""
 
-    def evaluate(self, t: ArrayLike) -> FloatArray:
+    def evaluate(self, t: _ArrayLike) -> _FloatArray:
         """The point at parameter ``t`` in [0, 1] (shape ``(2,)``), or at every parameter of an array."""
     @property
-    def design_points(self) -> FloatArray:
+    def design_points(self) -> _FloatArray:
         """The design points, the optimisation variables (shape ``(n, 2)``)."""
     @property
-    def control_points(self) -> FloatArray:
+    def control_points(self) -> _FloatArray:
         """The expanded Bezier control points."""
     @property
     def degree(self) -> int: ...
@@ -31,7 +47,7 @@ class Chain:
     @property
     def continuity(self) -> str: ...
     @property
-    def breaks(self) -> FloatArray: ...
+    def breaks(self) -> _FloatArray: ...
     @property
     def sum_sq(self) -> float:
         """Sum of squared offsets of the data (model units squared)."""
@@ -46,19 +62,20 @@ class Chain:
         """Why an adaptive search did not meet its tolerance, else None."""
     def to_json(self) -> str:
         """The JSON report, as ``bezchain fit --json`` / ``adapt --json`` write it."""
-    def with_design(self, design: ArrayLike) -> "Chain":
+    def with_design(self, design: _ArrayLike) -> "Chain":
         """The chain of the same layout with other design points (offsets unknown: NaN)."""
     @staticmethod
     def from_json(text: str) -> "Chain":
         """A chain from a curve report's JSON text."""
 
+@final
 class Surface:
     """A grid of tensor-product Bezier patches (an adapted surface)."""
 
-    def evaluate(self, u: ArrayLike, v: ArrayLike) -> FloatArray:
+    def evaluate(self, u: _ArrayLike, v: _ArrayLike) -> _FloatArray:
         """The point at ``(u, v)`` in [0, 1]² (shape ``(3,)``), or at every pair of two arrays."""
     @property
-    def design_net(self) -> FloatArray:
+    def design_net(self) -> _FloatArray:
         """The design net, rows along u (shape ``(nu, nv, 3)``)."""
     @property
     def degree(self) -> List[int]: ...
@@ -75,39 +92,40 @@ class Surface:
     def to_json(self) -> str:
         """The JSON report, as ``bezchain adapt-surface --json`` writes it."""
 
+@final
 class Evaluator:
     """The fitness of populations of designs of one layout against fixed data (``bezchain eval``)."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         chain: Union[Chain, Surface],
-        points: ArrayLike,
+        points: _ArrayLike,
         backend: str = "auto",
         newton: int = 8,
         seeds: Optional[int] = None,
-    ) -> None: ...
+    ) -> "Evaluator": ...
     @property
     def n_vars(self) -> int:
         """Design variables per individual."""
     @property
     def info(self) -> str:
         """The backend and adapter of the last evaluation."""
-    def evaluate(self, population: ArrayLike) -> FloatArray:
+    def evaluate(self, population: _ArrayLike) -> _FloatArray:
         """``(P, n_vars)`` designs → ``(P, 2)`` array of ``(sum_sq, max)``."""
 
-def read_aerofoil(path: PathLike) -> FloatArray:
+def read_aerofoil(path: _PathLike) -> _FloatArray:
     """Read an aerofoil or contour file: an ``(N, 2)`` array."""
 
-def naca(code: str, points: int = 161, spacing: str = "cosine", closed_te: bool = False) -> FloatArray:
+def naca(code: str, points: int = 161, spacing: str = "cosine", closed_te: bool = False) -> _FloatArray:
     """A NACA 4- or 5-digit aerofoil as ``bezchain naca`` writes it: an ``(N, 2)`` array."""
 
 def blade(
-    path: PathLike, points_per_section: Optional[int] = None, sections: Optional[int] = None
-) -> FloatArray:
+    path: _PathLike, points_per_section: Optional[int] = None, sections: Optional[int] = None
+) -> _FloatArray:
     """Loft a blade definition into the cloud ``bezchain blade`` writes: ``(M, 5)`` x, y, z, section, index."""
 
 def fit(
-    points: ArrayLike,
+    points: _ArrayLike,
     degree: int = 3,
     segments: int = 5,
     continuity: str = "c1",
@@ -117,10 +135,10 @@ def fit(
     """Fit a chain to an ``(N, 2)`` contour, as ``bezchain fit``."""
 
 def adapt(
-    points: ArrayLike,
+    points: _ArrayLike,
     tol: float,
     norm: str = "max",
-    degrees: Degrees = None,
+    degrees: _Degrees = None,
     mode: str = "auto",
     max_scalars: Optional[int] = None,
     search_points: int = 80,
@@ -129,11 +147,11 @@ def adapt(
     """The chain with the fewest stored scalars meeting ``tol``, as ``bezchain adapt``."""
 
 def adapt_surface(
-    cloud: Union[ArrayLike, PathLike],
+    cloud: Union[_ArrayLike, _PathLike],
     tol: float,
     norm: str = "max",
-    degrees_u: Degrees = None,
-    degrees_v: Degrees = None,
+    degrees_u: _Degrees = None,
+    degrees_v: _Degrees = None,
     span_rule: bool = True,
     chord_rule: str = "auto",
     max_scalars: Optional[int] = None,
@@ -142,7 +160,7 @@ def adapt_surface(
     """The patch grid with the fewest stored scalars meeting ``tol``, as ``bezchain adapt-surface``."""
 
 def aero(
-    shape: Union[ArrayLike, Chain, PathLike],
+    shape: Union[_ArrayLike, Chain, _PathLike],
     alpha: Sequence[float] = (0.0, 4.0, 8.0),
     re: Optional[float] = None,
     ncrit: float = 9.0,
@@ -152,7 +170,7 @@ def aero(
     """The inviscid panel method, as ``bezchain aero``: a dict of arrays."""
 
 def optimise(
-    start: PathLike,
+    start: _PathLike,
     objective: str,
     alpha: float = 4.0,
     method: str = "cmaes",

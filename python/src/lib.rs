@@ -955,7 +955,10 @@ impl Evaluator {
 /// `cp` (angles × nodes), `nodes` (node positions), `chord`, `te_gap`, `trailing_edge`.
 /// `re` (a Reynolds number, for the viscous solver) is not available yet.
 #[pyfunction]
-#[pyo3(signature = (shape, alpha=vec![0.0, 4.0, 8.0], re=None, ncrit=9.0, panels=DEFAULT_NODES, te_ratio=0.15))]
+#[pyo3(
+    signature = (shape, alpha=vec![0.0, 4.0, 8.0], re=None, ncrit=9.0, panels=DEFAULT_NODES, te_ratio=0.15),
+    text_signature = "(shape, alpha=(0.0, 4.0, 8.0), re=None, ncrit=9.0, panels=160, te_ratio=0.15)"
+)]
 fn aero<'py>(
     py: Python<'py>,
     shape: &Bound<'py, PyAny>,
@@ -1066,7 +1069,10 @@ struct Optimised {
 /// result at 241 panel nodes, as `--dat` writes it), `stop`, `generations`, `evaluations`,
 /// `backend`. The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (start, objective, alpha=4.0, method="cmaes", population=None, generations=None, seed=1, tol=1e-4, margin=0.1, spread=0.01, stall=0, panels=DEFAULT_NODES, min_thickness=None, cm_min=None, backend="auto"))]
+#[pyo3(
+    signature = (start, objective, alpha=4.0, method="cmaes", population=None, generations=None, seed=1, tol=1e-4, margin=0.1, spread=0.01, stall=0, panels=DEFAULT_NODES, min_thickness=None, cm_min=None, backend="auto"),
+    text_signature = "(start, objective, alpha=4.0, method='cmaes', population=None, generations=None, seed=1, tol=0.0001, margin=0.1, spread=0.01, stall=0, panels=160, min_thickness=None, cm_min=None, backend='auto')"
+)]
 #[allow(clippy::too_many_arguments)]
 fn optimise<'py>(
     py: Python<'py>,

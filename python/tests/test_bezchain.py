@@ -314,13 +314,23 @@ def test_every_name_in_the_stubs_exists():
                 for item in node.body:
                     if isinstance(item, ast.FunctionDef) and not item.name.startswith("__"):
                         assert hasattr(cls, item.name), f"{node.name}.{item.name}"
+        elif isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__" for t in node.targets):
+            assert sorted(ast.literal_eval(node.value)) == sorted(bezchain._bezchain.__all__)
         elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
-            if node.target.id not in ("ArrayLike", "FloatArray", "PathLike", "Degrees"):
-                assert hasattr(bezchain, node.target.id), node.target.id
+            assert hasattr(bezchain._bezchain, node.target.id), node.target.id
     # ...and every public name of the module is in the stubs.
     for name in bezchain.__all__:
         assert name in names or name == "__version__", name
     assert Path(bezchain.__file__).with_name("py.typed").exists()
+
+
+def test_stubtest_agrees_when_mypy_is_installed():
+    pytest.importorskip("mypy")
+    import subprocess
+    import sys
+
+    p = subprocess.run([sys.executable, "-m", "mypy.stubtest", "bezchain._bezchain"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stdout + p.stderr
 
 
 def test_public_functions_have_docstrings():
