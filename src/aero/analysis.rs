@@ -2,9 +2,9 @@
 //! pressures at any angle of attack.
 
 use super::contour::{panel_params, Contour, Paneling, SplineContour};
-use super::panel::{Coefficients, PanelSolution};
+use super::panel::{Coefficients, PanelSolution, MAX_NODES, MIN_NODES};
 use crate::chain::CurveChain;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use glam::DVec2;
 
 /// A contour's panel nodes (their parameters on it) and the solved panel method.
@@ -42,6 +42,23 @@ impl Analysis {
     pub fn polar(&self, alphas: &[f64]) -> Vec<Coefficients> {
         alphas.iter().map(|&a| self.solution.coefficients(a)).collect()
     }
+}
+
+/// `Ok` when `bezchain aero` takes `alphas` (degrees) and `paneling`: at least one angle, each
+/// finite and within ±90°, and [`MIN_NODES`]`..=`[`MAX_NODES`] nodes; otherwise the error it
+/// prints, naming its options.
+pub fn check_polar(alphas: &[f64], paneling: &Paneling) -> Result<()> {
+    if alphas.is_empty() || alphas.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
+        return Err(Error::invalid(
+            "--alpha takes angles in degrees between -90 and 90",
+        ));
+    }
+    if !(MIN_NODES..=MAX_NODES).contains(&paneling.nodes) {
+        return Err(Error::invalid(format!(
+            "--panels must be between {MIN_NODES} and {MAX_NODES}"
+        )));
+    }
+    Ok(())
 }
 
 /// The chord as reported: leading edge, trailing-edge midpoint, length (model units).

@@ -36,7 +36,7 @@ pub mod panel;
 pub mod study;
 
 pub use crate::optim::Method;
-pub use analysis::{AeroInput, AeroReport, Analysis, ChordReport, Pressure};
+pub use analysis::{check_polar, AeroInput, AeroReport, Analysis, ChordReport, Pressure};
 pub use batch::{
     build_aero_evaluator, AeroBatch, AeroEval, AeroEvaluator, AeroKernel, AeroResult, Constraints, NodeMap,
     Objective, TargetCp,

@@ -61,6 +61,40 @@ pub struct Study {
 }
 
 impl Setup {
+    /// `Ok` when `bezchain optimise` takes these settings: the objective one of
+    /// [`super::objectives::parse`]'s, the angle within ±30°, [`super::batch::MAX_GPU_NODES`]
+    /// nodes at most, a thickness bound in [0, 1), a finite CM bound and a positive tolerance;
+    /// otherwise the error it prints, naming its options.
+    pub fn check(&self) -> Result<()> {
+        super::objectives::parse(&self.spec)
+            .map_err(|e| Error::invalid(format!("--objective {}: {e}", self.spec)))?;
+        if !self.alpha.is_finite() || self.alpha.abs() > 30.0 {
+            return Err(Error::invalid(
+                "--alpha takes an angle in degrees between -30 and 30",
+            ));
+        }
+        if !(8..=super::batch::MAX_GPU_NODES).contains(&self.panels) {
+            return Err(Error::invalid(format!(
+                "--panels must be between 8 and {}",
+                super::batch::MAX_GPU_NODES
+            )));
+        }
+        if let Some(t) = self.constraints.min_thickness {
+            if !(0.0..1.0).contains(&t) {
+                return Err(Error::invalid(
+                    "--min-thickness takes a thickness/chord between 0 and 1",
+                ));
+            }
+        }
+        if self.constraints.cm_min.is_some_and(|m| !m.is_finite()) {
+            return Err(Error::invalid("--cm-min must be a finite number"));
+        }
+        if !self.tol.is_finite() || self.tol <= 0.0 {
+            return Err(Error::invalid("--tol must be a positive length"));
+        }
+        Ok(())
+    }
+
     /// Read the start and the objective's target and build the problem; `objective` is
     /// [`super::objectives::parse`]'s answer for [`spec`](Self::spec), the readers' and the
     /// adaptive search's warnings go to `warn`.

@@ -2,10 +2,9 @@
 //! CL and CM, a JSON report with the pressures, an SVG of Cp above the shape.
 
 use super::output::Outputs;
-use super::{usage, warn};
+use super::warn;
 use anyhow::Result;
-use bezchain::aero::panel::{MAX_NODES, MIN_NODES};
-use bezchain::aero::{analyse_input, AeroReport, Paneling, DEFAULT_NODES};
+use bezchain::aero::{analyse_input, check_polar, AeroReport, Paneling, DEFAULT_NODES};
 use bezchain::export::{CpPlot, Schema};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -43,18 +42,11 @@ pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let svg_out = outs.add_opt("--svg", args.svg.as_deref())?;
-    if args.alpha.is_empty() || args.alpha.iter().any(|a| !a.is_finite() || a.abs() > 90.0) {
-        return Err(usage("--alpha takes angles in degrees between -90 and 90"));
-    }
-    if !(MIN_NODES..=MAX_NODES).contains(&args.panels) {
-        return Err(usage(format!(
-            "--panels must be between {MIN_NODES} and {MAX_NODES}"
-        )));
-    }
     let paneling = Paneling {
         nodes: args.panels,
         te_ratio: args.te_ratio,
     };
+    check_polar(&args.alpha, &paneling)?;
     let path_text = args.input.display().to_string();
     let (analysis, input, what) = analyse_input(&args.input, &paneling, &mut warn)?;
     let report = AeroReport::new(&analysis, &paneling, &args.alpha, input);

@@ -4,9 +4,8 @@
 
 use super::evo::{Monitor, RunArgs};
 use super::output::Outputs;
-use super::{usage, warn};
+use super::warn;
 use anyhow::Result;
-use bezchain::aero::batch::MAX_GPU_NODES;
 use bezchain::aero::{objectives, Constraints, Method, Optimisation, OptimiseOptions, Setup, DEFAULT_NODES};
 use bezchain::eval::Backend;
 use bezchain::export::{CpPlot, Schema};
@@ -86,27 +85,6 @@ pub fn run(args: Args) -> Result<()> {
     let plots = args.plot.add(&mut outs)?;
     let dat = outs.add_opt("--dat", args.dat.as_deref())?;
     let (checkpoint, every) = args.run.add(&mut outs)?;
-    let objective = objectives::parse(&args.objective)
-        .map_err(|e| usage(format!("--objective {}: {e}", args.objective)))?;
-    if !args.alpha.is_finite() || args.alpha.abs() > 30.0 {
-        return Err(usage("--alpha takes an angle in degrees between -30 and 30"));
-    }
-    if !(8..=MAX_GPU_NODES).contains(&args.panels) {
-        return Err(usage(format!("--panels must be between 8 and {MAX_GPU_NODES}")));
-    }
-    if let Some(t) = args.min_thickness {
-        if !(0.0..1.0).contains(&t) {
-            return Err(usage("--min-thickness takes a thickness/chord between 0 and 1"));
-        }
-    }
-    if args.cm_min.is_some_and(|m| !m.is_finite()) {
-        return Err(usage("--cm-min must be a finite number"));
-    }
-    if !args.tol.is_finite() || args.tol <= 0.0 {
-        return Err(usage("--tol must be a positive length"));
-    }
-    let resume = args.run.resume.as_deref().map(Checkpoint::read).transpose()?;
-    let clock = Instant::now();
     let setup = Setup {
         start: args.start.clone(),
         spec: args.objective.clone(),
@@ -119,6 +97,10 @@ pub fn run(args: Args) -> Result<()> {
             cm_min: args.cm_min,
         },
     };
+    setup.check()?;
+    let resume = args.run.resume.as_deref().map(Checkpoint::read).transpose()?;
+    let clock = Instant::now();
+    let objective = objectives::parse(&args.objective)?;
     let study = setup.prepare(objective, &mut warn)?;
     let options = OptimiseOptions {
         population: args.population,

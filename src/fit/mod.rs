@@ -30,8 +30,8 @@ pub use curve::{fit_curve, fit_curve_with, CurveFit, FitOptions};
 pub use grid_evo::{fit_grid_evo, GridEvoFit};
 pub use paper::{compare, CompareRow, PaperCase, PAPER_CASES};
 pub use report::{
-    backend_label, is_report, read_report, read_reports, CurveReport, FitInfo, InputInfo, OffsetReport,
-    Report, Saved, SurfaceReport,
+    backend_label, is_report, parse_report, read_report, read_reports, CurveReport, FitInfo, InputInfo,
+    OffsetReport, Report, Saved, SurfaceReport,
 };
 pub use surface::{
     fit_surface, fit_surface_with, initial_params, parse_surface_method, Breaks, ParamSource, SurfaceFit,

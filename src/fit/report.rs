@@ -455,9 +455,14 @@ pub fn is_report(path: &Path) -> Result<bool> {
 
 /// The one report of a JSON file. A field that does not parse is named with its line.
 pub fn read_report(path: &Path) -> Result<Saved> {
-    let text = read_text(path)?;
-    let value: serde_json::Value = parse_json(&text, path, "not JSON")?;
-    Saved::of_text(value, &text, path)
+    parse_report(&read_text(path)?, path)
+}
+
+/// The one report of a JSON `text` ([`read_report`] on text already read; `path` names it in
+/// errors, e.g. `<string>` for a report handed over in memory).
+pub fn parse_report(text: &str, path: &Path) -> Result<Saved> {
+    let value: serde_json::Value = parse_json(text, path, "not JSON")?;
+    Saved::of_text(value, text, path)
 }
 
 /// Every report of a JSON file: one report, or a sweep's (`{"kind": "sweep", "reports": […]}`,

@@ -1,0 +1,15 @@
+from ._bezchain import (
+    Chain as Chain,
+    Evaluator as Evaluator,
+    Surface as Surface,
+    __version__ as __version__,
+    adapt as adapt,
+    adapt_surface as adapt_surface,
+    aero as aero,
+    blade as blade,
+    fit as fit,
+    naca as naca,
+    objectives_list as objectives_list,
+    optimise as optimise,
+    read_aerofoil as read_aerofoil,
+)
