@@ -49,10 +49,10 @@ row() {
   tn=$(median "$ranks" "$@")
   printf '%-58s %10s %10s %7.2fx\n' "$name" "$t1" "$tn" "$(awk -v a="$t1" -v b="$tn" 'BEGIN { print a / b }')"
 }
-row "optimise --objective $label --method ga (P 256, 10 gen.)" \
-  optimise n0012.dat --objective "$objective" --method ga --population 256 --generations 10 --backend cpu --json o.json
-row "optimise --objective $label --method cmaes (λ 64, 20 gen.)" \
-  optimise n0012.dat --objective "$objective" --method cmaes --population 64 --generations 20 --backend cpu --json o.json
+row "optimise --objective $label --method ga (P 1024, 30 gen.)" \
+  optimise n0012.dat --objective "$objective" --method ga --population 1024 --generations 30 --backend cpu --json o.json
+row "optimise --objective $label --method cmaes (λ 128, 100 gen.)" \
+  optimise n0012.dat --objective "$objective" --method cmaes --population 128 --generations 100 --backend cpu --json o.json
 # eval: 20,000 individuals around a fit of the paper's data (degree 3 x 5 segments).
 data=$root/data/naca4413.dat
 "$bin" fit "$data" --degree 3 --segments 5 --json fit.json >/dev/null
