@@ -44,6 +44,11 @@ pub enum Error {
     /// An output (plot, mesh, render) could not be produced.
     #[error("output: {0}")]
     Output(String),
+    /// Another process of the run failed (or this one, as the run's collective reported it),
+    /// not for the input's sake: the message as that process gave it (docs/ARCHITECTURE.md
+    /// §4.3).
+    #[error("{0}")]
+    Team(String),
 }
 
 impl Error {

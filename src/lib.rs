@@ -20,6 +20,7 @@
 //! - [`eval`]: population evaluation on the CPU (rayon) and the GPU (wgpu).
 //! - [`export`]: JSON reports, SVG plots, meshes and renders.
 //! - [`error`]: the library's error type.
+//! - [`team`]: the processes a run is spread over (MPI ranks) and how a batch is shared among them.
 
 pub mod adaptive;
 pub mod aero;
@@ -35,5 +36,6 @@ pub mod geometry;
 mod keyword;
 pub mod optim;
 pub mod problem;
+pub mod team;
 
 pub use error::{Error, Result};

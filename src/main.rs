@@ -53,7 +53,17 @@ enum Command {
 
 fn main() -> ExitCode {
     give_mesa_a_runtime_dir();
-    let cli = Cli::parse();
+    // Under mpirun: every rank runs the command; only rank 0 prints and writes (§4.3).
+    #[cfg(feature = "mpi")]
+    let _universe = cli::mpi::start();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Every rank parses the same arguments and fails alike: no rank waits for another.
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
     cli::output::set_quiet(cli.quiet);
     let result = match cli.command {
         Command::Naca(args) => cli::naca::run(args),
@@ -70,11 +80,24 @@ fn main() -> ExitCode {
         Command::Optimise(args) => cli::optimise::run(*args),
         Command::Sample(args) => cli::sample::run(args),
     };
-    match result {
+    let in_collectives = bezchain::team::size() > 1 && bezchain::team::agreed();
+    let outcome = result.map_err(|e| bezchain::team::Failure {
+        status: cli::exit_status(&e),
+        message: cli::one_line(&e),
+    });
+    // Every rank reports its outcome once; one rank failing alone fails them all.
+    match bezchain::team::finish(outcome) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", cli::one_line(&e));
-            ExitCode::from(cli::exit_status(&e))
+        Err(f) => {
+            if in_collectives && !bezchain::team::failure_is_shared() {
+                // The other ranks may be waiting for this one in a collective.
+                #[cfg(feature = "mpi")]
+                cli::mpi::fail_alone(&f);
+            }
+            if bezchain::team::is_root() {
+                eprintln!("error: {}", f.message);
+            }
+            ExitCode::from(f.status)
         }
     }
 }

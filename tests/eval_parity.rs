@@ -150,6 +150,36 @@ fn chunked_populations_match_unchunked_ones() {
     assert!(s <= F64_TOL);
 }
 
+/// A row's fitness does not depend on the other rows of its batch, on every CPU kernel set:
+/// a generation split into contiguous shares (the MPI ranks', `bezchain::team::share`) gives
+/// the bits of one batch, with and without Newton steps and the crossing search, for chains
+/// and grids.
+#[test]
+fn split_populations_give_the_bits_of_one_batch_on_the_cpu() {
+    let curve = curve_case(7, 3, 5, Continuity::C1, 90, 37, 1e-3, 1e-2);
+    let grid = grid_case(52, (3, 3), (2, 2), Continuity::C1, 120, 29, 1e-2, 1e-2);
+    for (name, case) in [("curve", &curve), ("grid", &grid)] {
+        for (newton, cross) in [(0, false), (3, true)] {
+            for (backend, mut ev) in evaluators(case, newton, cross, None, &GpuOptions::default()) {
+                let n = ev.design_variables();
+                let whole = run(ev.as_mut(), &case.population);
+                let rows = whole.len();
+                for ranks in [2, 3, 5] {
+                    let mut split = Vec::new();
+                    for rank in 0..ranks {
+                        let r = bezchain::team::share(rows, rank, ranks);
+                        split.extend(run(ev.as_mut(), &case.population[r.start * n..r.end * n]));
+                    }
+                    let bits = |f: &[Fitness]| -> Vec<(u32, u32)> {
+                        f.iter().map(|x| (x.sum_sq.to_bits(), x.max.to_bits())).collect()
+                    };
+                    assert_eq!(bits(&split), bits(&whole), "{name} on {backend}, newton {newton}, {ranks} shares");
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn a_population_of_200000_is_evaluated_in_chunks_on_both_backends() {
     let case = grid_case(61, (3, 3), (2, 2), Continuity::C1, 64, 200_000, 1e-2, 1e-2);

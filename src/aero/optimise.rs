@@ -165,9 +165,23 @@ fn score_of(r: &AeroResult) -> f64 {
 }
 
 impl Scorer for AeroScorer {
-    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
-        self.results.resize(scores.len(), AeroResult::default());
-        self.evaluator.evaluate(population, &mut self.results)?;
+    /// The kernel's [`AeroResult`].
+    fn record(&self) -> usize {
+        std::mem::size_of::<AeroResult>()
+    }
+    fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()> {
+        self.results.resize(records.len() / self.record(), AeroResult::default());
+        self.evaluator.evaluate(rows, &mut self.results)?;
+        records.copy_from_slice(bytemuck::cast_slice(&self.results));
+        Ok(())
+    }
+    fn absorb(&mut self, _population: &[f32], records: &[u8], scores: &mut [Score]) {
+        self.results.clear();
+        self.results.extend(
+            records
+                .chunks_exact(self.record())
+                .map(bytemuck::pod_read_unaligned::<AeroResult>),
+        );
         self.reasons.count(&self.results);
         for (s, r) in scores.iter_mut().zip(&self.results) {
             *s = Score {
@@ -179,7 +193,6 @@ impl Scorer for AeroScorer {
                 self.best = Some(*r);
             }
         }
-        Ok(())
     }
     fn recentre(&mut self, _generation: u64, _best: &[f64]) -> Result<()> {
         Ok(())

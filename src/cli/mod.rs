@@ -22,6 +22,8 @@ pub mod evo;
 pub mod export;
 pub mod fit;
 pub mod fit_surface;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod naca;
 pub mod optimise;
 pub mod output;

@@ -6,6 +6,9 @@
 //! Paths are resolved by [`bezchain::geometry::Destination`]: `-` and `/dev/stdout` are
 //! standard output, a device node or FIFO is written through (never replaced), a symbolic link
 //! is followed and its target replaced in the target's own folder.
+//!
+//! Under MPI only rank 0 writes: on the other ranks ([`bezchain::team::is_root`]) every
+//! output is accepted unchecked and every write is dropped (docs/ARCHITECTURE.md §4.3).
 
 use super::usage;
 use anyhow::Result;
@@ -22,6 +25,10 @@ pub struct Output(usize);
 #[derive(Debug, Default)]
 pub struct Outputs {
     items: Vec<Item>,
+    /// A rank other than 0: nothing is checked or written.
+    mute: bool,
+    /// Where a muted rank's piecewise outputs go.
+    sink: std::io::Sink,
 }
 
 #[derive(Debug)]
@@ -47,7 +54,11 @@ impl Outputs {
     /// No outputs yet.
     #[must_use]
     pub fn new() -> Self {
-        Self::default()
+        Outputs {
+            items: Vec::new(),
+            mute: !bezchain::team::is_root(),
+            sink: std::io::sink(),
+        }
     }
 
     /// Check `path`, given to `flag`, before any work: it leads to standard output, a
@@ -70,6 +81,18 @@ impl Outputs {
     }
 
     fn insert(&mut self, flag: &str, path: &Path, is_interim: bool) -> Result<Output> {
+        if self.mute {
+            self.items.push(Item {
+                flag: flag.to_string(),
+                path: path.to_path_buf(),
+                dest: Destination::Special(path.to_path_buf()),
+                staged: None,
+                filled: true,
+                before: None,
+                is_interim,
+            });
+            return Ok(Output(self.items.len() - 1));
+        }
         let staged = Staged::create(path).map_err(|e| usage(format!("{flag} {e}")))?;
         let dest = staged.destination().clone();
         if let Some(other) = self.items.iter().find(|i| i.dest == dest) {
@@ -114,6 +137,9 @@ impl Outputs {
     /// The writer of `o`'s content (its temporary file, or memory for standard output and
     /// special files), for outputs written piece by piece (a history file).
     pub fn writer(&mut self, o: Output) -> bezchain::Result<&mut dyn Write> {
+        if self.mute {
+            return Ok(&mut self.sink);
+        }
         let item = &mut self.items[o.0];
         item.filled = true;
         match &mut item.staged {
@@ -133,6 +159,9 @@ impl Outputs {
 
     /// Set `o`'s whole content.
     pub fn put(&mut self, o: Output, bytes: &[u8]) -> Result<()> {
+        if self.mute {
+            return Ok(());
+        }
         let item = &mut self.items[o.0];
         let Some(staged) = item.staged.as_mut() else {
             anyhow::bail!("{} is written during the run, not at its end", item.flag);
@@ -163,6 +192,9 @@ impl Outputs {
     /// run's first write is kept in memory and put back if the run fails, so a failed run
     /// leaves the old file (or no file) as it found it.
     pub fn interim(&mut self, o: Output, bytes: &[u8]) -> bezchain::Result<()> {
+        if self.mute {
+            return Ok(());
+        }
         let item = &mut self.items[o.0];
         if !item.is_interim {
             return Err(bezchain::Error::invalid(format!(
@@ -192,6 +224,9 @@ impl Outputs {
     /// files renamed over their targets. An error before the renames leaves every file as it
     /// was. [`say`](Self::say) still works afterwards.
     pub fn commit(&mut self) -> Result<()> {
+        if self.mute {
+            return Ok(());
+        }
         for item in &mut self.items {
             if !item.filled {
                 anyhow::bail!(

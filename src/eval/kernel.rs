@@ -732,7 +732,7 @@ impl Problem {
 
 /// A design variable as populations hold it: f32 (as the population methods breed them) or
 /// f64 (as read from a file, or for designs far from the origin).
-pub trait Gene: Copy + Send + Sync + 'static {
+pub trait Gene: bytemuck::Pod + Send + Sync + 'static {
     /// The value in f64 (exact).
     fn to_f64(self) -> f64;
 

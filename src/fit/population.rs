@@ -303,11 +303,28 @@ struct FitScorer<'s, 'a, S: Shape<K>, const K: usize> {
 }
 
 impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
-    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
+    /// The evaluator's [`Fitness`].
+    fn record(&self) -> usize {
+        std::mem::size_of::<Fitness>()
+    }
+
+    fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()> {
+        debug_assert_eq!(rows.len() * self.record(), records.len() * self.problem.dim(), "one record per row");
+        self.fitness.resize(records.len() / self.record(), Fitness::default());
+        self.evaluator.evaluate(rows, &mut self.fitness)?;
+        records.copy_from_slice(bytemuck::cast_slice(&self.fitness));
+        Ok(())
+    }
+
+    fn absorb(&mut self, population: &[f32], records: &[u8], scores: &mut [Score]) {
         let n = self.problem.dim();
         debug_assert_eq!(population.len(), scores.len() * n, "one score per individual");
-        self.fitness.resize(scores.len(), Fitness::default());
-        self.evaluator.evaluate(population, &mut self.fitness)?;
+        self.fitness.clear();
+        self.fitness.extend(
+            records
+                .chunks_exact(self.record())
+                .map(bytemuck::pod_read_unaligned::<Fitness>),
+        );
         let dim = S::Point::DIM;
         for (k, (s, f)) in scores.iter_mut().zip(&self.fitness).enumerate() {
             let row = &population[k * n..(k + 1) * n];
@@ -325,7 +342,6 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
                 Score::WORST
             };
         }
-        Ok(())
     }
 
     /// Project the data onto `centre` (the GA's best design, CMA-ES's mean) in f64 (every
@@ -525,13 +541,26 @@ fn run<T: Gene>(
         ..EvalOptions::crossing(options.backend, options.newton, &options.gpu)
     };
     let mut evaluator = build_evaluator(&layout, targets, &eval_options)?;
-    let mut fitness = vec![Fitness::default(); population.len() / evaluator.design_variables()];
-    T::evaluate_on(evaluator.as_mut(), population, &mut fitness)?;
+    let n = evaluator.design_variables();
+    let rows = population.len() / n;
+    // Under MPI each rank evaluates its share of the rows (a row's fitness does not depend on
+    // the others, `tests/eval_parity.rs`), and every rank gets them all (§4.3).
+    let mut shared = population.to_vec();
+    let mut evaluate = || -> Result<Vec<Fitness>> {
+        let size = std::mem::size_of::<Fitness>();
+        let bytes = crate::team::share_rows(rows, size, &mut shared, |range, pop, out| {
+            let mut part = vec![Fitness::default(); range.len()];
+            T::evaluate_on(evaluator.as_mut(), &pop[range.start * n..range.end * n], &mut part)?;
+            out.copy_from_slice(bytemuck::cast_slice(&part));
+            Ok(())
+        })?;
+        Ok(bytes.chunks_exact(size).map(bytemuck::pod_read_unaligned).collect())
+    };
+    let fitness = evaluate()?;
     let mut times: Vec<f64> = (0..options.repeat)
         .map(|_| {
             let clock = std::time::Instant::now();
-            T::evaluate_on(evaluator.as_mut(), population, &mut fitness)
-                .map(|()| clock.elapsed().as_secs_f64())
+            evaluate().map(|_| clock.elapsed().as_secs_f64())
         })
         .collect::<Result<_>>()?;
     times.sort_by(f64::total_cmp);

@@ -460,7 +460,9 @@ pub fn build_aero_evaluator(
 mod tests {
     use super::*;
 
-    /// The AVX2 build and the portable build compute the same values.
+    /// The AVX2 build and the portable build compute the same values, and a row's result does
+    /// not depend on the other rows of its batch (a generation split over MPI ranks,
+    /// [`crate::team::share`], gives the same bits as one batch).
     #[test]
     fn every_build_of_the_kernels_gives_the_same_bits() {
         let pts = crate::geometry::Naca::parse("4412")
@@ -495,6 +497,19 @@ mod tests {
             .unwrap();
         assert_eq!(fast, portable);
         assert!(fast.iter().all(|r| r.flags == 0 && r.cl > 0.5));
+        let bits = |r: &[AeroResult]| bytemuck::cast_slice::<AeroResult, u32>(r).to_vec();
+        for ranks in [2, 3, 20] {
+            let mut split = Vec::new();
+            for rank in 0..ranks {
+                let rows = crate::team::share(20, rank, ranks);
+                let mut part = vec![AeroResult::default(); rows.len()];
+                cpu::CpuAero::new(b.kernel())
+                    .evaluate(&pop[rows], &mut part)
+                    .unwrap();
+                split.extend(part);
+            }
+            assert_eq!(bits(&split), bits(&fast), "{ranks} shares");
+        }
     }
 
     use crate::aero::{Analysis, Paneling};

@@ -418,9 +418,9 @@ impl<'p> Evolution<'p> {
         let clock = Instant::now();
         let (engine, best, best_score, evaluations) = match algorithm {
             Method::Ga => {
-                let pop = initial_population(problem, size, spread, &streams);
+                let mut pop = initial_population(problem, size, spread, &streams);
                 let mut scores = vec![Score::WORST; size];
-                score(&mut *scorer, &mut effort, &pop, &mut scores)?;
+                score(&mut *scorer, &mut effort, &mut pop, &mut scores)?;
                 let k = best_index(&scores);
                 let best = pop[k * n..(k + 1) * n].to_vec();
                 let s = scores[k];
@@ -428,14 +428,14 @@ impl<'p> Evolution<'p> {
             }
             _ => {
                 let bounds = problem.bounds();
-                let start: Vec<f32> = problem
+                let mut start: Vec<f32> = problem
                     .start()
                     .iter()
                     .zip(bounds)
                     .map(|(&x, &[lo, hi])| ga::to_f32(x.clamp(lo, hi), lo, hi))
                     .collect();
                 let mut s = [Score::WORST];
-                score(&mut *scorer, &mut effort, &start, &mut s)?;
+                score(&mut *scorer, &mut effort, &mut start, &mut s)?;
                 let state = CmaesState::new(problem.start(), spread);
                 (Engine::Cmaes(Cmaes::new(state, size)), start, s[0], 1)
             }
@@ -578,13 +578,13 @@ impl<'p> Evolution<'p> {
         let (pop, scores): (&[f32], &[Score]) = match &mut self.engine {
             Engine::Ga(ga) => {
                 ga.breed(problem, &self.options.ga, &self.streams, g);
-                score(scorer, effort, &ga.next, &mut ga.next_scores)?;
+                score(scorer, effort, &mut ga.next, &mut ga.next_scores)?;
                 ga.advance();
                 (&ga.population, &ga.scores)
             }
             Engine::Cmaes(es) => {
                 es.sample(problem, &self.options.cmaes, &self.streams, g);
-                score(scorer, effort, &es.samples, &mut es.scores)?;
+                score(scorer, effort, &mut es.samples, &mut es.scores)?;
                 es.update();
                 (&es.samples, &es.scores)
             }
@@ -858,15 +858,23 @@ struct Effort {
     point_evals: u64,
 }
 
-/// Score `population` into `scores`, counting the time and the work in `effort`.
+/// Score `population` into `scores`, counting the time and the work in `effort`: the one
+/// place a generation is evaluated. Under a team of processes ([`crate::team`]) rank 0's
+/// population replaces every rank's, each rank measures its share of the rows, and every rank
+/// absorbs the records of all of them, so every rank's run goes on from the same bits.
 fn score(
     scorer: &mut dyn Scorer,
     effort: &mut Effort,
-    population: &[f32],
+    population: &mut [f32],
     scores: &mut [Score],
 ) -> Result<()> {
     let clock = Instant::now();
-    scorer.evaluate(population, scores)?;
+    let n = population.len() / scores.len().max(1);
+    let record = scorer.record();
+    let records = crate::team::share_rows(scores.len(), record, population, |range, pop, out| {
+        scorer.measure(&pop[range.start * n..range.end * n], out)
+    })?;
+    scorer.absorb(population, &records, scores);
     effort.eval_seconds += clock.elapsed().as_secs_f64();
     effort.point_evals += (scores.len() * scorer.work()) as u64;
     Ok(())
@@ -1012,16 +1020,26 @@ mod tests {
     }
 
     impl Scorer for QuadraticScorer {
-        fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
-            let n = population.len() / scores.len();
-            for (row, s) in population.chunks_exact(n).zip(scores.iter_mut()) {
+        fn record(&self) -> usize {
+            8
+        }
+        fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()> {
+            let n = rows.len() / (records.len() / 8).max(1);
+            for (row, r) in rows.chunks_exact(n).zip(records.chunks_exact_mut(8)) {
                 let x: Vec<f64> = row.iter().map(|&v| f64::from(v)).collect();
+                r.copy_from_slice(&(self.value)(&x).to_le_bytes());
+            }
+            Ok(())
+        }
+        fn absorb(&mut self, _population: &[f32], records: &[u8], scores: &mut [Score]) {
+            for (r, s) in records.chunks_exact(8).zip(scores.iter_mut()) {
+                let mut b = [0u8; 8];
+                b.copy_from_slice(r);
                 *s = Score {
-                    sum_sq: (self.value)(&x),
+                    sum_sq: f64::from_le_bytes(b),
                     max: 0.0,
                 };
             }
-            Ok(())
         }
         fn recentre(&mut self, _generation: u64, centre: &[f64]) -> Result<()> {
             self.centres.lock().unwrap().push(centre.to_vec());

@@ -104,10 +104,32 @@ pub trait PopulationObjective: Sync {
     fn measure(&self, design: &[f64], options: &EvoOptions) -> Result<f64>;
 }
 
-/// Scores populations for one run of a [`PopulationObjective`].
+/// Scores populations for one run of a [`PopulationObjective`], in two halves so that a
+/// generation can be spread over processes ([`crate::team::share_rows`]): each process
+/// [`measure`](Self::measure)s a range of rows into per-row records, and every process
+/// [`absorb`](Self::absorb)s the records of the whole generation, in order.
 pub trait Scorer {
-    /// Score every row of `population` (f32, `dim()` values each) into `scores`.
-    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()>;
+    /// Bytes of one individual's record.
+    fn record(&self) -> usize;
+
+    /// Evaluate every row of `rows` (f32, `dim()` values each) into `records`
+    /// ([`record`](Self::record) bytes a row), changing nothing else. A row's record depends
+    /// only on the row and on what [`recentre`](Self::recentre) set, never on the other rows
+    /// of the batch: the results are the same however a generation is split.
+    fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()>;
+
+    /// Turn a whole generation's `records`, in order, into `scores`, and take them into the
+    /// scorer's state (counts, the best so far).
+    fn absorb(&mut self, population: &[f32], records: &[u8], scores: &mut [Score]);
+
+    /// Score every row of `population` (f32, `dim()` values each) into `scores`, in this
+    /// process: [`measure`](Self::measure) then [`absorb`](Self::absorb).
+    fn evaluate(&mut self, population: &[f32], scores: &mut [Score]) -> Result<()> {
+        let mut records = vec![0u8; scores.len() * self.record()];
+        self.measure(population, &mut records)?;
+        self.absorb(population, &records, scores);
+        Ok(())
+    }
 
     /// Called before generation `generation` with the design it centres on (the GA: the best
     /// so far; CMA-ES: its mean): the fitting problem re-projects its data there when due and
