@@ -8,6 +8,7 @@ mod cp_plot;
 mod iges;
 mod mesh;
 mod offset_map;
+mod polar_plot;
 mod render;
 mod step;
 pub mod summary;
@@ -23,6 +24,7 @@ pub use bspline::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUni
 pub use cad::{utc_now, write_cad};
 pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
+pub use polar_plot::PolarPlot;
 pub use mesh::SurfaceMesh;
 pub use offset_map::{lightness, Colouring, Marked, CHORD_FLOOR};
 pub use render::{

@@ -1,6 +1,6 @@
 //! XFOIL's integral boundary-layer closures at Mach 0 (Drela 1989; Drela & Giles 1987): the
 //! shape parameters, skin friction, dissipation, equilibrium shear stress and the e^N envelope
-//! amplification rate of one station, in unit-chord, unit-free-stream variables.
+//! amplification rate, in unit-chord, unit-free-stream variables.
 //!
 //! A station's state is `[θ, δ*, s, uₑ]`: momentum and displacement thickness, `s` the
 //! amplification factor N (laminar) or `√Cτ` (turbulent and wake), and the edge speed.
@@ -216,30 +216,39 @@ pub fn uq(ds: f64, cf: f64, hk: f64, rt: f64, k: Kind) -> f64 {
     (0.5 * cf - (hkc / (a * hk)).powi(2)) / (GB * ds)
 }
 
-/// The envelope amplification rate `dN/dξ` (with XFOIL 6.99's small ramp near `Ncrit`).
+/// The envelope amplification rate `dN/dξ` of one station (XFOIL's `DAMPL`).
 pub fn damp(u: &[f64; 4], f: &Fluid) -> f64 {
     let hk = h(u).max(1.05);
     let th = u[0];
     let hmi = 1.0 / (hk - 1.0);
     let aa = 2.492 * hmi.powf(0.43);
     let bb = (14.0 * hmi - 9.24).tanh();
-    let lrc = aa + 0.7 * (bb + 1.0);
-    let lr = ret(u, f).max(1e-30).log10();
-    let dl = 0.1;
-    let mut rate = 0.0;
-    if lr >= lrc - dl {
-        let rn = (lr - (lrc - dl)) / (2.0 * dl);
-        let rf = if rn >= 1.0 {
-            1.0
-        } else {
-            3.0 * rn * rn - 2.0 * rn * rn * rn
-        };
-        let ar = 3.87 * hmi - 2.52;
-        let da = 0.028 * (hk - 1.0) - 0.0345 * (-ar * ar).exp();
-        let af = -0.05 + 2.7 * hmi - 5.5 * hmi * hmi + 3.0 * hmi.powi(3) + 0.1 * (-20.0 * hmi).exp();
-        rate = rf * af * da / th;
+    let grcrit = aa + 0.7 * (bb + 1.0);
+    let gr = ret(u, f).max(1e-30).log10();
+    let dgr = 0.08;
+    if gr < grcrit - dgr {
+        return 0.0;
     }
-    rate + (1.0 + (5.0 * (u[2] - f.ncrit)).tanh()) * 0.001 / th
+    let rn = (gr - (grcrit - dgr)) / (2.0 * dgr);
+    let rf = if rn >= 1.0 {
+        1.0
+    } else {
+        3.0 * rn * rn - 2.0 * rn * rn * rn
+    };
+    let ar = 3.87 * hmi - 2.52;
+    let da = 0.028 * (hk - 1.0) - 0.0345 * (-ar * ar).exp();
+    let af = -0.05 + 2.7 * hmi - 5.5 * hmi * hmi + 3.0 * hmi.powi(3) + 0.1 * (-20.0 * hmi).exp();
+    rf * af * da / th
+}
+
+/// The amplification rate over an interval (XFOIL 6.99's `AXSET`): the root mean square of the
+/// ends' rates plus a small term that keeps `dN/dξ > 0` near `Ncrit`.
+pub fn damp_interval(u1: &[f64; 4], u2: &[f64; 4], f: &Fluid) -> f64 {
+    let (a1, a2) = (damp(u1, f), damp(u2, f));
+    let axa = (0.5 * (a1 * a1 + a2 * a2)).sqrt();
+    let arg = (20.0 * (f.ncrit - 0.5 * (u1[2] + u2[2]))).min(20.0);
+    let exn = if arg <= 0.0 { 1.0 } else { (-arg).exp() };
+    axa + exn * 0.002 / (u1[0] + u2[0])
 }
 
 #[cfg(test)]

@@ -178,7 +178,7 @@ impl Body {
         }
         let last = self.velocity(&gamma, fs, pts[nw - 1]).normalize_or_zero();
         tan.push(last);
-        if pts.iter().any(|p| !p.is_finite()) || tan.iter().any(|t| *t == DVec2::ZERO) {
+        if pts.iter().any(|p| !p.is_finite()) || tan.contains(&DVec2::ZERO) {
             return Err(Error::Numerical("the wake streamline could not be traced".into()));
         }
         // Wake source cells: from the trailing edge to the first midpoint, midpoint to

@@ -49,7 +49,6 @@ pub fn interval(fl: &Fluid, k: Kind, simi: bool, x: [f64; 2], u1: &State, u2: &S
     }
     let upw = upwind_weight(&u1, &u2, k);
     let hav = 0.5 * (c::h(&u1) + c::h(&u2));
-    let hsav = 0.5 * (hs1 + hs2);
     let hw = 0.5 * (wgap[0] / u1[0] + wgap[1] / u2[0]);
 
     let lag = if k.turb {
@@ -69,8 +68,7 @@ pub fn interval(fl: &Fluid, k: Kind, simi: bool, x: [f64; 2], u1: &State, u2: &S
     } else if simi {
         u1[2] + u2[2]
     } else {
-        let dmp = 0.5 * (c::damp(&u1, fl) + c::damp(&u2, fl));
-        u2[2] - u1[2] - dmp * dx
+        u2[2] - u1[2] - c::damp_interval(&u1, &u2, fl) * dx
     };
 
     let cfxt = |u: &State, x: f64| c::cf(u, k, fl) * x / u[0];
@@ -85,7 +83,6 @@ pub fn interval(fl: &Fluid, k: Kind, simi: bool, x: [f64; 2], u1: &State, u2: &S
         c::cdi(&u2, k, fl) * x[1] / u2[0],
     );
     let cfxtu = mix(upw, cfxt1, cfxt2);
-    let _ = hsav;
     let shape = hslog + (1.0 - hav - hw) * uelog + xlog * (0.5 * cfxtu - cdixt);
     [mom, shape, lag]
 }
@@ -103,8 +100,7 @@ pub fn transition_point(fl: &Fluid, x: [f64; 2], u1: &State, u2: &State) -> Opti
         ut[2] = fl.ncrit;
         ut
     };
-    let d1 = c::damp(u1, fl);
-    let r = |xt: f64| fl.ncrit - u1[2] - 0.5 * (xt - x[0]) * (d1 + c::damp(&at(xt), fl));
+    let r = |xt: f64| fl.ncrit - u1[2] - (xt - x[0]) * c::damp_interval(u1, &at(xt), fl);
     // The residual falls as xt grows (the factor grows); bracket, then secant-bisect.
     let (mut lo, mut hi) = (x[0], x[1]);
     let (mut rlo, rhi) = (r(lo), r(hi));

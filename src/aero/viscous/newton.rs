@@ -54,6 +54,9 @@ pub struct System<'a> {
     rows: Vec<Row>,
 }
 
+/// A row block's partials: per station it depends on, ∂R/∂(θ, δ*, s, uₑ) of its three equations.
+type Partials = Vec<(usize, [[f64; 4]; 3])>;
+
 /// What one Newton solve did.
 #[derive(Clone, Copy, Debug)]
 pub struct Outcome {
@@ -306,7 +309,7 @@ impl<'a> System<'a> {
     }
 
     /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
-    fn partials(&mut self, i: usize, base: &[f64; 3]) -> Vec<(usize, [[f64; 4]; 3])> {
+    fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
         let deps = self.deps(i);
         let mut out = Vec::with_capacity(deps.len());
         let mut u = std::mem::take(&mut self.u);
@@ -331,7 +334,7 @@ impl<'a> System<'a> {
     /// One Newton step's update `Δ[θ, δ*, s, uₑ]` per station, or `None` when singular.
     fn step(&mut self, r: &[f64]) -> Option<Vec<[f64; 4]>> {
         let nt = self.u.len();
-        let mut jac: Vec<Vec<(usize, [[f64; 4]; 3])>> = Vec::with_capacity(nt);
+        let mut jac: Vec<Partials> = Vec::with_capacity(nt);
         for i in 0..nt {
             let base = [r[3 * i], r[3 * i + 1], r[3 * i + 2]];
             jac.push(self.partials(i, &base));
@@ -340,7 +343,7 @@ impl<'a> System<'a> {
     }
 
     /// Block forward substitution through `B`, then the dense Schur complement in `uₑ`.
-    fn schur(&self, jac: &[Vec<(usize, [[f64; 4]; 3])>], r: &[f64]) -> Option<Vec<[f64; 4]>> {
+    fn schur(&self, jac: &[Partials], r: &[f64]) -> Option<Vec<[f64; 4]>> {
         let nt = self.u.len();
         // Right-hand sides: C's columns (ue partials) and r; solved in place to X and z.
         let ncol = nt + 1;
@@ -396,9 +399,11 @@ impl<'a> System<'a> {
                                 }
                             }
                         }
-                    } else {
+                    } else if p.iter().any(|row| row[..3].iter().any(|&w| w != 0.0)) {
+                        // A station downstream in the order: B is not block-triangular here.
                         return None;
                     }
+                    // Otherwise only its uₑ enters (the stagnation point): in C, not B.
                 }
             }
             let lu = a.lu();
@@ -449,7 +454,7 @@ impl<'a> System<'a> {
     }
 
     /// The whole Jacobian factored densely (the fallback).
-    fn dense(&self, jac: &[Vec<(usize, [[f64; 4]; 3])>], r: &[f64]) -> Option<Vec<[f64; 4]>> {
+    fn dense(&self, jac: &[Partials], r: &[f64]) -> Option<Vec<[f64; 4]>> {
         let nt = self.u.len();
         let mut a = DMatrix::<f64>::zeros(4 * nt, 4 * nt);
         for i in 0..nt {
@@ -580,7 +585,7 @@ impl<'a> System<'a> {
                 let r = |v: f64| {
                     let mut w = u2;
                     w[2] = v;
-                    w[2] - u1[2] - 0.5 * (c::damp(&u1, &self.fl) + c::damp(&w, &self.fl)) * dx
+                    w[2] - u1[2] - c::damp_interval(&u1, &w, &self.fl) * dx
                 };
                 let r0 = r(u2[2]);
                 if r0.abs() < 1e-12 {

@@ -20,7 +20,7 @@ pub struct ViscousOptions {
     pub xtr_top: f64,
     /// Forced transition on the lower surface, chord fraction (default 1: free).
     pub xtr_bottom: f64,
-    /// Newton iterations per point (default 40).
+    /// Newton iterations per point (default 80).
     pub max_iter: usize,
 }
 
@@ -31,7 +31,7 @@ impl Default for ViscousOptions {
             ncrit: 9.0,
             xtr_top: 1.0,
             xtr_bottom: 1.0,
-            max_iter: 40,
+            max_iter: 80,
         }
     }
 }
@@ -95,6 +95,8 @@ pub struct ViscousPoint {
 /// A solved point's boundary layer, to start a neighbour from (same body or same node count).
 #[derive(Clone, Debug)]
 pub struct Warm {
+    /// The angle it was solved at, degrees.
+    alpha: f64,
     u: Vec<State>,
     turb: Vec<bool>,
 }
@@ -158,17 +160,40 @@ impl Viscous {
             iterations: out.iterations,
         };
         let warm = Warm {
+            alpha,
             u: sys.u.clone(),
             turb: sys.turb.clone(),
         };
         (point, Some(warm))
     }
 
-    /// A point from `warm`, and from a cold start when that fails.
+    /// A point from `warm`; when that fails, through the angle halfway from `warm`'s (twice
+    /// over), then from a cold start.
     fn point_retry(&self, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> (ViscousPoint, Option<Warm>) {
         let (p, w) = self.point(alpha, opts, warm);
-        if p.converged || warm.is_none() {
+        let Some(start) = warm else { return (p, w) };
+        if p.converged {
             return (p, w);
+        }
+        for parts in [2, 4] {
+            let mut cur = start.clone();
+            let mut done = true;
+            for k in 1..parts {
+                let a = start.alpha + (alpha - start.alpha) * f64::from(k) / f64::from(parts);
+                match self.point(a, opts, Some(&cur)) {
+                    (_, Some(next)) => cur = next,
+                    _ => {
+                        done = false;
+                        break;
+                    }
+                }
+            }
+            if done {
+                let (q, w2) = self.point(alpha, opts, Some(&cur));
+                if q.converged {
+                    return (q, w2);
+                }
+            }
         }
         let (q, w2) = self.point(alpha, opts, None);
         if q.converged {
