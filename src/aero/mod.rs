@@ -19,6 +19,8 @@
 //! - [`study`]: an optimisation from files to results and its report, as `bezchain optimise`
 //!   runs it.
 //! - [`input`]: an aerofoil as the commands name one, a coordinate file or a curve report.
+//! - [`viscous`]: [`Viscous`], the panel method coupled to an integral boundary layer (XFOIL's
+//!   closures, e^N transition, global Newton): viscous polars.
 //! - [`karman_trefftz`]: [`KarmanTrefftz`], the aerofoil whose potential flow is known in
 //!   closed form.
 
@@ -34,6 +36,7 @@ pub mod objectives;
 pub mod optimise;
 pub mod panel;
 pub mod study;
+pub mod viscous;
 
 pub use crate::optim::Method;
 pub use analysis::{check_polar, AeroInput, AeroReport, Analysis, ChordReport, Pressure};
@@ -49,3 +52,4 @@ pub use objectives::{AeroObjective, OBJECTIVES};
 pub use optimise::{AeroProblem, Optimisation, OptimiseOptions, OptimiseResult, Reasons};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};
 pub use study::{OptimiseReport, Outcome, Setup, Study};
+pub use viscous::{polars, Viscous, ViscousOptions, ViscousPoint};

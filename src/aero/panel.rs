@@ -38,7 +38,7 @@ use std::f64::consts::PI;
 /// `1 / 4π`.
 const QOPI: f64 = 0.25 / PI;
 /// `1 / 2π`.
-const HOPI: f64 = 0.5 / PI;
+pub(crate) const HOPI: f64 = 0.5 / PI;
 /// A trailing edge with a gap below this fraction of the chord is sharp (XFOIL's rule).
 pub const SHARP_GAP: f64 = 1e-4;
 /// The sharp-edge control point lies this fraction of the smaller end panel ahead of the
@@ -151,16 +151,16 @@ pub struct PanelSolution {
 
 /// The trailing edge: gap, its source and vortex weights, the end tangents' bisector.
 #[derive(Clone, Copy, Debug)]
-struct TrailingEdge {
+pub(crate) struct TrailingEdge {
     /// `|t̂ × ĝ|`-like weight of the source (1 when sharp).
     scs: f64,
     /// `t̂ · ĝ`-like weight of the vortex (0 when sharp).
     sds: f64,
     /// Whether the first and last nodes coincide (no trailing-edge panel at all).
     closed: bool,
-    sharp: bool,
+    pub(crate) sharp: bool,
     /// Unit bisector of the end tangents, pointing downstream.
-    bisector: DVec2,
+    pub(crate) bisector: DVec2,
 }
 
 /// The unit tangent at the end of a polyline `p0, p1, p2` at `p0`, pointing away from `p1`:
@@ -176,7 +176,8 @@ fn end_tangent(p0: DVec2, p1: DVec2, p2: DVec2) -> DVec2 {
 }
 
 impl TrailingEdge {
-    fn of(nodes: &[DVec2], chord: f64) -> TrailingEdge {
+    /// The trailing edge of `nodes` (chord `chord`).
+    pub(crate) fn of(nodes: &[DVec2], chord: f64) -> TrailingEdge {
         let n = nodes.len();
         let gap = nodes[0] - nodes[n - 1];
         let aft_first = end_tangent(nodes[0], nodes[1], nodes[2]);
@@ -202,17 +203,17 @@ impl TrailingEdge {
 /// The stream-function integrals of one straight panel seen from a field point, with their
 /// derivatives along a direction when asked.
 #[derive(Clone, Copy, Debug, Default)]
-struct PanelTerms {
+pub(crate) struct PanelTerms {
     /// `½∫ ln r² dξ` over the panel: the uniform-vortex stream function times 2π.
     psis: f64,
     /// The linear part's integral (`γ` difference weight).
     psid: f64,
     /// `−∫ θ dξ` in panel axes: the uniform-source stream function times 2π.
-    psig: f64,
+    pub(crate) psig: f64,
     /// Derivatives of the three along the direction `n` given to [`panel_terms`].
     d_psis: f64,
     d_psid: f64,
-    d_psig: f64,
+    pub(crate) d_psig: f64,
 }
 
 /// `ln r²`, with 0 for a field point on the node itself (its factors vanish there).
@@ -229,7 +230,7 @@ fn log_r2(r2: f64) -> f64 {
 /// when `n` is non-zero). The subtended angle is `atan2(r₁ × r₂, r₁ · r₂)`, which has no
 /// branch cut on the body; the source's own angles (used for the trailing-edge panel only)
 /// are measured from the panel's inward normal, so their cut runs downstream.
-fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms {
+pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms {
     let d = b - a;
     let len = d.length();
     let s = d / len;
@@ -277,7 +278,7 @@ struct Row {
 
 /// `Ψ` (or, with `n` non-zero, `∂Ψ/∂n`) at `f` as a row: vortex panels between consecutive
 /// nodes, then the trailing-edge panel from the last node to the first.
-fn influence(nodes: &[DVec2], te: &TrailingEdge, f: DVec2, n: DVec2) -> Vec<f64> {
+pub(crate) fn influence(nodes: &[DVec2], te: &TrailingEdge, f: DVec2, n: DVec2) -> Vec<f64> {
     let m = nodes.len();
     let derivative = n != DVec2::ZERO;
     let mut row = vec![0.0; m];
@@ -309,6 +310,56 @@ fn influence(nodes: &[DVec2], te: &TrailingEdge, f: DVec2, n: DVec2) -> Vec<f64>
     row
 }
 
+/// The panel system on `local` nodes (unit chord): the matrix over the node `γ`s and `Ψ₀`
+/// (the last row the Kutta condition) and the right-hand sides at α = 0° and 90°.
+pub(crate) fn system(local: &[DVec2], te: &TrailingEdge) -> (DMatrix<f64>, DMatrix<f64>) {
+    let m = local.len();
+    let mut rows: Vec<Row> = local
+        .iter()
+        .map(|&p| Row {
+            gamma: influence(local, te, p, DVec2::ZERO),
+            psi0: -1.0,
+            rhs: [-p.y, p.x],
+        })
+        .collect();
+    if let Some((f, n)) = sharp_control(local, te) {
+        // Zero velocity along the bisector just inside the trailing edge.
+        rows[m - 1] = Row {
+            gamma: influence(local, te, f, n),
+            psi0: 0.0,
+            rhs: [-te.bisector.x, -te.bisector.y],
+        };
+    }
+    let mut a = DMatrix::<f64>::zeros(m + 1, m + 1);
+    let mut b = DMatrix::<f64>::zeros(m + 1, 2);
+    for (i, r) in rows.iter().enumerate() {
+        for j in 0..m {
+            a[(i, j)] = r.gamma[j];
+        }
+        a[(i, m)] = r.psi0;
+        b[(i, 0)] = r.rhs[0];
+        b[(i, 1)] = r.rhs[1];
+    }
+    // Kutta: γ_first + γ_last = 0.
+    a[(m, 0)] = 1.0;
+    a[(m, m - 1)] = 1.0;
+    (a, b)
+}
+
+/// The control point and its direction of the sharp trailing edge's row (the last node's),
+/// `None` when the edge is blunt.
+pub(crate) fn sharp_control(local: &[DVec2], te: &TrailingEdge) -> Option<(DVec2, DVec2)> {
+    if !te.sharp {
+        return None;
+    }
+    let m = local.len();
+    let ds = (local[0] - local[1])
+        .length()
+        .min((local[m - 1] - local[m - 2]).length());
+    let tip = 0.5 * (local[0] + local[m - 1]);
+    Some((tip - BISECTOR_OFFSET * ds * te.bisector, te.bisector.perp()))
+}
+
 impl PanelSolution {
     /// Solve the panel method on `nodes` (counterclockwise, first and last at the trailing
     /// edge, at least [`MIN_NODES`]).
@@ -336,41 +387,7 @@ impl PanelSolution {
         let centre = 0.5 * (chord.le + chord.te);
         let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
         let te = TrailingEdge::of(&local, 1.0);
-        let mut rows: Vec<Row> = local
-            .iter()
-            .map(|&p| Row {
-                gamma: influence(&local, &te, p, DVec2::ZERO),
-                psi0: -1.0,
-                rhs: [-p.y, p.x],
-            })
-            .collect();
-        if te.sharp {
-            // Zero velocity along the bisector just inside the trailing edge.
-            let ds = (local[0] - local[1])
-                .length()
-                .min((local[m - 1] - local[m - 2]).length());
-            let tip = 0.5 * (local[0] + local[m - 1]);
-            let f = tip - BISECTOR_OFFSET * ds * te.bisector;
-            let n = te.bisector.perp();
-            rows[m - 1] = Row {
-                gamma: influence(&local, &te, f, n),
-                psi0: 0.0,
-                rhs: [-te.bisector.x, -te.bisector.y],
-            };
-        }
-        let mut a = DMatrix::<f64>::zeros(m + 1, m + 1);
-        let mut b = DMatrix::<f64>::zeros(m + 1, 2);
-        for (i, r) in rows.iter().enumerate() {
-            for j in 0..m {
-                a[(i, j)] = r.gamma[j];
-            }
-            a[(i, m)] = r.psi0;
-            b[(i, 0)] = r.rhs[0];
-            b[(i, 1)] = r.rhs[1];
-        }
-        // Kutta: γ_first + γ_last = 0.
-        a[(m, 0)] = 1.0;
-        a[(m, m - 1)] = 1.0;
+        let (a, b) = system(&local, &te);
         let lu = a.lu();
         let x = lu
             .solve(&b)

@@ -1,6 +1,7 @@
 //! `bezchain bench`: time the GA fitness kernel on a random bicubic patch grid, with its real
 //! FLOPs against the machine's FP32 FMA peak, or (`--kernel aero`) the panel method on
-//! populations of aerofoils.
+//! populations of aerofoils, or (`--kernel viscous`) the viscous analysis over a population
+//! and 11 angles.
 
 use super::output::Outputs;
 use super::{bounded, parse_word};
@@ -18,6 +19,9 @@ pub enum Kernel {
     Fitness,
     /// The panel method (shapes per second; --population and --panels apply).
     Aero,
+    /// The viscous analysis (converged points per second over 11 angles; --population
+    /// [default here 256] and --panels apply).
+    Viscous,
 }
 
 /// Arguments of `bezchain bench`.
@@ -100,6 +104,23 @@ pub fn run(args: Args) -> Result<()> {
             ..Default::default()
         })?;
         outs.put_json(out, Schema::Bench, &report)?;
+        return outs.commit();
+    }
+    if args.kernel == Kernel::Viscous {
+        // 1024 is the other kernels' default; this one's is 256 shapes.
+        let population = if args.population == 1024 { 256 } else { args.population };
+        bounded("--population", population as u64, 1 << 16, "the default is 256")?;
+        if !(bezchain::aero::panel::MIN_NODES..=1000).contains(&args.panels) {
+            return Err(super::usage("--panels must be between 8 and 1000"));
+        }
+        let mut outs = Outputs::new();
+        let out = outs.add("--json", &args.json)?;
+        let report = bezchain::bench::viscous::run(&bezchain::bench::viscous::ViscousBenchOptions {
+            population,
+            nodes: args.panels,
+            ..Default::default()
+        })?;
+        outs.put_json(out, &report)?;
         return outs.commit();
     }
     if let Some(p) = args.peak {

@@ -6,7 +6,7 @@ use super::output::{Output, Outputs};
 use super::{parse_pair, usage};
 use anyhow::Result;
 use bezchain::chain::PatchGrid;
-use bezchain::export::{render, render_svg, CpPlot, CurvePlot, RenderOptions};
+use bezchain::export::{render, render_svg, CpPlot, CurvePlot, PolarPlot, RenderOptions};
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -93,6 +93,15 @@ pub trait Plot {
 }
 
 impl Plot for CurvePlot<'_> {
+    fn svg(&self) -> bezchain::Result<String> {
+        self.to_svg()
+    }
+    fn png(&self) -> bezchain::Result<Vec<u8>> {
+        self.to_png()
+    }
+}
+
+impl Plot for PolarPlot {
     fn svg(&self) -> bezchain::Result<String> {
         self.to_svg()
     }

@@ -39,7 +39,7 @@ pub struct CpPlot {
 const WIDTH: u32 = 1000;
 const CP_HEIGHT: u32 = 560;
 
-const PALETTE: [RGBColor; 6] = [
+pub(crate) const PALETTE: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),

@@ -9,6 +9,7 @@ mod iges;
 mod mesh;
 mod offset_map;
 mod plot_png;
+mod polar_plot;
 mod raster;
 mod render;
 mod stamp;
@@ -26,6 +27,7 @@ pub use bspline::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUni
 pub use cad::{utc_now, write_cad};
 pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
+pub use polar_plot::PolarPlot;
 pub use mesh::SurfaceMesh;
 pub use offset_map::{lightness, Colouring, Marked, CHORD_FLOOR};
 pub use plot_png::{plot_png, PixelBackend};

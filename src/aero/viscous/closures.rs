@@ -1,0 +1,282 @@
+//! XFOIL's integral boundary-layer closures at Mach 0 (Drela 1989; Drela & Giles 1987): the
+//! shape parameters, skin friction, dissipation, equilibrium shear stress and the e^N envelope
+//! amplification rate, in unit-chord, unit-free-stream variables.
+//!
+//! A station's state is `[θ, δ*, s, uₑ]`: momentum and displacement thickness, `s` the
+//! amplification factor N (laminar) or `√Cτ` (turbulent and wake), and the edge speed.
+
+/// The G–β locus constant A (`G = A √(1 + B β)`).
+pub const GA: f64 = 6.7;
+/// The G–β locus constant B.
+pub const GB: f64 = 0.75;
+/// The G–β low-Reynolds constant C.
+pub const GC: f64 = 18.0;
+/// Shear-lag constant (`SCCON`).
+pub const SLAG_K: f64 = 5.6;
+/// Wall/wake dissipation length ratio (`DLCON`).
+pub const DLR: f64 = 0.9;
+/// Initial `Cτ` after transition: `CTRCON · exp(−CTRCEX / (Hk − 1))` of equilibrium.
+pub const CTAU_C: f64 = 1.8;
+/// See [`CTAU_C`].
+pub const CTAU_E: f64 = 3.3;
+
+/// What kind of station a closure is evaluated for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Kind {
+    /// Turbulent (or wake) rather than laminar.
+    pub turb: bool,
+    /// In the wake (no wall: zero skin friction, doubled dissipation).
+    pub wake: bool,
+}
+
+impl Kind {
+    /// A laminar wall station.
+    pub const LAMINAR: Kind = Kind {
+        turb: false,
+        wake: false,
+    };
+    /// A turbulent wall station.
+    pub const TURBULENT: Kind = Kind {
+        turb: true,
+        wake: false,
+    };
+    /// A wake station.
+    pub const WAKE: Kind = Kind {
+        turb: true,
+        wake: true,
+    };
+}
+
+/// The fluid: the chord Reynolds number (`ν = 1 / Re` in unit-chord, unit-speed variables).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fluid {
+    /// Chord Reynolds number.
+    pub re: f64,
+    /// Critical amplification factor.
+    pub ncrit: f64,
+}
+
+/// `H = δ* / θ`.
+#[inline]
+pub fn h(u: &[f64; 4]) -> f64 {
+    u[1] / u[0]
+}
+
+/// The kinematic shape parameter, limited below (1.05 on the wall, 1.00005 in the wake) as
+/// XFOIL limits it inside the closures.
+#[inline]
+pub fn hk_limited(u: &[f64; 4], k: Kind) -> f64 {
+    h(u).max(if k.wake { 1.00005 } else { 1.05 })
+}
+
+/// `Re_θ = Re uₑ θ`.
+#[inline]
+pub fn ret(u: &[f64; 4], f: &Fluid) -> f64 {
+    f.re * u[3] * u[0]
+}
+
+/// The kinetic-energy shape parameter `H* = θ* / θ`.
+pub fn hs(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    let hk = hk_limited(u, k);
+    if k.turb {
+        let (hsmin, dhsinf) = (1.5, 0.015);
+        let rt = ret(u, f);
+        let ho = if rt > 400.0 { 3.0 + 400.0 / rt } else { 4.0 };
+        let reb = rt.max(200.0);
+        if hk < ho {
+            let hr = (ho - hk) / (ho - 1.0);
+            hsmin + 4.0 / reb + (2.0 - hsmin - 4.0 / reb) * hr * hr * 1.5 / (hk + 0.5)
+        } else {
+            let lrb = reb.ln();
+            let aa = hk - ho + 4.0 / lrb;
+            let bb = 0.007 * lrb / (aa * aa) + dhsinf / hk;
+            hsmin + 4.0 / reb + (hk - ho) * (hk - ho) * bb
+        }
+    } else {
+        let a = hk - 4.35;
+        if hk < 4.35 {
+            (0.0111 * a * a - 0.0278 * a * a * a) / (hk + 1.0) + 1.528 - 0.0002 * (a * hk) * (a * hk)
+        } else {
+            0.015 * a * a / hk + 1.528
+        }
+    }
+}
+
+/// The skin-friction coefficient `Cf` (zero in the wake).
+pub fn cf(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    if k.wake {
+        return 0.0;
+    }
+    let hk = h(u);
+    let rt = ret(u, f);
+    if k.turb {
+        let mut aa = -1.33 * hk;
+        if aa < -17.0 {
+            aa = -20.0 + 3.0 * ((aa + 17.0) / 3.0).exp();
+        }
+        let bb = rt.ln().max(3.0) / std::f64::consts::LN_10;
+        let cc = -1.74 - 0.31 * hk;
+        let dd = (4.0 - hk / 0.875).tanh();
+        0.3 * aa.exp() * bb.powf(cc) + 1.1e-4 * (dd - 1.0)
+    } else {
+        let num = if hk < 5.5 {
+            0.0727 * (5.5 - hk).powi(3) / (hk + 1.0) - 0.07
+        } else {
+            0.015 * (1.0 - 1.0 / (hk - 4.5)).powi(2) - 0.07
+        };
+        num / rt
+    }
+}
+
+/// The normalised slip velocity `Us`.
+pub fn us(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    let hsv = hs(u, k, f);
+    let hk = hk_limited(u, k);
+    let v = 0.5 * hsv * (1.0 - (hk - 1.0) / (GB * h(u)));
+    if !k.wake && v > 0.95 {
+        0.98
+    } else {
+        v.min(0.99995)
+    }
+}
+
+/// `√Cτ_eq`, the equilibrium shear stress.
+pub fn cteq(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    let cc = 0.5 / (GA * GA * GB);
+    let hk = hk_limited(u, k);
+    let hkc = if k.wake {
+        hk - 1.0
+    } else {
+        (hk - 1.0 - GC / ret(u, f)).max(0.01)
+    };
+    let num = cc * hs(u, k, f) * (hk - 1.0) * hkc * hkc;
+    let den = (1.0 - us(u, k, f)) * h(u) * hk * hk;
+    (num / den).sqrt()
+}
+
+/// `√Cτ` just after transition.
+pub fn cttr(u: &[f64; 4], f: &Fluid) -> f64 {
+    let hk = hk_limited(u, Kind::TURBULENT);
+    CTAU_C * (-CTAU_E / (hk - 1.0)).exp() * cteq(u, Kind::TURBULENT, f)
+}
+
+/// The boundary-layer thickness `δ` of the shear-lag equation.
+pub fn de(u: &[f64; 4], k: Kind) -> f64 {
+    let hk = hk_limited(u, k);
+    (u[0] * (3.15 + 1.72 / (hk - 1.0)) + u[1]).min(12.0 * u[0])
+}
+
+fn cdi_lam(u: &[f64; 4], f: &Fluid) -> f64 {
+    let hk = h(u);
+    let num = if hk < 4.0 {
+        0.00205 * (4.0 - hk).powf(5.5) + 0.207
+    } else {
+        let a = hk - 4.0;
+        -0.0016 * a * a / (1.0 + 0.02 * a * a) + 0.207
+    };
+    num / ret(u, f)
+}
+
+/// The dissipation function `2 CD / H*`.
+pub fn cdi(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    if !k.turb {
+        return cdi_lam(u, f);
+    }
+    let hsv = hs(u, k, f);
+    let usv = us(u, k, f);
+    let rt = ret(u, f);
+    let mut d = 0.0;
+    let lam = if k.wake {
+        let hk = hk_limited(u, k);
+        let hs_lam = hs(u, Kind::LAMINAR, f);
+        2.0 * 1.1 * (1.0 - 1.0 / hk).powi(2) / hk / (hs_lam * rt)
+    } else {
+        let hk = h(u);
+        let lr = rt.ln();
+        let hmin = 1.0 + 2.1 / lr;
+        let fac = 0.5 + 0.5 * ((hk - 1.0) / (hmin - 1.0)).tanh();
+        d += cf(u, k, f) * usv / hsv * fac;
+        cdi_lam(u, f)
+    };
+    d += u[2] * u[2] * (0.995 - usv) * 2.0 / hsv;
+    d += 0.15 * (0.995 - usv).powi(2) * 2.0 / (hsv * rt);
+    d = d.max(lam);
+    if k.wake {
+        2.0 * d
+    } else {
+        d
+    }
+}
+
+/// The equilibrium `(1/uₑ) duₑ/dξ` of the shear-lag equation, from averaged quantities.
+pub fn uq(ds: f64, cf: f64, hk: f64, rt: f64, k: Kind) -> f64 {
+    let (a, c) = if k.wake { (GA * DLR, 0.0) } else { (GA, GC) };
+    let hk = hk.max(if k.wake { 1.00005 } else { 1.05 });
+    let hkc = (hk - 1.0 - c / rt).max(0.01);
+    (0.5 * cf - (hkc / (a * hk)).powi(2)) / (GB * ds)
+}
+
+/// The envelope amplification rate `dN/dξ` of one station (XFOIL's `DAMPL`).
+pub fn damp(u: &[f64; 4], f: &Fluid) -> f64 {
+    let hk = h(u).max(1.05);
+    let th = u[0];
+    let hmi = 1.0 / (hk - 1.0);
+    let aa = 2.492 * hmi.powf(0.43);
+    let bb = (14.0 * hmi - 9.24).tanh();
+    let grcrit = aa + 0.7 * (bb + 1.0);
+    let gr = ret(u, f).max(1e-30).log10();
+    let dgr = 0.08;
+    if gr < grcrit - dgr {
+        return 0.0;
+    }
+    let rn = (gr - (grcrit - dgr)) / (2.0 * dgr);
+    let rf = if rn >= 1.0 {
+        1.0
+    } else {
+        3.0 * rn * rn - 2.0 * rn * rn * rn
+    };
+    let ar = 3.87 * hmi - 2.52;
+    let da = 0.028 * (hk - 1.0) - 0.0345 * (-ar * ar).exp();
+    let af = -0.05 + 2.7 * hmi - 5.5 * hmi * hmi + 3.0 * hmi.powi(3) + 0.1 * (-20.0 * hmi).exp();
+    rf * af * da / th
+}
+
+/// The amplification rate over an interval (XFOIL 6.99's `AXSET`): the root mean square of the
+/// ends' rates plus a small term that keeps `dN/dξ > 0` near `Ncrit`.
+pub fn damp_interval(u1: &[f64; 4], u2: &[f64; 4], f: &Fluid) -> f64 {
+    let (a1, a2) = (damp(u1, f), damp(u2, f));
+    let axa = (0.5 * (a1 * a1 + a2 * a2)).sqrt();
+    let arg = (20.0 * (f.ncrit - 0.5 * (u1[2] + u2[2]))).min(20.0);
+    let exn = if arg <= 0.0 { 1.0 } else { (-arg).exp() };
+    axa + exn * 0.002 / (u1[0] + u2[0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const F: Fluid = Fluid { re: 1e6, ncrit: 9.0 };
+
+    /// Blasius: H = 2.59, H* = 1.573, Cf Re_θ = 0.441, 2CD/H* Re_θ ≈ 0.4.
+    #[test]
+    fn laminar_closures_near_blasius() {
+        let th = 1e-3;
+        let u = [th, 2.59 * th, 0.0, 1.0];
+        let rt = ret(&u, &F);
+        assert!((hs(&u, Kind::LAMINAR, &F) - 1.573).abs() < 0.01);
+        assert!((cf(&u, Kind::LAMINAR, &F) * rt - 0.441).abs() < 0.02);
+        assert!((cdi(&u, Kind::LAMINAR, &F) * rt - 0.22).abs() < 0.01);
+    }
+
+    /// A flat-plate turbulent layer at Re_θ = 5000: Cf about 0.0027, H* about 1.75.
+    #[test]
+    fn turbulent_closures_are_plausible() {
+        let th = 5e-3;
+        let u = [th, 1.4 * th, 0.03, 1.0];
+        let c = cf(&u, Kind::TURBULENT, &F);
+        assert!(c > 0.002 && c < 0.0035, "{c}");
+        let hsv = hs(&u, Kind::TURBULENT, &F);
+        assert!(hsv > 1.6 && hsv < 1.9, "{hsv}");
+        assert!(cteq(&u, Kind::TURBULENT, &F) > 0.0);
+    }
+}

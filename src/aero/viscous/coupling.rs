@@ -1,0 +1,354 @@
+//! The inviscid side of the coupling: the body's panel system kept factored, the wake streamline
+//! behind the trailing edge, and how uniform source panels (the boundary layer's mass defect,
+//! `σ = d(uₑ δ*)/dξ`) on the body and in the wake change the edge speed at every station.
+//!
+//! Body panels carry a uniform source between consecutive nodes; the wake carries one uniform
+//! source cell around each wake node (from the midpoints to its neighbours), so that no wake
+//! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
+
+use crate::aero::panel::{
+    influence, panel_terms, sharp_control, system, Chord, TrailingEdge, HOPI,
+};
+use crate::error::{Error, Result};
+use glam::DVec2;
+use nalgebra::{DMatrix, Dyn, LU};
+
+/// A body's factored panel system and the α-independent source responses.
+pub struct Body {
+    /// Nodes in unit-chord coordinates.
+    pub nodes: Vec<DVec2>,
+    /// Arc length at every node from the first.
+    pub s: Vec<f64>,
+    /// The chord in the same coordinates.
+    pub chord: Chord,
+    /// The trailing-edge gap normal to the bisector (XFOIL's `ANTE`), unit chord.
+    pub gap: f64,
+    /// Sine of the angle between the end tangents (the wake gap's closing slope).
+    pub dtdx: f64,
+    te: TrailingEdge,
+    lu: LU<f64, Dyn, Dyn>,
+    /// Node speeds at α = 0° and 90°.
+    gamma_ref: [Vec<f64>; 2],
+    /// Node speed per unit source on each body panel (N × (N − 1)).
+    g_body: DMatrix<f64>,
+}
+
+/// The wake streamline and every station's edge speed response at one angle.
+pub struct Wake {
+    /// Wake nodes, the first just behind the trailing-edge midpoint.
+    pub points: Vec<DVec2>,
+    /// Distance along the wake from its first node.
+    pub s: Vec<f64>,
+    /// Inviscid edge speed: node `γ` on the body (signed along the node order's reverse, as
+    /// the panel method gives it), the speed along the wake in the wake.
+    pub uinv: Vec<f64>,
+    /// Response of the same quantities to the sources, `(N + Nw) × (N − 1 + Nw)`.
+    pub u_sigma: DMatrix<f64>,
+}
+
+/// Points in the wake for `n` body nodes (mfoil's count over one chord).
+pub fn wake_nodes(n: usize) -> usize {
+    n / 10 + 10
+}
+
+/// `n` points from 0 to `len`, the first interval `d0`, growing geometrically.
+fn geometric(d0: f64, len: f64, n: usize) -> Vec<f64> {
+    let k = (n - 1) as f64;
+    let mut r: f64 = 1.0;
+    if d0 * k < len {
+        // Σ d0 r^j = len: Newton on f(r) = d0 (r^k − 1)/(r − 1) − len, started large.
+        r = 1.5;
+        for _ in 0..100 {
+            let f = d0 * (r.powf(k) - 1.0) / (r - 1.0) - len;
+            let df = d0 * (k * r.powf(k - 1.0) * (r - 1.0) - (r.powf(k) - 1.0)) / ((r - 1.0) * (r - 1.0));
+            let step = f / df;
+            r = (r - step).max(1.0 + 1e-9);
+            if step.abs() < 1e-14 {
+                break;
+            }
+        }
+    }
+    let mut out = vec![0.0; n];
+    let mut d = if r > 1.0 { d0 } else { len / k };
+    for i in 1..n {
+        out[i] = out[i - 1] + d;
+        d *= r;
+    }
+    out
+}
+
+impl Body {
+    /// Factor the panel system of `nodes` (counterclockwise from the upper trailing edge, any
+    /// units).
+    pub fn new(nodes: &[DVec2]) -> Result<Body> {
+        let chord = Chord::of(nodes);
+        if !(chord.length > 0.0) {
+            return Err(Error::invalid("the contour has no chord"));
+        }
+        let centre = 0.5 * (chord.le + chord.te);
+        let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
+        let chord = Chord::of(&local);
+        let te = TrailingEdge::of(&local, 1.0);
+        let (a, rhs) = system(&local, &te);
+        let lu = a.lu();
+        let x = lu
+            .solve(&rhs)
+            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
+        let n = local.len();
+        let gamma_ref = [
+            (0..n).map(|i| x[(i, 0)]).collect(),
+            (0..n).map(|i| x[(i, 1)]).collect(),
+        ];
+        let mut s = vec![0.0; n];
+        for i in 1..n {
+            s[i] = s[i - 1] + (local[i] - local[i - 1]).length();
+        }
+        let t1 = (local[0] - local[1]).normalize();
+        let t2 = (local[n - 1] - local[n - 2]).normalize();
+        let bis = (t1 + t2).normalize_or_zero();
+        let gap = (local[0] - local[n - 1]).perp_dot(bis).abs();
+        let dtdx = t1.perp_dot(t2);
+        let panels: Vec<(DVec2, DVec2)> = (0..n - 1).map(|j| (local[j], local[j + 1])).collect();
+        let b = source_rows(&local, &te, &panels);
+        let sol = lu
+            .solve(&b)
+            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
+        let g_body = -sol.rows(0, n).into_owned();
+        if g_body.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical("the source response is not finite".into()));
+        }
+        Ok(Body {
+            nodes: local,
+            s,
+            chord,
+            gap,
+            dtdx,
+            te,
+            lu,
+            gamma_ref,
+            g_body,
+        })
+    }
+
+    /// Node speeds at `alpha` degrees.
+    pub fn gamma(&self, alpha: f64) -> Vec<f64> {
+        let (sn, cs) = alpha.to_radians().sin_cos();
+        (0..self.nodes.len())
+            .map(|i| cs * self.gamma_ref[0][i] + sn * self.gamma_ref[1][i])
+            .collect()
+    }
+
+    /// The flow's velocity component along `t` at `f` (free stream plus the body's sheets).
+    fn speed_along(&self, gamma: &[f64], fs: DVec2, f: DVec2, t: DVec2) -> f64 {
+        let row = influence(&self.nodes, &self.te, f, t.perp());
+        fs.dot(t) + row.iter().zip(gamma).map(|(a, g)| a * g).sum::<f64>()
+    }
+
+    fn velocity(&self, gamma: &[f64], fs: DVec2, f: DVec2) -> DVec2 {
+        DVec2::new(
+            self.speed_along(gamma, fs, f, DVec2::X),
+            self.speed_along(gamma, fs, f, DVec2::Y),
+        )
+    }
+
+    /// The wake at `alpha` degrees with `nw` nodes over one chord, and the edge speeds'
+    /// response to the sources.
+    pub fn wake(&self, alpha: f64, nw: usize) -> Result<Wake> {
+        let n = self.nodes.len();
+        let gamma = self.gamma(alpha);
+        let (sn, cs) = alpha.to_radians().sin_cos();
+        let fs = DVec2::new(cs, sn);
+        let d0 = 0.5 * ((self.nodes[1] - self.nodes[0]).length() + (self.nodes[n - 1] - self.nodes[n - 2]).length());
+        let sw = geometric(d0, 1.0, nw);
+        let te_mid = 0.5 * (self.nodes[0] + self.nodes[n - 1]);
+        let dir = if self.te.bisector == DVec2::ZERO {
+            DVec2::X
+        } else {
+            self.te.bisector
+        };
+        let mut pts = vec![te_mid + 1e-5 * dir];
+        let mut tan = Vec::with_capacity(nw);
+        for i in 0..nw - 1 {
+            let v1 = self.velocity(&gamma, fs, pts[i]).normalize_or_zero();
+            let ds = sw[i + 1] - sw[i];
+            let p = pts[i] + ds * v1;
+            let v2 = self.velocity(&gamma, fs, p).normalize_or_zero();
+            tan.push(v1);
+            pts.push(pts[i] + ds * 0.5 * (v1 + v2));
+        }
+        let last = self.velocity(&gamma, fs, pts[nw - 1]).normalize_or_zero();
+        tan.push(last);
+        if pts.iter().any(|p| !p.is_finite()) || tan.contains(&DVec2::ZERO) {
+            return Err(Error::Numerical("the wake streamline could not be traced".into()));
+        }
+        // Wake source cells: from the trailing edge to the first midpoint, midpoint to
+        // midpoint, the last one as long again beyond the last node.
+        let mut edges = vec![te_mid];
+        for k in 1..nw {
+            edges.push(0.5 * (pts[k - 1] + pts[k]));
+        }
+        edges.push(pts[nw - 1] + 0.5 * (pts[nw - 1] - pts[nw - 2]));
+        let mut panels: Vec<(DVec2, DVec2)> = (0..n - 1).map(|j| (self.nodes[j], self.nodes[j + 1])).collect();
+        for k in 0..nw {
+            panels.push((edges[k], edges[k + 1]));
+        }
+        let np = panels.len();
+        // Body rows: the body panels' part is fixed, the wake cells' through the system.
+        let bw = source_rows(&self.nodes, &self.te, &panels[n - 1..]);
+        let solw = self
+            .lu
+            .solve(&bw)
+            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
+        let mut u_sigma = DMatrix::<f64>::zeros(n + nw, np);
+        for i in 0..n {
+            for p in 0..n - 1 {
+                u_sigma[(i, p)] = self.g_body[(i, p)];
+            }
+            for k in 0..nw {
+                u_sigma[(i, n - 1 + k)] = -solw[(i, k)];
+            }
+        }
+        let mut uinv = gamma.clone();
+        for k in 0..nw {
+            if k == 0 {
+                // The first wake node takes the upper trailing edge's speed.
+                uinv.push(gamma[0]);
+                for p in 0..np {
+                    u_sigma[(n, p)] = u_sigma[(0, p)];
+                }
+                continue;
+            }
+            let (f, t) = (pts[k], tan[k]);
+            let row = influence(&self.nodes, &self.te, f, t.perp());
+            uinv.push(fs.dot(t) + row.iter().zip(&gamma).map(|(a, g)| a * g).sum::<f64>());
+            for p in 0..np {
+                let via_gamma: f64 = (0..n).map(|j| row[j] * u_sigma[(j, p)]).sum();
+                let (a, b) = panels[p];
+                let direct = HOPI * panel_terms(f, a, b, t.perp()).d_psig;
+                u_sigma[(n + k, p)] = via_gamma + direct;
+            }
+        }
+        if u_sigma.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical("the wake's source response is not finite".into()));
+        }
+        Ok(Wake {
+            points: pts,
+            s: sw,
+            uinv,
+            u_sigma,
+        })
+    }
+}
+
+/// The stream function (the bisector row: the velocity) at every node per unit source on each
+/// of `panels`, as the right-hand side of the panel system ((N + 1) × panels, Kutta row 0).
+fn source_rows(local: &[DVec2], te: &TrailingEdge, panels: &[(DVec2, DVec2)]) -> DMatrix<f64> {
+    let n = local.len();
+    let mut b = DMatrix::<f64>::zeros(n + 1, panels.len());
+    let sharp = sharp_control(local, te);
+    for i in 0..n {
+        for (p, &(a, e)) in panels.iter().enumerate() {
+            b[(i, p)] = match sharp {
+                Some((f, dir)) if i == n - 1 => HOPI * panel_terms(f, a, e, dir).d_psig,
+                _ => HOPI * panel_terms(local[i], a, e, DVec2::ZERO).psig,
+            };
+        }
+    }
+    b
+}
+
+/// The sources from the mass defects `m = uₑ δ*` at every station (body nodes then wake nodes),
+/// `sgn` the body nodes' side (+1 upper, −1 lower): `σ = S m`, as the columns of `S` (each a
+/// short list of `(panel, weight)`).
+pub fn sigma_of_mass(body_s: &[f64], wake_s: &[f64], sgn: &[f64]) -> Vec<Vec<(usize, f64)>> {
+    let n = body_s.len();
+    let nw = wake_s.len();
+    let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n + nw];
+    // Body panel j (nodes j, j+1): σ = −(q_{j+1} − q_j)/ds, q = sgn m.
+    for j in 0..n - 1 {
+        let ds = body_s[j + 1] - body_s[j];
+        cols[j].push((j, sgn[j] / ds));
+        cols[j + 1].push((j, -sgn[j + 1] / ds));
+    }
+    // Wake cell k: σ = (m_{k+½} − m_{k−½}) / len_k, m at the cells' ends the mean of the
+    // neighbours (the first and last ends the end nodes).
+    let len = |k: usize| -> f64 {
+        let lo = if k == 0 { 0.0 } else { 0.5 * (wake_s[k - 1] + wake_s[k]) };
+        let hi = if k + 1 == nw {
+            wake_s[k] + 0.5 * (wake_s[k] - wake_s[k - 1])
+        } else {
+            0.5 * (wake_s[k] + wake_s[k + 1])
+        };
+        hi - lo
+    };
+    for k in 0..nw {
+        let p = n - 1 + k;
+        let l = len(k);
+        // + m_{k+½}
+        if k + 1 == nw {
+            cols[n + k].push((p, 1.0 / l));
+        } else {
+            cols[n + k].push((p, 0.5 / l));
+            cols[n + k + 1].push((p, 0.5 / l));
+        }
+        // − m_{k−½}
+        if k == 0 {
+            cols[n].push((p, -1.0 / l));
+        } else {
+            cols[n + k - 1].push((p, -0.5 / l));
+            cols[n + k].push((p, -0.5 / l));
+        }
+    }
+    cols
+}
+
+/// The edge-speed response to the mass defects, `D = diag(sgn) · u_σ · S` (stations × stations).
+pub fn ue_of_mass(wake: &Wake, body_s: &[f64], sgn: &[f64]) -> DMatrix<f64> {
+    let nt = wake.uinv.len();
+    let cols = sigma_of_mass(body_s, &wake.s, sgn);
+    let mut d = DMatrix::<f64>::zeros(nt, nt);
+    for (j, col) in cols.iter().enumerate() {
+        for &(p, w) in col {
+            for i in 0..nt {
+                d[(i, j)] += wake.u_sigma[(i, p)] * w;
+            }
+        }
+    }
+    for i in 0..nt {
+        let sg = if i < sgn.len() { sgn[i] } else { 1.0 };
+        for j in 0..nt {
+            d[(i, j)] *= sg;
+        }
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit uniform source panel blows outwards: half the strength just off its middle on
+    /// its left (the body's inner side for a counterclockwise contour), and away from it far
+    /// off. (On its right, within the strip the panel casts, the stream function's cut makes
+    /// its derivative no velocity: no field point of the method lies there, §2.14.)
+    #[test]
+    fn a_positive_source_blows_outwards() {
+        let (a, b) = (DVec2::new(-0.5, 0.0), DVec2::new(0.5, 0.0));
+        for (f, t) in [
+            (DVec2::new(0.0, 1e-6), DVec2::Y),
+            (DVec2::new(3.0, 0.2), DVec2::new(3.0, 0.2).normalize()),
+            (DVec2::new(-2.0, -0.5), DVec2::new(-2.0, -0.5).normalize()),
+        ] {
+            let v = HOPI * panel_terms(f, a, b, t.perp()).d_psig;
+            assert!(v > 0.0, "{f} {v}");
+        }
+        let v = HOPI * panel_terms(DVec2::new(0.0, 1e-9), a, b, DVec2::Y.perp()).d_psig;
+        assert!((v - 0.5).abs() < 1e-6, "{v}");
+    }
+
+    #[test]
+    fn geometric_spacing_spans_the_length() {
+        let s = geometric(0.005, 1.0, 26);
+        assert!((s[25] - 1.0).abs() < 1e-9 && (s[1] - 0.005).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,954 @@
+//! The coupled viscous–inviscid system at one angle and its Newton solution: per station the
+//! state `[θ, δ*, s, uₑ]`, three boundary-layer equations and the edge-speed equation
+//! `uₑ = uₑ,inv + D (uₑ δ*)`, all solved together (mfoil's global formulation of XFOIL's
+//! method); the stagnation point moves with the solution and transition is re-marched after
+//! every step.
+//!
+//! **Linear solve.** The Jacobian is `[B C; E F]`: `B` the boundary-layer equations' partials
+//! in `(θ, δ*, s)`, block lower-triangular in marching order (each station couples to the one
+//! upstream), `C` their partials in `uₑ` (a few per row), `E = −D diag(uₑ)` and
+//! `F = I − D diag(δ*)` dense. `B` is eliminated by block forward substitution and the dense
+//! Schur complement in `uₑ` (stations × stations) is factored; a full dense factorisation is the
+//! fallback when a block of `B` is singular. Partials of the equations come from forward
+//! differences of the station functions (relative step 1e-7).
+
+use super::closures::{self as c, Fluid, Kind};
+use super::coupling::{ue_of_mass, Body, Wake};
+use super::equations::{self as eq, State};
+use nalgebra::{DMatrix, DVector};
+
+/// Which of a station's equations a row block holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Row {
+    /// The similarity station of a surface: `(first, second)` stations.
+    Similarity(usize, usize),
+    /// The interval from the previous station.
+    Interval(usize),
+    /// The wake's first station.
+    WakeStart,
+}
+
+/// The coupled system of one body at one angle.
+pub struct System<'a> {
+    body: &'a Body,
+    wake: Wake,
+    fl: Fluid,
+    /// Body nodes.
+    n: usize,
+    /// Body's side per node: +1 upper, −1 lower.
+    sgn: Vec<f64>,
+    /// The body nodes either side of the stagnation point (upper, lower).
+    istag: [usize; 2],
+    d: DMatrix<f64>,
+    /// Inviscid edge speed per station (signed so that it is positive downstream).
+    ueinv: Vec<f64>,
+    /// The state per station.
+    pub u: Vec<State>,
+    /// Turbulent stations.
+    pub turb: Vec<bool>,
+    wgap: Vec<f64>,
+    /// Forced transition as arc length on the body (upper, lower); infinite when free.
+    forced_s: [f64; 2],
+    /// Station lists: upper surface from the stagnation point, lower, wake.
+    surf: [Vec<usize>; 3],
+    rows: Vec<Row>,
+}
+
+/// A row block's partials: per station it depends on, ∂R/∂(θ, δ*, s, uₑ) of its three equations.
+type Partials = Vec<(usize, [[f64; 4]; 3])>;
+
+/// What one Newton solve did.
+#[derive(Clone, Copy, Debug)]
+pub struct Outcome {
+    /// Whether the residual fell below tolerance.
+    pub converged: bool,
+    /// Newton iterations taken.
+    pub iterations: usize,
+}
+
+/// Residual norm (2-norm over all equations) taken as converged.
+const TOL: f64 = 1e-9;
+
+impl<'a> System<'a> {
+    /// The system at `alpha` degrees, its boundary layer started by marching on the inviscid
+    /// edge speed, or from `warm` (a previous solution's states and flags on the same body).
+    pub fn new(
+        body: &'a Body,
+        alpha: f64,
+        fl: Fluid,
+        xtr: [f64; 2],
+        warm: Option<(&[State], &[bool])>,
+    ) -> crate::error::Result<System<'a>> {
+        let n = body.nodes.len();
+        let nw = super::coupling::wake_nodes(n);
+        let wake = body.wake(alpha, nw)?;
+        // Stagnation: the first node where γ turns from positive (upper) to negative.
+        let g = &wake.uinv[..n];
+        let j = (1..n)
+            .find(|&j| g[j - 1] > 0.0 && g[j] <= 0.0)
+            .ok_or_else(|| crate::error::Error::Numerical("no stagnation point on the contour".into()))?;
+        let sgn: Vec<f64> = (0..n).map(|i| if i < j { 1.0 } else { -1.0 }).collect();
+        let mut sys = System {
+            body,
+            d: DMatrix::zeros(0, 0),
+            ueinv: Vec::new(),
+            wgap: vec![0.0; nw],
+            forced_s: [f64::INFINITY; 2],
+            u: vec![[0.0; 4]; n + nw],
+            turb: vec![false; n + nw],
+            surf: [Vec::new(), Vec::new(), Vec::new()],
+            rows: Vec::new(),
+            istag: [j - 1, j],
+            sgn,
+            n,
+            fl,
+            wake,
+        };
+        sys.relayout();
+        sys.set_forced(xtr);
+        sys.set_wake_gap();
+        let ueinv = sys.ueinv.clone();
+        match warm {
+            Some((u, turb)) if u.len() == n + nw => {
+                for i in 0..n + nw {
+                    sys.u[i] = u[i];
+                    sys.u[i][3] = ueinv[i].max(1e-6);
+                    sys.turb[i] = turb[i];
+                }
+                // Edge speeds consistent with the carried mass defects.
+                let m: DVector<f64> = DVector::from_iterator(n + nw, u.iter().map(|s| s[1] * s[3].abs()));
+                let ue = DVector::from_vec(ueinv.clone()) + &sys.d * m;
+                for i in 0..n + nw {
+                    sys.u[i][3] = ue[i].max(1e-6);
+                }
+                sys.stagnation_move();
+                sys.update_transition();
+            }
+            _ => sys.init_boundary_layer(),
+        }
+        Ok(sys)
+    }
+
+    /// Station lists, row kinds, the signed inviscid speeds and `D` for the current sides.
+    fn relayout(&mut self) {
+        let n = self.n;
+        let nw = self.wake.uinv.len() - n;
+        self.surf = [
+            (0..=self.istag[0]).rev().collect(),
+            (self.istag[1]..n).collect(),
+            (n..n + nw).collect(),
+        ];
+        let mut rows = vec![Row::WakeStart; n + nw];
+        for s in 0..2 {
+            let l = &self.surf[s];
+            rows[l[0]] = Row::Similarity(l[0], l[1]);
+            for k in 1..l.len() {
+                rows[l[k]] = Row::Interval(l[k - 1]);
+            }
+        }
+        for k in 1..nw {
+            rows[n + k] = Row::Interval(n + k - 1);
+        }
+        self.rows = rows;
+        self.ueinv = (0..n + nw)
+            .map(|i| if i < n { self.sgn[i] * self.wake.uinv[i] } else { self.wake.uinv[i] })
+            .collect();
+        self.d = ue_of_mass(&self.wake, &self.body.s, &self.sgn);
+    }
+
+    fn x_over_c(&self, i: usize) -> f64 {
+        let c = &self.body.chord;
+        let d = c.te - c.le;
+        (self.body.nodes[i] - c.le).dot(d) / d.length_squared()
+    }
+
+    /// Forced transition at chord fraction `xtr` (upper, lower) as arc length on the body.
+    fn set_forced(&mut self, xtr: [f64; 2]) {
+        for s in 0..2 {
+            self.forced_s[s] = f64::INFINITY;
+            if !(xtr[s] < 1.0) {
+                continue;
+            }
+            let l = &self.surf[s];
+            for k in 1..l.len() {
+                let (a, b) = (self.x_over_c(l[k - 1]), self.x_over_c(l[k]));
+                if a <= xtr[s] && b > xtr[s] {
+                    let w = (xtr[s] - a) / (b - a);
+                    self.forced_s[s] = (1.0 - w) * self.body.s[l[k - 1]] + w * self.body.s[l[k]];
+                    break;
+                }
+            }
+            if self.forced_s[s].is_infinite() && xtr[s] <= self.x_over_c(l[1]) {
+                self.forced_s[s] = self.body.s[l[1]];
+            }
+        }
+    }
+
+    /// The blunt trailing edge's dead-air thickness along the wake (closing over 2.5 gaps).
+    fn set_wake_gap(&mut self) {
+        let flen = 2.5;
+        let h = self.body.gap;
+        let dtdx = self.body.dtdx.clamp(-3.0 / flen, 3.0 / flen);
+        let lw = flen * h;
+        for k in 0..self.wgap.len() {
+            let xib = self.wake.s[k] / lw;
+            self.wgap[k] = if lw > 0.0 && xib <= 1.0 {
+                h * (1.0 + (2.0 + flen * dtdx) * xib) * (1.0 - xib).powi(2)
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// The stagnation point's arc length from the edge speeds of its two nodes.
+    fn sstag(&self, u: &[State]) -> f64 {
+        let (a, b) = (u[self.istag[0]][3], u[self.istag[1]][3]);
+        let (sa, sb) = (self.body.s[self.istag[0]], self.body.s[self.istag[1]]);
+        (b * sa + a * sb) / (a + b)
+    }
+
+    /// ξ of station `i`: distance from the stagnation point (the wake continues the lower side).
+    fn xi(&self, i: usize, sst: f64) -> f64 {
+        if i < self.n {
+            (self.body.s[i] - sst).abs()
+        } else {
+            self.body.s[self.n - 1] - sst + self.wake.s[i - self.n]
+        }
+    }
+
+    fn surface_of(&self, i: usize) -> usize {
+        if i >= self.n {
+            2
+        } else if i <= self.istag[0] {
+            0
+        } else {
+            1
+        }
+    }
+
+    fn kind(&self, i: usize) -> Kind {
+        if i >= self.n {
+            Kind::WAKE
+        } else if self.turb[i] {
+            Kind::TURBULENT
+        } else {
+            Kind::LAMINAR
+        }
+    }
+
+    /// The transition point (ξ) of the interval `a → b` on surface `s`.
+    fn transition_xi(&self, u: &[State], s: usize, x: [f64; 2], a: usize, b: usize) -> f64 {
+        let free = eq::transition_point(&self.fl, x, &u[a], &u[b]).unwrap_or(x[1]);
+        let forced = (self.forced_s[s] - self.sstag(u)).abs();
+        if self.forced_s[s].is_finite() {
+            free.min(forced.max(x[0]))
+        } else {
+            free
+        }
+    }
+
+    /// The three equations of station `i`'s row block.
+    fn block(&self, i: usize, u: &[State]) -> [f64; 3] {
+        let sst = self.sstag(u);
+        match self.rows[i] {
+            Row::Similarity(a, b) => {
+                let ust = eq::stagnation_state([self.xi(a, sst), self.xi(b, sst)], &u[a], &u[b]);
+                eq::similarity(&self.fl, &ust)
+            }
+            Row::WakeStart => {
+                let (ut, lt) = (*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0));
+                let w = eq::wake_start(&self.fl, (&u[ut], self.turb[ut]), (&u[lt], self.turb[lt]), self.body.gap);
+                [u[i][0] - w[0], u[i][1] - w[1], u[i][2] - w[2]]
+            }
+            Row::Interval(p) => {
+                let x = [self.xi(p, sst), self.xi(i, sst)];
+                if i >= self.n {
+                    let g = [self.wgap[p - self.n], self.wgap[i - self.n]];
+                    eq::interval(&self.fl, Kind::WAKE, false, x, &u[p], &u[i], g)
+                } else if self.turb[p] == self.turb[i] {
+                    eq::interval(&self.fl, self.kind(i), false, x, &u[p], &u[i], [0.0; 2])
+                } else {
+                    let xt = self.transition_xi(u, self.surface_of(i), x, p, i);
+                    eq::transition(&self.fl, x, xt, &u[p], &u[i])
+                }
+            }
+        }
+    }
+
+    /// The stations a row block depends on.
+    fn deps(&self, i: usize) -> Vec<usize> {
+        let mut d = match self.rows[i] {
+            Row::Similarity(a, b) => vec![a, b],
+            Row::WakeStart => vec![*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0), i],
+            Row::Interval(p) => vec![p, i],
+        };
+        if !matches!(self.rows[i], Row::WakeStart) {
+            for s in self.istag {
+                if !d.contains(&s) {
+                    d.push(s);
+                }
+            }
+        }
+        d
+    }
+
+    /// Every residual: three per station, then the edge-speed equation per station.
+    fn residual(&self) -> Vec<f64> {
+        let nt = self.u.len();
+        let mut r = vec![0.0; 4 * nt];
+        for i in 0..nt {
+            let b = self.block(i, &self.u);
+            r[3 * i..3 * i + 3].copy_from_slice(&b);
+        }
+        let m = DVector::from_iterator(nt, self.u.iter().map(|s| s[1] * s[3]));
+        let dm = &self.d * m;
+        for i in 0..nt {
+            r[3 * nt + i] = self.u[i][3] - self.ueinv[i] - dm[i];
+        }
+        r
+    }
+
+    /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
+    fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
+        let deps = self.deps(i);
+        let mut out = Vec::with_capacity(deps.len());
+        let mut u = std::mem::take(&mut self.u);
+        for &j in &deps {
+            let mut p = [[0.0; 4]; 3];
+            for q in 0..4 {
+                let v = u[j][q];
+                let h = if q == 2 { 1e-7 * v.abs().max(1e-3) } else { 1e-7 * v.abs().max(1e-12) };
+                u[j][q] = v + h;
+                let r = self.block(i, &u);
+                u[j][q] = v;
+                for e in 0..3 {
+                    p[e][q] = (r[e] - base[e]) / h;
+                }
+            }
+            out.push((j, p));
+        }
+        self.u = u;
+        out
+    }
+
+    /// One Newton step's update `Δ[θ, δ*, s, uₑ]` per station, or `None` when singular.
+    fn step(&mut self, r: &[f64]) -> Option<Vec<[f64; 4]>> {
+        let nt = self.u.len();
+        let mut jac: Vec<Partials> = Vec::with_capacity(nt);
+        for i in 0..nt {
+            let base = [r[3 * i], r[3 * i + 1], r[3 * i + 2]];
+            jac.push(self.partials(i, &base));
+        }
+        self.schur(&jac, r).or_else(|| self.dense(&jac, r))
+    }
+
+    /// Block forward substitution through `B`, then the dense Schur complement in `uₑ`.
+    fn schur(&self, jac: &[Partials], r: &[f64]) -> Option<Vec<[f64; 4]>> {
+        let nt = self.u.len();
+        // Right-hand sides: C's columns (ue partials) and r; solved in place to X and z.
+        let ncol = nt + 1;
+        let mut x = DMatrix::<f64>::zeros(3 * nt, ncol);
+        for i in 0..nt {
+            for &(j, p) in &jac[i] {
+                for e in 0..3 {
+                    x[(3 * i + e, j)] += p[e][3];
+                }
+            }
+            for e in 0..3 {
+                x[(3 * i + e, nt)] = r[3 * i + e];
+            }
+        }
+        // Units in dependency order: each surface's first two stations together.
+        let mut units: Vec<Vec<usize>> = Vec::new();
+        for s in 0..2 {
+            let l = &self.surf[s];
+            units.push(vec![l[0], l[1]]);
+            for &i in &l[2..] {
+                units.push(vec![i]);
+            }
+        }
+        for &i in &self.surf[2] {
+            units.push(vec![i]);
+        }
+        let mut done = vec![false; nt];
+        for unit in &units {
+            let k = 3 * unit.len();
+            let mut a = DMatrix::<f64>::zeros(k, k);
+            let mut rhs = DMatrix::<f64>::zeros(k, ncol);
+            for (ui, &i) in unit.iter().enumerate() {
+                for e in 0..3 {
+                    for cidx in 0..ncol {
+                        rhs[(3 * ui + e, cidx)] = x[(3 * i + e, cidx)];
+                    }
+                }
+                for &(j, p) in &jac[i] {
+                    if let Some(uj) = unit.iter().position(|&v| v == j) {
+                        for e in 0..3 {
+                            for q in 0..3 {
+                                a[(3 * ui + e, 3 * uj + q)] += p[e][q];
+                            }
+                        }
+                    } else if done[j] {
+                        for e in 0..3 {
+                            for q in 0..3 {
+                                let w = p[e][q];
+                                if w != 0.0 {
+                                    for cidx in 0..ncol {
+                                        rhs[(3 * ui + e, cidx)] -= w * x[(3 * j + q, cidx)];
+                                    }
+                                }
+                            }
+                        }
+                    } else if p.iter().any(|row| row[..3].iter().any(|&w| w != 0.0)) {
+                        // A station downstream in the order: B is not block-triangular here.
+                        return None;
+                    }
+                    // Otherwise only its uₑ enters (the stagnation point): in C, not B.
+                }
+            }
+            let lu = a.lu();
+            if !lu.is_invertible() {
+                return None;
+            }
+            let sol = lu.solve(&rhs)?;
+            for (ui, &i) in unit.iter().enumerate() {
+                for e in 0..3 {
+                    for cidx in 0..ncol {
+                        x[(3 * i + e, cidx)] = sol[(3 * ui + e, cidx)];
+                    }
+                }
+                done[i] = true;
+            }
+        }
+        // S = I − D (diag δ* − diag uₑ X_δ*), rhs = −q − D (uₑ ∘ z_δ*).
+        let mut m2 = DMatrix::<f64>::zeros(nt, nt);
+        let mut uz = DVector::<f64>::zeros(nt);
+        for i in 0..nt {
+            let ue = self.u[i][3];
+            for j in 0..nt {
+                m2[(i, j)] = -ue * x[(3 * i + 1, j)];
+            }
+            m2[(i, i)] += self.u[i][1];
+            uz[i] = ue * x[(3 * i + 1, nt)];
+        }
+        let mut s = -(&self.d * m2);
+        for i in 0..nt {
+            s[(i, i)] += 1.0;
+        }
+        let q = DVector::from_iterator(nt, (0..nt).map(|i| r[3 * nt + i]));
+        let rhs = -q - &self.d * uz;
+        let lu = s.lu();
+        let du = lu.solve(&rhs)?;
+        let mut out = vec![[0.0; 4]; nt];
+        for i in 0..nt {
+            for e in 0..3 {
+                let mut v = -x[(3 * i + e, nt)];
+                for j in 0..nt {
+                    v -= x[(3 * i + e, j)] * du[j];
+                }
+                out[i][e] = v;
+            }
+            out[i][3] = du[i];
+        }
+        out.iter().all(|o| o.iter().all(|v| v.is_finite())).then_some(out)
+    }
+
+    /// The whole Jacobian factored densely (the fallback).
+    fn dense(&self, jac: &[Partials], r: &[f64]) -> Option<Vec<[f64; 4]>> {
+        let nt = self.u.len();
+        let mut a = DMatrix::<f64>::zeros(4 * nt, 4 * nt);
+        for i in 0..nt {
+            for &(j, p) in &jac[i] {
+                for e in 0..3 {
+                    for q in 0..4 {
+                        a[(3 * i + e, 4 * j + q)] += p[e][q];
+                    }
+                }
+            }
+        }
+        for i in 0..nt {
+            let row = 3 * nt + i;
+            a[(row, 4 * i + 3)] += 1.0;
+            for j in 0..nt {
+                a[(row, 4 * j + 3)] -= self.d[(i, j)] * self.u[j][1];
+                a[(row, 4 * j + 1)] -= self.d[(i, j)] * self.u[j][3];
+            }
+        }
+        let b = DVector::from_iterator(4 * nt, r.iter().map(|v| -v));
+        let sol = a.lu().solve(&b)?;
+        let out: Vec<[f64; 4]> = (0..nt)
+            .map(|i| [sol[4 * i], sol[4 * i + 1], sol[4 * i + 2], sol[4 * i + 3]])
+            .collect();
+        out.iter().all(|o| o.iter().all(|v| v.is_finite())).then_some(out)
+    }
+
+    /// Take a limited step (mfoil's relaxation rules) and keep `H` above its floor.
+    fn update(&mut self, du: &[[f64; 4]]) {
+        let nt = self.u.len();
+        let mut omega: f64 = 1.0;
+        for k in 0..2 {
+            let fmin = (0..nt).map(|i| du[i][k] / self.u[i][k]).fold(f64::INFINITY, f64::min);
+            if fmin < -0.5 {
+                omega = omega.min((0.5 / fmin).abs());
+            }
+        }
+        let ctmax = (0..nt).filter(|&i| self.turb[i]).map(|i| self.u[i][2]).fold(0.0, f64::max);
+        let (mut dlam, mut dturb) = (0.0_f64, 0.0_f64);
+        for i in 0..nt {
+            let (v, d) = (self.u[i][2], du[i][2]);
+            let skip = if self.turb[i] { v < 0.1 * ctmax } else { v < 0.2 };
+            if !skip && v != 0.0 && d != 0.0 && v + d < 0.0 {
+                omega = omega.min(0.8 * (v / d).abs());
+            }
+            if self.turb[i] {
+                dturb = dturb.max(d.abs());
+            } else {
+                dlam = dlam.max(d.abs());
+            }
+        }
+        if dlam > 0.0 {
+            omega = omega.min(2.0 / dlam);
+        }
+        if dturb > 0.0 {
+            omega = omega.min(0.05 / dturb);
+        }
+        let duemax = du.iter().map(|d| d[3].abs()).fold(0.0, f64::max);
+        if duemax > 0.0 {
+            omega = omega.min(0.2 / duemax);
+        }
+        for i in 0..nt {
+            for q in 0..4 {
+                self.u[i][q] += omega * du[i][q];
+            }
+            let hmin = if i >= self.n { 1.00005 } else { 1.02 };
+            let hk = c::h(&self.u[i]);
+            if hk < hmin {
+                self.u[i][1] += 2.0 * (hmin - hk) * self.u[i][1];
+            }
+            if self.turb[i] && self.u[i][2] < 0.0 {
+                self.u[i][2] = 0.1 * ctmax;
+            }
+        }
+    }
+
+    /// Move the stagnation point to where the edge speed changes sign, re-siding the nodes it
+    /// passes (mfoil's `stagpoint_move`).
+    fn stagnation_move(&mut self) {
+        let n = self.n;
+        let [a, b] = self.istag;
+        let mut moved = false;
+        if self.u[b][3] < 0.0 {
+            // Lower-side nodes with negative speed belong to the upper side.
+            if let Some(j) = (b..n).find(|&j| self.u[j][3] > 0.0) {
+                for k in b..j {
+                    self.u[k][3] = -self.u[k][3];
+                }
+                self.istag = [j - 1, j];
+                moved = true;
+            }
+        } else if self.u[a][3] < 0.0 {
+            if let Some(j) = (0..=a).rev().find(|&j| self.u[j][3] > 0.0) {
+                for k in j + 1..=a {
+                    self.u[k][3] = -self.u[k][3];
+                }
+                self.istag = [j, j + 1];
+                moved = true;
+            }
+        }
+        if moved && self.istag[0] >= 1 && self.istag[1] + 1 < n {
+            for i in 0..n {
+                self.sgn[i] = if i <= self.istag[0] { 1.0 } else { -1.0 };
+            }
+            self.relayout();
+        }
+    }
+
+    /// March the amplification factor along a surface from its stagnation point; the last
+    /// laminar position in the list (writing the factors it passes).
+    fn march_amplification(&mut self, s: usize) -> usize {
+        let l = self.surf[s].clone();
+        let sst = self.sstag(&self.u);
+        self.u[l[0]][2] = 0.0;
+        for k in 1..l.len() {
+            let (a, b) = (l[k - 1], l[k]);
+            let x = [self.xi(a, sst), self.xi(b, sst)];
+            if self.forced_s[s].is_finite() && x[1] >= (self.forced_s[s] - sst).abs() {
+                return k - 1;
+            }
+            let u1 = self.u[a];
+            let mut u2 = self.u[b];
+            if self.turb[b] {
+                u2[2] = u1[2] * 1.01;
+            }
+            let dx = x[1] - x[0];
+            for it in 0..20 {
+                let r = |v: f64| {
+                    let mut w = u2;
+                    w[2] = v;
+                    w[2] - u1[2] - c::damp_interval(&u1, &w, &self.fl) * dx
+                };
+                let r0 = r(u2[2]);
+                if r0.abs() < 1e-12 {
+                    break;
+                }
+                let h = 1e-7 * u2[2].abs().max(1e-3);
+                let dr = (r(u2[2] + h) - r0) / h;
+                let mut d = -r0 / dr;
+                let dmax = 0.5 * (1.01 - it as f64 / 20.0);
+                if d.abs() > dmax {
+                    d *= dmax / d.abs();
+                }
+                u2[2] += d;
+            }
+            if !(u2[2] <= self.fl.ncrit) {
+                return k - 1;
+            }
+            self.u[b][2] = u2[2];
+        }
+        l.len() - 1
+    }
+
+    /// Re-march transition on both surfaces and flip the stations between the old and new
+    /// transition points (mfoil's `update_transition`).
+    fn update_transition(&mut self) {
+        for s in 0..2 {
+            let l = self.surf[s].clone();
+            let ilam0 = l.iter().position(|&i| self.turb[i]).map_or(l.len() - 1, |k| k.max(1) - 1);
+            let saved: Vec<f64> = l.iter().map(|&i| self.u[i][2]).collect();
+            let ilam = self.march_amplification(s);
+            if ilam == ilam0 {
+                for (k, &i) in l.iter().enumerate() {
+                    self.u[i][2] = saved[k];
+                }
+                continue;
+            }
+            if ilam < ilam0 {
+                let sa0 = c::cttr(&self.u[l[ilam + 1]], &self.fl);
+                let sa1 = if ilam0 + 1 < l.len() { self.u[l[ilam0 + 1]][2] } else { sa0 };
+                let sst = self.sstag(&self.u);
+                let x0 = self.xi(l[ilam + 1], sst);
+                let dx = self.xi(l[(ilam0 + 1).min(l.len() - 1)], sst) - x0;
+                for k in ilam + 1..=ilam0 {
+                    let f = if dx == 0.0 || k == ilam + 1 { 0.0 } else { (self.xi(l[k], sst) - x0) / dx };
+                    let f = if ilam + 1 == ilam0 { 1.0 } else { f };
+                    self.u[l[k]][2] = (sa0 + f * (sa1 - sa0)).max(1e-7);
+                    self.turb[l[k]] = true;
+                }
+            } else {
+                for k in ilam0..=ilam {
+                    self.turb[l[k]] = false;
+                }
+            }
+        }
+    }
+
+    /// March the boundary layer on the inviscid edge speed, each station by Newton (direct,
+    /// or inverse with a target `Hk` where the direct march separates), as mfoil starts it.
+    fn init_boundary_layer(&mut self) {
+        let nu = 1.0 / self.fl.re;
+        let ueinv = self.ueinv.clone();
+        let sst = {
+            let (a, b) = (ueinv[self.istag[0]].max(1e-10), ueinv[self.istag[1]].max(1e-10));
+            let (sa, sb) = (self.body.s[self.istag[0]], self.body.s[self.istag[1]]);
+            (b * sa + a * sb) / (a + b)
+        };
+        for s in 0..3 {
+            let l = self.surf[s].clone();
+            let xi: Vec<f64> = l.iter().map(|&i| self.xi(i, sst)).collect();
+            let uemax = l.iter().map(|&i| ueinv[i].abs()).fold(0.0, f64::max);
+            let ue: Vec<f64> = l.iter().map(|&i| ueinv[i].max(1e-8 * uemax)).collect();
+            let mut kind = if s == 2 { Kind::WAKE } else { Kind::LAMINAR };
+            if s < 2 {
+                let k = ue[0] / xi[0];
+                let th = (0.45 * nu / (6.0 * k)).sqrt();
+                let mut ust = [th, 2.2 * th, 0.0, k * eq::XST];
+                for _ in 0..20 {
+                    let r = eq::similarity(&self.fl, &ust);
+                    if norm(&r) < 1e-10 {
+                        break;
+                    }
+                    let a = fd3(&|v: &State| eq::similarity(&self.fl, v), &ust, 3);
+                    let Some(d) = solve_small(&a, &r) else { break };
+                    let dm = (d[0] / ust[0]).abs().max((d[1] / ust[1]).abs());
+                    let om = if dm < 0.2 { 1.0 } else { 0.2 / dm };
+                    for q in 0..3 {
+                        ust[q] -= om * d[q];
+                    }
+                }
+                self.u[l[0]] = [ust[0], ust[1], 0.0, ue[0]];
+            } else {
+                let (ut, lt) = (*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0));
+                let w = eq::wake_start(&self.fl, (&self.u[ut], self.turb[ut]), (&self.u[lt], self.turb[lt]), self.body.gap);
+                self.u[l[0]] = [w[0], w[1], w[2], ue[0]];
+                self.turb[l[0]] = true;
+            }
+            let mut tran = false;
+            let mut k = 1;
+            while k < l.len() {
+                let (a, b) = (l[k - 1], l[k]);
+                let x = [xi[k - 1], xi[k]];
+                let g = if s == 2 {
+                    [self.wgap[a - self.n], self.wgap[b - self.n]]
+                } else {
+                    [0.0; 2]
+                };
+                let u1 = self.u[a];
+                let mut u2 = u1;
+                u2[3] = ue[k];
+                if tran {
+                    u2[2] = c::cttr(&u2, &self.fl);
+                }
+                self.turb[b] = tran || kind.turb;
+                let forced = (self.forced_s[s.min(1)] - sst).abs();
+                let res = |v: &State| -> [f64; 3] {
+                    if tran {
+                        let free = eq::transition_point(&self.fl, x, &u1, v).unwrap_or(x[1]);
+                        let xt = if s < 2 && self.forced_s[s].is_finite() { free.min(forced.max(x[0])) } else { free };
+                        eq::transition(&self.fl, x, xt, &u1, v)
+                    } else {
+                        eq::interval(&self.fl, kind, false, x, &u1, v, g)
+                    }
+                };
+                let turb_now = tran || kind.turb;
+                let hmax = if turb_now { 2.5 } else { 3.8 };
+                let mut direct = true;
+                let mut hktgt = 0.0;
+                let mut ok = false;
+                for it in 0..30 {
+                    let r = res(&u2);
+                    if norm(&r) < 1e-10 {
+                        ok = true;
+                        break;
+                    }
+                    let d: [f64; 4] = if direct {
+                        let a3 = fd3(&res, &u2, 3);
+                        match solve_small(&a3, &r) {
+                            Some(d) => [-d[0], -d[1], -d[2], 0.0],
+                            None => break,
+                        }
+                    } else {
+                        let a4 = fd34(&res, &u2);
+                        let hk = c::h(&u2);
+                        let rr = [r[0], r[1], r[2], hk - hktgt];
+                        match solve4(&a4, &[1.0 / u2[0] * -hk, 1.0 / u2[0], 0.0, 0.0], &rr) {
+                            Some(d) => [-d[0], -d[1], -d[2], -d[3]],
+                            None => break,
+                        }
+                    };
+                    let mut dm = (d[0] / u1[0]).abs().max((d[1] / u1[1]).abs());
+                    if !direct {
+                        dm = dm.max((d[3] / u1[3]).abs());
+                    }
+                    if turb_now {
+                        dm = dm.max((d[2] / u1[2].max(1e-7)).abs());
+                    } else if direct {
+                        dm = dm.max((d[2] / 10.0).abs());
+                    }
+                    let om = if dm > 0.3 { 0.3 / dm } else { 1.0 };
+                    let mut ui = u2;
+                    for q in 0..4 {
+                        ui[q] += om * d[q];
+                    }
+                    if turb_now {
+                        ui[2] = ui[2].clamp(1e-7, 0.3);
+                    }
+                    let hk = c::h(&ui);
+                    if direct && (hk > hmax || it > 12) {
+                        direct = false;
+                        let hk0 = c::h(&u1);
+                        let hkr = (x[1] - x[0]) / u1[0];
+                        hktgt = if kind.wake {
+                            let mut h2 = hk0;
+                            for _ in 0..6 {
+                                h2 -= (h2 + 0.03 * hkr * (h2 - 1.0).powi(3) - hk0) / (1.0 + 0.09 * hkr * (h2 - 1.0).powi(2));
+                            }
+                            h2.max(1.01)
+                        } else if turb_now {
+                            (hk0 - 0.15 * hkr).max(hmax)
+                        } else {
+                            (hk0 + 0.03 * hkr).max(hmax)
+                        };
+                        if it > 12 {
+                            u2 = u1;
+                            u2[3] = ue[k];
+                        }
+                    } else {
+                        u2 = ui;
+                    }
+                }
+                if !ok && !u2.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                    u2 = u1;
+                    u2[3] = ue[k];
+                    let f = (x[1] / x[0]).sqrt();
+                    u2[0] *= f;
+                    u2[1] *= f;
+                }
+                if !kind.turb && !tran && s < 2 {
+                    let forced_here = self.forced_s[s].is_finite() && x[1] >= forced;
+                    if u2[2] > self.fl.ncrit || forced_here {
+                        tran = true;
+                        continue;
+                    }
+                }
+                self.u[b] = u2;
+                if tran {
+                    kind = Kind::TURBULENT;
+                    tran = false;
+                }
+                k += 1;
+            }
+        }
+        self.stagnation_move();
+    }
+
+    /// Newton to convergence or `max_iter` iterations.
+    pub fn solve(&mut self, max_iter: usize) -> Outcome {
+        for it in 0..max_iter {
+            let r = self.residual();
+            let rn = norm(&r);
+            if !rn.is_finite() {
+                return Outcome { converged: false, iterations: it };
+            }
+            if rn < TOL {
+                return Outcome { converged: true, iterations: it };
+            }
+            let Some(du) = self.step(&r) else {
+                return Outcome { converged: false, iterations: it };
+            };
+            self.update(&du);
+            self.stagnation_move();
+            self.update_transition();
+            if self.u.iter().any(|s| !s.iter().all(|v| v.is_finite())) {
+                return Outcome { converged: false, iterations: it + 1 };
+            }
+        }
+        let rn = norm(&self.residual());
+        Outcome {
+            converged: rn < TOL,
+            iterations: max_iter,
+        }
+    }
+
+    /// CL, CM, CD (Squire–Young at the wake's end) and CDf (skin friction).
+    pub fn forces(&self, alpha: f64) -> Forces {
+        let n = self.n;
+        let cp: Vec<f64> = (0..n).map(|i| 1.0 - self.u[i][3] * self.u[i][3]).collect();
+        let (cl, cm) = crate::aero::panel::integrate(&self.body.nodes, &cp, alpha, &self.body.chord);
+        let last = self.u[self.u.len() - 1];
+        let cd = 2.0 * last[0] * last[3].powf((5.0 + c::h(&last)) / 2.0);
+        let (sn, cs) = alpha.to_radians().sin_cos();
+        let sst = self.sstag(&self.u);
+        let xstag = {
+            let [a, b] = self.istag;
+            let w = (sst - self.body.s[a]) / (self.body.s[b] - self.body.s[a]);
+            (1.0 - w) * self.body.nodes[a] + w * self.body.nodes[b]
+        };
+        let mut cdf = 0.0;
+        let mut separated = false;
+        for s in 0..2 {
+            let (mut cf1, mut ue1, mut x1) = (0.0, 0.0, xstag);
+            for &i in &self.surf[s] {
+                let cf2 = c::cf(&self.u[i], self.kind(i), &self.fl);
+                if self.turb[i] && cf2 < 0.0 {
+                    separated = true;
+                }
+                let ue2 = self.u[i][3];
+                let x2 = self.body.nodes[i];
+                let dv = x2 - x1;
+                cdf += 0.25 * (cf1 * ue1 * ue1 + cf2 * ue2 * ue2) * (dv.x * cs + dv.y * sn);
+                (cf1, ue1, x1) = (cf2, ue2, x2);
+            }
+        }
+        // Per unit chord: the body is already in unit-chord coordinates.
+        let xtr = [self.transition_x(0), self.transition_x(1)];
+        Forces {
+            cl,
+            cm,
+            cd,
+            cdf: 2.0 * cdf,
+            xtr,
+            separated,
+        }
+    }
+
+    /// The transition point of a surface as a chord fraction (1 when laminar to the edge).
+    fn transition_x(&self, s: usize) -> f64 {
+        let l = &self.surf[s];
+        let Some(k) = l.iter().position(|&i| self.turb[i]) else { return 1.0 };
+        if k == 0 {
+            return self.x_over_c(l[0]);
+        }
+        let (a, b) = (l[k - 1], l[k]);
+        let sst = self.sstag(&self.u);
+        let x = [self.xi(a, sst), self.xi(b, sst)];
+        let xt = self.transition_xi(&self.u, s, x, a, b);
+        let w = ((xt - x[0]) / (x[1] - x[0])).clamp(0.0, 1.0);
+        (1.0 - w) * self.x_over_c(a) + w * self.x_over_c(b)
+    }
+}
+
+/// The coefficients of a solved system.
+#[derive(Clone, Copy, Debug)]
+pub struct Forces {
+    /// Lift coefficient.
+    pub cl: f64,
+    /// Moment about the quarter chord.
+    pub cm: f64,
+    /// Drag from the wake's momentum deficit.
+    pub cd: f64,
+    /// Skin-friction drag.
+    pub cdf: f64,
+    /// Transition points (upper, lower), chord fractions.
+    pub xtr: [f64; 2],
+    /// Turbulent separation (negative skin friction) somewhere on the body.
+    pub separated: bool,
+}
+
+fn norm(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Forward-difference partials of a 3-vector function in the first `k` state components.
+fn fd3(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; 3]; 3] {
+    let base = f(u);
+    let mut a = [[0.0; 3]; 3];
+    for q in 0..k.min(3) {
+        let mut v = *u;
+        let h = if q == 2 { 1e-7 * v[q].abs().max(1e-3) } else { 1e-7 * v[q].abs().max(1e-12) };
+        v[q] += h;
+        let r = f(&v);
+        for e in 0..3 {
+            a[e][q] = (r[e] - base[e]) / h;
+        }
+    }
+    a
+}
+
+/// The same in all four components (3 × 4).
+fn fd34(f: &dyn Fn(&State) -> [f64; 3], u: &State) -> [[f64; 4]; 3] {
+    let base = f(u);
+    let mut a = [[0.0; 4]; 3];
+    for q in 0..4 {
+        let mut v = *u;
+        let h = if q == 2 { 1e-7 * v[q].abs().max(1e-3) } else { 1e-7 * v[q].abs().max(1e-12) };
+        v[q] += h;
+        let r = f(&v);
+        for e in 0..3 {
+            a[e][q] = (r[e] - base[e]) / h;
+        }
+    }
+    a
+}
+
+fn solve_small(a: &[[f64; 3]; 3], r: &[f64; 3]) -> Option<[f64; 3]> {
+    let m = nalgebra::Matrix3::from_fn(|i, j| a[i][j]);
+    let x = m.lu().solve(&nalgebra::Vector3::new(r[0], r[1], r[2]))?;
+    x.iter().all(|v| v.is_finite()).then(|| [x[0], x[1], x[2]])
+}
+
+/// Solve the 3 × 4 system with a fourth row `last`.
+fn solve4(a: &[[f64; 4]; 3], last: &[f64; 4], r: &[f64; 4]) -> Option<[f64; 4]> {
+    let m = nalgebra::Matrix4::from_fn(|i, j| if i < 3 { a[i][j] } else { last[j] });
+    let x = m.lu().solve(&nalgebra::Vector4::new(r[0], r[1], r[2], r[3]))?;
+    x.iter().all(|v| v.is_finite()).then(|| [x[0], x[1], x[2], x[3]])
+}

@@ -1,0 +1,278 @@
+//! Viscous polars: [`Viscous`] (one body's factored panel system), a point from a cold start or
+//! from a neighbour's solution, a polar by continuation along α, and populations with rayon.
+
+use super::closures::Fluid;
+use super::coupling::Body;
+use super::equations::State;
+use super::newton::System;
+use crate::error::{Error, Result};
+use glam::DVec2;
+use rayon::prelude::*;
+
+/// The operating point and solver settings of a viscous analysis.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ViscousOptions {
+    /// Chord Reynolds number (default 1e6; accepted from 1e4 to 1e8).
+    pub re: f64,
+    /// Critical amplification factor of the e^N method (default 9; in (0, 20]).
+    pub ncrit: f64,
+    /// Forced transition on the upper surface, chord fraction (default 1: free).
+    pub xtr_top: f64,
+    /// Forced transition on the lower surface, chord fraction (default 1: free).
+    pub xtr_bottom: f64,
+    /// Newton iterations per point (default 80).
+    pub max_iter: usize,
+}
+
+impl Default for ViscousOptions {
+    fn default() -> Self {
+        ViscousOptions {
+            re: 1e6,
+            ncrit: 9.0,
+            xtr_top: 1.0,
+            xtr_bottom: 1.0,
+            max_iter: 80,
+        }
+    }
+}
+
+/// The largest angle of attack (degrees, either sign) a viscous point accepts.
+pub const MAX_ALPHA: f64 = 30.0;
+
+impl ViscousOptions {
+    /// Refuse settings outside the ranges the closures are meant for.
+    pub fn check(&self) -> Result<()> {
+        if !(self.re >= 1e4 && self.re <= 1e8) {
+            return Err(Error::invalid(format!("the Reynolds number must be between 1e4 and 1e8, not {}", self.re)));
+        }
+        if !(self.ncrit > 0.0 && self.ncrit <= 20.0) {
+            return Err(Error::invalid(format!("Ncrit must be in (0, 20], not {}", self.ncrit)));
+        }
+        for (name, v) in [("top", self.xtr_top), ("bottom", self.xtr_bottom)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(Error::invalid(format!("forced transition ({name}) must be a chord fraction in [0, 1], not {v}")));
+            }
+        }
+        if self.max_iter == 0 {
+            return Err(Error::invalid("at least one Newton iteration is needed"));
+        }
+        Ok(())
+    }
+
+    fn fluid(&self) -> Fluid {
+        Fluid {
+            re: self.re,
+            ncrit: self.ncrit,
+        }
+    }
+}
+
+/// One point of a viscous polar. The coefficients are `None` when Newton did not converge.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ViscousPoint {
+    /// Angle of attack, degrees.
+    pub alpha: f64,
+    /// Lift coefficient.
+    pub cl: Option<f64>,
+    /// Drag coefficient from the wake's momentum deficit (Squire–Young).
+    pub cd: Option<f64>,
+    /// Pressure drag, `CD − CDf`.
+    pub cdp: Option<f64>,
+    /// Moment about the quarter chord.
+    pub cm: Option<f64>,
+    /// Upper-surface transition, chord fraction (1: laminar to the trailing edge).
+    pub xtr_top: Option<f64>,
+    /// Lower-surface transition, chord fraction.
+    pub xtr_bottom: Option<f64>,
+    /// Turbulent separation (negative skin friction) on the body.
+    pub separated: Option<bool>,
+    /// Whether Newton converged.
+    pub converged: bool,
+    /// Newton iterations taken.
+    pub iterations: usize,
+}
+
+/// A solved point's boundary layer, to start a neighbour from (same body or same node count).
+#[derive(Clone, Debug)]
+pub struct Warm {
+    /// The angle it was solved at, degrees.
+    alpha: f64,
+    u: Vec<State>,
+    turb: Vec<bool>,
+}
+
+/// One body's viscous analysis: its panel system factored once for every angle.
+pub struct Viscous {
+    body: Body,
+}
+
+impl Viscous {
+    /// Factor the panel system of `nodes` (counterclockwise from the upper trailing edge).
+    pub fn new(nodes: &[DVec2]) -> Result<Viscous> {
+        if nodes.len() < crate::aero::panel::MIN_NODES || nodes.iter().any(|p| !p.is_finite()) {
+            return Err(Error::invalid("the viscous analysis needs finite panel nodes"));
+        }
+        Ok(Viscous { body: Body::new(nodes)? })
+    }
+
+    /// One point at `alpha` degrees, from `warm` when given (else a marched boundary layer);
+    /// the solution for the next point when it converged.
+    pub fn point(&self, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> (ViscousPoint, Option<Warm>) {
+        let failed = |iterations| ViscousPoint {
+            alpha,
+            cl: None,
+            cd: None,
+            cdp: None,
+            cm: None,
+            xtr_top: None,
+            xtr_bottom: None,
+            separated: None,
+            converged: false,
+            iterations,
+        };
+        if !(alpha.abs() <= MAX_ALPHA) {
+            return (failed(0), None);
+        }
+        let xtr = [opts.xtr_top, opts.xtr_bottom];
+        let w = warm.map(|w| (w.u.as_slice(), w.turb.as_slice()));
+        let Ok(mut sys) = System::new(&self.body, alpha, opts.fluid(), xtr, w) else {
+            return (failed(0), None);
+        };
+        let out = sys.solve(opts.max_iter);
+        if !out.converged {
+            return (failed(out.iterations), None);
+        }
+        let f = sys.forces(alpha);
+        let ok = [f.cl, f.cm, f.cd, f.cdf].iter().all(|v| v.is_finite()) && f.cd > 0.0;
+        if !ok {
+            return (failed(out.iterations), None);
+        }
+        let point = ViscousPoint {
+            alpha,
+            cl: Some(f.cl),
+            cd: Some(f.cd),
+            cdp: Some(f.cd - f.cdf),
+            cm: Some(f.cm),
+            xtr_top: Some(f.xtr[0]),
+            xtr_bottom: Some(f.xtr[1]),
+            separated: Some(f.separated),
+            converged: true,
+            iterations: out.iterations,
+        };
+        let warm = Warm {
+            alpha,
+            u: sys.u.clone(),
+            turb: sys.turb.clone(),
+        };
+        (point, Some(warm))
+    }
+
+    /// A point from `warm`; when that fails, through the angle halfway from `warm`'s (twice
+    /// over), then from a cold start.
+    fn point_retry(&self, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> (ViscousPoint, Option<Warm>) {
+        let (p, w) = self.point(alpha, opts, warm);
+        let Some(start) = warm else { return (p, w) };
+        if p.converged {
+            return (p, w);
+        }
+        for parts in [2, 4] {
+            let mut cur = start.clone();
+            let mut done = true;
+            for k in 1..parts {
+                let a = start.alpha + (alpha - start.alpha) * f64::from(k) / f64::from(parts);
+                match self.point(a, opts, Some(&cur)) {
+                    (_, Some(next)) => cur = next,
+                    _ => {
+                        done = false;
+                        break;
+                    }
+                }
+            }
+            if done {
+                let (q, w2) = self.point(alpha, opts, Some(&cur));
+                if q.converged {
+                    return (q, w2);
+                }
+            }
+        }
+        let (q, w2) = self.point(alpha, opts, None);
+        if q.converged {
+            (q, w2)
+        } else {
+            (p, None)
+        }
+    }
+
+    /// The polar at `alphas` (degrees, any order; returned in the same order): continuation
+    /// outwards from the angle nearest zero, each point started from its converged neighbour.
+    pub fn polar(&self, alphas: &[f64], opts: &ViscousOptions) -> Vec<ViscousPoint> {
+        let mut order: Vec<usize> = (0..alphas.len()).collect();
+        order.sort_by(|&a, &b| alphas[a].total_cmp(&alphas[b]));
+        let Some(start) = (0..order.len()).min_by(|&a, &b| alphas[order[a]].abs().total_cmp(&alphas[order[b]].abs())) else {
+            return Vec::new();
+        };
+        let (first, warm0) = self.point(alphas[order[start]], opts, None);
+        let sweep = |idx: Vec<usize>| -> Vec<(usize, ViscousPoint)> {
+            let mut warm = warm0.clone();
+            let mut out = Vec::new();
+            for k in idx {
+                let (p, w) = self.point_retry(alphas[k], opts, warm.as_ref());
+                if w.is_some() {
+                    warm = w;
+                }
+                out.push((k, p));
+            }
+            out
+        };
+        let up: Vec<usize> = order[start + 1..].to_vec();
+        let down: Vec<usize> = order[..start].iter().rev().copied().collect();
+        let (a, b) = rayon::join(|| sweep(up), || sweep(down));
+        let mut points: Vec<Option<ViscousPoint>> = vec![None; alphas.len()];
+        points[order[start]] = Some(first);
+        for (k, p) in a.into_iter().chain(b) {
+            points[k] = Some(p);
+        }
+        points.into_iter().flatten().collect()
+    }
+}
+
+/// Polars of many bodies at the same angles, in parallel over the bodies.
+pub fn polars(bodies: &[Viscous], alphas: &[f64], opts: &ViscousOptions) -> Vec<Vec<ViscousPoint>> {
+    bodies.par_iter().map(|b| b.polar(alphas, opts)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aero::input::Aerofoil;
+    use crate::aero::Paneling;
+    use std::path::Path;
+
+    pub(crate) fn shipped(file: &str) -> Viscous {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+        let (_, a) = Aerofoil::analyse(&path, &Paneling::default(), "", &mut |_, _| {}).unwrap();
+        Viscous::new(a.solution.nodes()).unwrap()
+    }
+
+    /// NACA 4413 at Re 1e6: a cold start converges to a plausible point.
+    #[test]
+    fn naca4413_cold_start_converges() {
+        let v = shipped("data/naca4413.dat");
+        let (p, _) = v.point(2.0, &ViscousOptions::default(), None);
+        eprintln!("{p:?}");
+        assert!(p.converged, "{p:?}");
+        let cd = p.cd.unwrap();
+        assert!(cd > 0.004 && cd < 0.01, "{p:?}");
+    }
+
+    #[test]
+    fn bad_options_are_refused() {
+        let o = ViscousOptions { re: 10.0, ..ViscousOptions::default() };
+        assert!(o.check().is_err());
+        let o = ViscousOptions { ncrit: 0.0, ..ViscousOptions::default() };
+        assert!(o.check().is_err());
+        let o = ViscousOptions { xtr_top: 1.5, ..ViscousOptions::default() };
+        assert!(o.check().is_err());
+        assert!(ViscousOptions::default().check().is_ok());
+    }
+}
