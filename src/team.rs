@@ -262,7 +262,11 @@ pub fn share_rows<T: bytemuck::Pod>(
     let range = share(rows, team.rank(), team.size());
     let mut out = vec![0u8; range.len() * record];
     // A share may be empty (CMA-ES's start: one row).
-    let ran = if range.is_empty() { Ok(()) } else { run(range, input, &mut out) };
+    let ran = if range.is_empty() {
+        Ok(())
+    } else {
+        run(range, input, &mut out)
+    };
     let ran = ran.and_then(|()| test_failure(team.rank()));
     let mine = ran.map(|()| out).map_err(|e| Failure::of(&e));
     let all = gather_verdict(team, encode(mine)).map_err(|f| f.to_error())?;

@@ -10,7 +10,16 @@ use common::cli::{assert_user_error, json, run, stderr};
 fn one_and_two_files_give_viscous_polars() {
     let dir = tempfile::tempdir().unwrap();
     let j = dir.path().join("a.json");
-    let o = run(&["aero", "data/naca4413.dat", "--re", "1e6", "--alpha", "2:4:2", "--json", j.to_str().unwrap()]);
+    let o = run(&[
+        "aero",
+        "data/naca4413.dat",
+        "--re",
+        "1e6",
+        "--alpha",
+        "2:4:2",
+        "--json",
+        j.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = json(&j);
     assert_eq!(v["re"].as_f64(), Some(1e6));
@@ -25,7 +34,11 @@ fn one_and_two_files_give_viscous_polars() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("Re 1.000e6") && text.contains("xtr_top"), "{text}");
 
-    let (j2, c, s) = (dir.path().join("b.json"), dir.path().join("b.csv"), dir.path().join("b.svg"));
+    let (j2, c, s) = (
+        dir.path().join("b.json"),
+        dir.path().join("b.csv"),
+        dir.path().join("b.svg"),
+    );
     let o = run(&[
         "aero",
         "data/naca4413.dat",
@@ -47,7 +60,10 @@ fn one_and_two_files_give_viscous_polars() {
     assert_eq!(foils.len(), 2);
     assert_eq!(foils[1]["file"], "data/airfoils/e387.dat");
     let csv = std::fs::read_to_string(&c).unwrap();
-    assert!(csv.starts_with("file,alpha,cl,cd,cdp,cm,xtr_top,xtr_bottom,converged\n"), "{csv}");
+    assert!(
+        csv.starts_with("file,alpha,cl,cd,cdp,cm,xtr_top,xtr_bottom,converged\n"),
+        "{csv}"
+    );
     assert_eq!(csv.lines().count(), 3, "{csv}");
     assert!(std::fs::read_to_string(&s).unwrap().contains("<svg"));
 }
@@ -69,6 +85,15 @@ fn bad_viscous_input_is_refused() {
         all.extend(args);
         assert_user_error(&run(&all), needle);
     }
-    assert_user_error(&run(&["aero", "data/naca4413.dat", "data/airfoils/e387.dat", "--json", js]), "--re");
+    assert_user_error(
+        &run(&[
+            "aero",
+            "data/naca4413.dat",
+            "data/airfoils/e387.dat",
+            "--json",
+            js,
+        ]),
+        "--re",
+    );
     assert!(!j.exists());
 }

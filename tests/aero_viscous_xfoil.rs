@@ -98,9 +98,14 @@ fn compare(xfoil: &[Row], ours: &[ViscousPoint]) -> Errors {
     };
     let mut cds = Vec::new();
     for x in xfoil {
-        let Some(p) = ours.iter().find(|p| (p.alpha - x.alpha).abs() < 1e-9) else { continue };
+        let Some(p) = ours.iter().find(|p| (p.alpha - x.alpha).abs() < 1e-9) else {
+            continue;
+        };
         if !p.converged {
-            e.points.push(format!("  α {:5.1}: not converged ({} iterations)", x.alpha, p.iterations));
+            e.points.push(format!(
+                "  α {:5.1}: not converged ({} iterations)",
+                x.alpha, p.iterations
+            ));
             continue;
         }
         e.points.push(format!(
@@ -136,17 +141,35 @@ fn compare(xfoil: &[Row], ours: &[ViscousPoint]) -> Errors {
     cds.sort_by(f64::total_cmp);
     if !cds.is_empty() {
         let k = cds.len();
-        e.cd_median = if k % 2 == 1 { cds[k / 2] } else { 0.5 * (cds[k / 2 - 1] + cds[k / 2]) };
+        e.cd_median = if k % 2 == 1 {
+            cds[k / 2]
+        } else {
+            0.5 * (cds[k / 2 - 1] + cds[k / 2])
+        };
     }
     e
 }
 
 fn check(file: &str, e: &Errors, cl_bar: f64, median: bool) {
     let rate = e.both as f64 / e.xfoil_points as f64;
-    assert!(rate >= 0.95, "{file}: converged on {}/{} of XFOIL's points", e.both, e.xfoil_points);
+    assert!(
+        rate >= 0.95,
+        "{file}: converged on {}/{} of XFOIL's points",
+        e.both,
+        e.xfoil_points
+    );
     assert!(e.cl <= cl_bar, "{file}: CL error {:.2} %", 100.0 * e.cl);
-    assert!(e.cd_max <= 0.05, "{file}: CD error {:.2} % ({})", 100.0 * e.cd_max, e.worst);
-    assert!(!median || e.cd_median <= 0.02, "{file}: median CD error {:.2} %", 100.0 * e.cd_median);
+    assert!(
+        e.cd_max <= 0.05,
+        "{file}: CD error {:.2} % ({})",
+        100.0 * e.cd_max,
+        e.worst
+    );
+    assert!(
+        !median || e.cd_median <= 0.02,
+        "{file}: median CD error {:.2} %",
+        100.0 * e.cd_median
+    );
     assert!(e.cm <= 0.005, "{file}: CM error {:.4}", e.cm);
     assert!(e.xtr <= 0.03, "{file}: transition error {:.4}", e.xtr);
 }

@@ -91,7 +91,7 @@ fn references(text: &str, module: &[String]) -> Vec<Vec<String>> {
     while k < bytes.len() {
         let starts = ["crate::", "super::", "self::"]
             .iter()
-            .find(|p| text[k..].starts_with(**p) && (k == 0 || !is_ident(bytes[k - 1])));
+            .find(|p| bytes[k..].starts_with(p.as_bytes()) && (k == 0 || !is_ident(bytes[k - 1])));
         if starts.is_none() {
             k += 1;
             continue;

@@ -173,7 +173,11 @@ fn split_populations_give_the_bits_of_one_batch_on_the_cpu() {
                     let bits = |f: &[Fitness]| -> Vec<(u32, u32)> {
                         f.iter().map(|x| (x.sum_sq.to_bits(), x.max.to_bits())).collect()
                     };
-                    assert_eq!(bits(&split), bits(&whole), "{name} on {backend}, newton {newton}, {ranks} shares");
+                    assert_eq!(
+                        bits(&split),
+                        bits(&whole),
+                        "{name} on {backend}, newton {newton}, {ranks} shares"
+                    );
                 }
             }
         }

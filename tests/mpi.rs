@@ -129,8 +129,24 @@ fn same_on_every_rank_count(dir: &Path, method: &str, objective: &str, extra: &[
         let dat = format!("o{ranks}.dat");
         let ckpt = format!("o{ranks}.ckpt");
         let mut args = vec![
-            "optimise", "n0012.dat", "--objective", objective, "--method", method, "--tol", "1e-3",
-            "--panels", "60", "--backend", "cpu", "--json", &json, "--dat", &dat, "--checkpoint", &ckpt,
+            "optimise",
+            "n0012.dat",
+            "--objective",
+            objective,
+            "--method",
+            method,
+            "--tol",
+            "1e-3",
+            "--panels",
+            "60",
+            "--backend",
+            "cpu",
+            "--json",
+            &json,
+            "--dat",
+            &dat,
+            "--checkpoint",
+            &ckpt,
         ];
         args.extend_from_slice(extra);
         ok(mpirun(ranks, &args, dir));
@@ -145,7 +161,10 @@ fn same_on_every_rank_count(dir: &Path, method: &str, objective: &str, extra: &[
             Some(f) => {
                 assert_eq!(f.0, got.0, "{method} {objective}: report on {ranks} ranks");
                 assert_eq!(f.1, got.1, "{method} {objective}: Selig file on {ranks} ranks");
-                assert_eq!(f.2, got.2, "{method} {objective}: history and state on {ranks} ranks");
+                assert_eq!(
+                    f.2, got.2,
+                    "{method} {objective}: history and state on {ranks} ranks"
+                );
             }
         }
     }
@@ -155,9 +174,24 @@ fn same_on_every_rank_count(dir: &Path, method: &str, objective: &str, extra: &[
 fn optimise_gives_the_same_bits_on_1_2_and_3_ranks() {
     let d = scratch("mpi-same");
     aerofoils(&d);
-    same_on_every_rank_count(&d, "cmaes", "max-cl", &["--generations", "8", "--min-thickness", "0.1"]);
-    same_on_every_rank_count(&d, "ga", "inverse:n4412.dat", &["--generations", "4", "--population", "13"]);
-    same_on_every_rank_count(&d, "ga+cmaes", "max-cl", &["--generations", "6", "--population", "11"]);
+    same_on_every_rank_count(
+        &d,
+        "cmaes",
+        "max-cl",
+        &["--generations", "8", "--min-thickness", "0.1"],
+    );
+    same_on_every_rank_count(
+        &d,
+        "ga",
+        "inverse:n4412.dat",
+        &["--generations", "4", "--population", "13"],
+    );
+    same_on_every_rank_count(
+        &d,
+        "ga+cmaes",
+        "max-cl",
+        &["--generations", "6", "--population", "11"],
+    );
     // Only rank 0 wrote: no other file appeared.
     let mut files: Vec<String> = std::fs::read_dir(&d)
         .unwrap()
@@ -172,8 +206,20 @@ fn a_checkpoint_written_under_mpi_resumes_to_the_same_bits() {
     let d = scratch("mpi-resume");
     aerofoils(&d);
     let base = [
-        "optimise", "n0012.dat", "--objective", "max-cl", "--method", "ga", "--population", "10",
-        "--tol", "1e-3", "--panels", "60", "--backend", "cpu",
+        "optimise",
+        "n0012.dat",
+        "--objective",
+        "max-cl",
+        "--method",
+        "ga",
+        "--population",
+        "10",
+        "--tol",
+        "1e-3",
+        "--panels",
+        "60",
+        "--backend",
+        "cpu",
     ];
     let with = |extra: &[&str]| -> Vec<String> { base.iter().chain(extra).map(|s| s.to_string()).collect() };
     let run = |ranks: usize, args: Vec<String>| {
@@ -185,7 +231,17 @@ fn a_checkpoint_written_under_mpi_resumes_to_the_same_bits() {
     // moves.)
     run(0, with(&["--generations", "8", "--json", "whole.json"]));
     run(3, with(&["--generations", "4", "--checkpoint", "half.ckpt"]));
-    run(2, with(&["--generations", "8", "--resume", "half.ckpt", "--json", "resumed.json"]));
+    run(
+        2,
+        with(&[
+            "--generations",
+            "8",
+            "--resume",
+            "half.ckpt",
+            "--json",
+            "resumed.json",
+        ]),
+    );
     assert_eq!(report(&d.join("whole.json")), report(&d.join("resumed.json")));
 }
 
@@ -196,7 +252,16 @@ fn eval_gives_the_same_fitness_on_1_2_and_3_ranks() {
     let data = data.to_str().unwrap();
     ok(mpirun(
         0,
-        &["fit", data, "--degree", "3", "--segments", "5", "--json", "fit.json"],
+        &[
+            "fit",
+            data,
+            "--degree",
+            "3",
+            "--segments",
+            "5",
+            "--json",
+            "fit.json",
+        ],
         &d,
     ));
     let design: Vec<f64> = serde_json::from_slice::<Value>(&std::fs::read(d.join("fit.json")).unwrap())
@@ -204,7 +269,13 @@ fn eval_gives_the_same_fitness_on_1_2_and_3_ranks() {
         .as_array()
         .unwrap()
         .iter()
-        .flat_map(|p| p.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect::<Vec<_>>())
+        .flat_map(|p| {
+            p.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect::<Vec<_>>()
+        })
         .collect();
     // 31 individuals around the fit.
     let mut text = String::new();
@@ -212,13 +283,27 @@ fn eval_gives_the_same_fitness_on_1_2_and_3_ranks() {
         let row: Vec<String> = design
             .iter()
             .enumerate()
-            .map(|(i, x)| format!("{}", x + 1e-3 * (((k * 7 + i * 3) % 11) as f64 - 5.0) * f64::from(k != 0)))
+            .map(|(i, x)| {
+                format!(
+                    "{}",
+                    x + 1e-3 * (((k * 7 + i * 3) % 11) as f64 - 5.0) * f64::from(k != 0)
+                )
+            })
             .collect();
         text.push_str(&row.join(","));
         text.push('\n');
     }
     std::fs::write(d.join("pop.csv"), text).unwrap();
-    let args = ["eval", "fit.json", "--population", "pop.csv", "--points", data, "--backend", "cpu"];
+    let args = [
+        "eval",
+        "fit.json",
+        "--population",
+        "pop.csv",
+        "--points",
+        data,
+        "--backend",
+        "cpu",
+    ];
     let one = ok(mpirun(0, &args, &d)).stdout;
     assert_eq!(String::from_utf8_lossy(&one).lines().count(), 31);
     for ranks in [1, 2, 3] {
@@ -249,7 +334,11 @@ fn a_bad_input_ends_every_rank_with_one_error_line() {
         assert_eq!(code, Some(2), "{ranks} ranks: {lines:?}");
         assert_eq!(lines.len(), 1, "{ranks} ranks: {lines:?}");
         assert!(lines[0].contains("missing.dat"), "{lines:?}");
-        let o = mpirun(ranks, &["optimise", "n0012.dat", "--objective", "max-cl", "--alpha", "99"], &d);
+        let o = mpirun(
+            ranks,
+            &["optimise", "n0012.dat", "--objective", "max-cl", "--alpha", "99"],
+            &d,
+        );
         let (code, lines) = errors(&o);
         assert_eq!((code, lines.len()), (Some(2), 1), "{ranks} ranks: {lines:?}");
         assert!(lines[0].contains("--alpha"), "{lines:?}");
@@ -257,8 +346,22 @@ fn a_bad_input_ends_every_rank_with_one_error_line() {
         // write nothing and check nothing, and still end.
         let o = mpirun(
             ranks,
-            &["optimise", "n0012.dat", "--objective", "max-cl", "--tol", "1e-3", "--panels", "60",
-              "--generations", "2", "--backend", "cpu", "--json", "no/such/folder/o.json"],
+            &[
+                "optimise",
+                "n0012.dat",
+                "--objective",
+                "max-cl",
+                "--tol",
+                "1e-3",
+                "--panels",
+                "60",
+                "--generations",
+                "2",
+                "--backend",
+                "cpu",
+                "--json",
+                "no/such/folder/o.json",
+            ],
             &d,
         );
         let (code, lines) = errors(&o);
@@ -274,10 +377,25 @@ fn a_failing_rank_ends_every_rank_with_one_error_line() {
     // `BEZCHAIN_TEST_FAIL_RANK` makes one rank's evaluations fail (a test hook, read only in
     // builds with the mpi feature): mid-run, inside the collective.
     let mut cmd = Command::new("mpirun");
-    cmd.args(["--oversubscribe", "-n", "3", "-x", "BEZCHAIN_TEST_FAIL_RANK=2"]).arg(bin());
+    cmd.args(["--oversubscribe", "-n", "3", "-x", "BEZCHAIN_TEST_FAIL_RANK=2"])
+        .arg(bin());
     cmd.args([
-        "optimise", "n0012.dat", "--objective", "max-cl", "--method", "ga", "--population", "12", "--tol",
-        "1e-3", "--panels", "60", "--generations", "3", "--backend", "cpu",
+        "optimise",
+        "n0012.dat",
+        "--objective",
+        "max-cl",
+        "--method",
+        "ga",
+        "--population",
+        "12",
+        "--tol",
+        "1e-3",
+        "--panels",
+        "60",
+        "--generations",
+        "3",
+        "--backend",
+        "cpu",
     ]);
     cmd.current_dir(&d)
         .env("BEZCHAIN_TEST_FAIL_RANK", "2")

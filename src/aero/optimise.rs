@@ -170,7 +170,8 @@ impl Scorer for AeroScorer {
         std::mem::size_of::<AeroResult>()
     }
     fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()> {
-        self.results.resize(records.len() / self.record(), AeroResult::default());
+        self.results
+            .resize(records.len() / self.record(), AeroResult::default());
         self.evaluator.evaluate(rows, &mut self.results)?;
         records.copy_from_slice(bytemuck::cast_slice(&self.results));
         Ok(())

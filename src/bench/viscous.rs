@@ -82,7 +82,12 @@ pub fn shapes(population: usize, seed: u64) -> Result<Vec<Vec<glam::DVec2>>> {
     Ok((0..population)
         .map(|_| {
             let c: Vec<(f64, f64)> = (0..3)
-                .map(|_| (amp * rng.random_range(-1.0..1.0), amp * rng.random_range(-1.0..1.0)))
+                .map(|_| {
+                    (
+                        amp * rng.random_range(-1.0..1.0),
+                        amp * rng.random_range(-1.0..1.0),
+                    )
+                })
                 .collect();
             let half = base.len() / 2;
             base.iter()

@@ -7,7 +7,10 @@ use super::picture::PlotArgs;
 use super::{usage, warn};
 use anyhow::Result;
 use bezchain::aero::viscous::polar::MAX_ALPHA;
-use bezchain::aero::{analyse_input, check_polar, AeroInput, AeroReport, Paneling, Viscous, ViscousOptions, ViscousPoint, DEFAULT_NODES};
+use bezchain::aero::{
+    analyse_input, check_polar, AeroInput, AeroReport, Paneling, Viscous, ViscousOptions, ViscousPoint,
+    DEFAULT_NODES,
+};
 use bezchain::export::{CpPlot, PolarPlot, Schema};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -70,7 +73,10 @@ pub fn parse_alphas(s: &str) -> std::result::Result<Vec<f64>, String> {
         }
         return Ok((0..n).map(|k| a + k as f64 * step).collect());
     }
-    s.split(',').map(num).collect::<Option<Vec<f64>>>().ok_or_else(bad)
+    s.split(',')
+        .map(num)
+        .collect::<Option<Vec<f64>>>()
+        .ok_or_else(bad)
 }
 
 /// Analyse and write the outputs.
@@ -89,7 +95,9 @@ pub fn run(args: Args) -> Result<()> {
 
 fn inviscid(args: &Args, alphas: &[f64], paneling: &Paneling) -> Result<()> {
     if args.input.len() > 1 {
-        return Err(usage("several files need --re (the viscous polar); the inviscid report takes one"));
+        return Err(usage(
+            "several files need --re (the viscous polar); the inviscid report takes one",
+        ));
     }
     if args.csv.is_some() {
         return Err(usage("--csv writes the viscous polar: give --re"));
@@ -164,9 +172,12 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
         xtr_bottom: args.xtr_bottom,
         ..ViscousOptions::default()
     };
-    opts.check().map_err(|e| usage(format!("--re/--ncrit/--xtr-*: {e}")))?;
+    opts.check()
+        .map_err(|e| usage(format!("--re/--ncrit/--xtr-*: {e}")))?;
     if alphas.iter().any(|a| a.abs() > MAX_ALPHA) {
-        return Err(usage(format!("--alpha: the viscous analysis takes angles between -{MAX_ALPHA} and {MAX_ALPHA} degrees")));
+        return Err(usage(format!(
+            "--alpha: the viscous analysis takes angles between -{MAX_ALPHA} and {MAX_ALPHA} degrees"
+        )));
     }
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
@@ -176,9 +187,15 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
     let mut inputs = Vec::new();
     for path in &args.input {
         let (analysis, input, what) = analyse_input(path, paneling, &mut warn)?;
-        let body = Viscous::new(analysis.solution.nodes()).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let body = Viscous::new(analysis.solution.nodes())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         bodies.push(body);
-        inputs.push((path.display().to_string(), input, what, analysis.solution.nodes().len()));
+        inputs.push((
+            path.display().to_string(),
+            input,
+            what,
+            analysis.solution.nodes().len(),
+        ));
     }
     let polars = bezchain::aero::polars(&bodies, alphas, &opts);
     let mut text = String::new();
@@ -189,11 +206,18 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
             "{file}: {what}, {nodes} panel nodes, Re {re:.3e}, Ncrit {}, transition forced at {} / {}",
             opts.ncrit, opts.xtr_top, opts.xtr_bottom
         );
-        let _ = writeln!(text, "   alpha        CL         CD        CDp         CM   xtr_top  xtr_bot");
+        let _ = writeln!(
+            text,
+            "   alpha        CL         CD        CDp         CM   xtr_top  xtr_bot"
+        );
         for p in polar {
             match (p.cl, p.cd, p.cdp, p.cm, p.xtr_top, p.xtr_bottom) {
                 (Some(cl), Some(cd), Some(cdp), Some(cm), Some(xt), Some(xb)) => {
-                    let _ = writeln!(text, "{:8.3} {cl:9.5} {cd:10.6} {cdp:10.6} {cm:10.5} {xt:9.4} {xb:8.4}", p.alpha);
+                    let _ = writeln!(
+                        text,
+                        "{:8.3} {cl:9.5} {cd:10.6} {cdp:10.6} {cm:10.5} {xt:9.4} {xb:8.4}",
+                        p.alpha
+                    );
                 }
                 _ => {
                     let _ = writeln!(text, "{:8.3}   not converged", p.alpha);
@@ -227,7 +251,12 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
     let mut files: Vec<FilePolar> = inputs
         .into_iter()
         .zip(polars)
-        .map(|((file, input, _, nodes), polar)| FilePolar { file, input, nodes, polar })
+        .map(|((file, input, _, nodes), polar)| FilePolar {
+            file,
+            input,
+            nodes,
+            polar,
+        })
         .collect();
     let report = ViscousReport {
         re,

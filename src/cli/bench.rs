@@ -108,7 +108,11 @@ pub fn run(args: Args) -> Result<()> {
     }
     if args.kernel == Kernel::Viscous {
         // 1024 is the other kernels' default; this one's is 256 shapes.
-        let population = if args.population == 1024 { 256 } else { args.population };
+        let population = if args.population == 1024 {
+            256
+        } else {
+            args.population
+        };
         bounded("--population", population as u64, 1 << 16, "the default is 256")?;
         if !(bezchain::aero::panel::MIN_NODES..=1000).contains(&args.panels) {
             return Err(super::usage("--panels must be between 8 and 1000"));
@@ -120,7 +124,7 @@ pub fn run(args: Args) -> Result<()> {
             nodes: args.panels,
             ..Default::default()
         })?;
-        outs.put_json(out, &report)?;
+        outs.put_json(out, Schema::Bench, &report)?;
         return outs.commit();
     }
     if let Some(p) = args.peak {

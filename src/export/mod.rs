@@ -27,10 +27,10 @@ pub use bspline::{distinct_knots, BsplineCurve, BsplineSurface, CadShape, CadUni
 pub use cad::{utc_now, write_cad};
 pub use cp_plot::{CpCurve, CpPlot, Outline};
 pub use iges::iges_text;
-pub use polar_plot::PolarPlot;
 pub use mesh::SurfaceMesh;
 pub use offset_map::{lightness, Colouring, Marked, CHORD_FLOOR};
 pub use plot_png::{plot_png, PixelBackend};
+pub use polar_plot::PolarPlot;
 pub use render::{
     local_offsets, offset_colour, render, render_svg, Image, OffsetPoint, RenderOptions, Rgb, Station, View,
     BACKGROUND, BORDER, DATA_POINT, DESIGN_POINT, GENERATED_POINT, NET, SURFACE,

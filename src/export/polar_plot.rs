@@ -19,7 +19,13 @@ pub struct PolarPlot {
 /// A converged point's `(α, CL, CD, CM)`.
 type Coeffs = (f64, f64, f64, f64);
 /// One panel: axis names, ranges and what it plots of a point.
-type Panel = (&'static str, &'static str, (f64, f64), (f64, f64), fn(&Coeffs) -> (f64, f64));
+type Panel = (
+    &'static str,
+    &'static str,
+    (f64, f64),
+    (f64, f64),
+    fn(&Coeffs) -> (f64, f64),
+);
 
 const PANEL_W: u32 = 420;
 const HEIGHT: u32 = 460;
@@ -100,7 +106,9 @@ impl PolarPlot {
                     .draw_series(LineSeries::new(xy.iter().copied(), colour.stroke_width(2)))
                     .map_err(plot_err)?
                     .label(label.to_string())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+                    });
                 chart
                     .draw_series(xy.iter().map(|&p| Circle::new(p, 3, colour.filled())))
                     .map_err(plot_err)?;

@@ -4,8 +4,12 @@
 //! surface pictures ([`super::render`]) and the PNG plots ([`super::plot_png`]).
 
 use super::offset_map::Rgb;
-use super::render::{BACKGROUND, NET};
 use crate::error::{Error, Result};
+
+/// The background.
+pub const BACKGROUND: Rgb = [255, 255, 255];
+/// Control-net lines, and the labels' text.
+pub const NET: Rgb = [60, 60, 60];
 
 /// An RGB picture, row-major from the top left.
 #[derive(Clone, Debug, PartialEq)]

@@ -11,8 +11,8 @@ mod svg;
 use super::mesh::SurfaceMesh;
 pub use super::offset_map::{offset_colour, OffsetPoint, Rgb, Station};
 use super::offset_map::{offset_label, stations, Colouring, Marked};
-pub use super::raster::Image;
 use super::raster::{draw_boxed_text, draw_disc, draw_line, draw_text, fill_triangle, Canvas};
+pub use super::raster::{Image, BACKGROUND, NET};
 use crate::chain::{GridLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::eval::dense::{dense_grid, uniform, DensePoint};
@@ -22,12 +22,8 @@ use crate::geometry::Grid;
 use glam::DVec3;
 pub use svg::render_svg;
 
-/// The background.
-pub const BACKGROUND: Rgb = [255, 255, 255];
 /// The surface's base colour (shaded by the light).
 pub const SURFACE: Rgb = [150, 178, 214];
-/// Control-net lines.
-pub const NET: Rgb = [60, 60, 60];
 /// Data points.
 pub const DATA_POINT: Rgb = [20, 20, 20];
 /// Patch borders drawn on the surface.

@@ -309,8 +309,13 @@ impl<S: EvalShape<K>, const K: usize> Scorer for FitScorer<'_, '_, S, K> {
     }
 
     fn measure(&mut self, rows: &[f32], records: &mut [u8]) -> Result<()> {
-        debug_assert_eq!(rows.len() * self.record(), records.len() * self.problem.dim(), "one record per row");
-        self.fitness.resize(records.len() / self.record(), Fitness::default());
+        debug_assert_eq!(
+            rows.len() * self.record(),
+            records.len() * self.problem.dim(),
+            "one record per row"
+        );
+        self.fitness
+            .resize(records.len() / self.record(), Fitness::default());
         self.evaluator.evaluate(rows, &mut self.fitness)?;
         records.copy_from_slice(bytemuck::cast_slice(&self.fitness));
         Ok(())
@@ -550,11 +555,18 @@ fn run<T: Gene>(
         let size = std::mem::size_of::<Fitness>();
         let bytes = crate::team::share_rows(rows, size, &mut shared, |range, pop, out| {
             let mut part = vec![Fitness::default(); range.len()];
-            T::evaluate_on(evaluator.as_mut(), &pop[range.start * n..range.end * n], &mut part)?;
+            T::evaluate_on(
+                evaluator.as_mut(),
+                &pop[range.start * n..range.end * n],
+                &mut part,
+            )?;
             out.copy_from_slice(bytemuck::cast_slice(&part));
             Ok(())
         })?;
-        Ok(bytes.chunks_exact(size).map(bytemuck::pod_read_unaligned).collect())
+        Ok(bytes
+            .chunks_exact(size)
+            .map(bytemuck::pod_read_unaligned)
+            .collect())
     };
     let fitness = evaluate()?;
     let mut times: Vec<f64> = (0..options.repeat)

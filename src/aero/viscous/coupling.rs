@@ -6,9 +6,7 @@
 //! source cell around each wake node (from the midpoints to its neighbours), so that no wake
 //! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
 
-use crate::aero::panel::{
-    influence, panel_terms, sharp_control, system, Chord, TrailingEdge, HOPI,
-};
+use crate::aero::panel::{influence, panel_terms, sharp_control, system, Chord, TrailingEdge, HOPI};
 use crate::error::{Error, Result};
 use glam::DVec2;
 use nalgebra::{DMatrix, Dyn, LU};
@@ -158,7 +156,8 @@ impl Body {
         let gamma = self.gamma(alpha);
         let (sn, cs) = alpha.to_radians().sin_cos();
         let fs = DVec2::new(cs, sn);
-        let d0 = 0.5 * ((self.nodes[1] - self.nodes[0]).length() + (self.nodes[n - 1] - self.nodes[n - 2]).length());
+        let d0 = 0.5
+            * ((self.nodes[1] - self.nodes[0]).length() + (self.nodes[n - 1] - self.nodes[n - 2]).length());
         let sw = geometric(d0, 1.0, nw);
         let te_mid = 0.5 * (self.nodes[0] + self.nodes[n - 1]);
         let dir = if self.te.bisector == DVec2::ZERO {
@@ -188,7 +187,8 @@ impl Body {
             edges.push(0.5 * (pts[k - 1] + pts[k]));
         }
         edges.push(pts[nw - 1] + 0.5 * (pts[nw - 1] - pts[nw - 2]));
-        let mut panels: Vec<(DVec2, DVec2)> = (0..n - 1).map(|j| (self.nodes[j], self.nodes[j + 1])).collect();
+        let mut panels: Vec<(DVec2, DVec2)> =
+            (0..n - 1).map(|j| (self.nodes[j], self.nodes[j + 1])).collect();
         for k in 0..nw {
             panels.push((edges[k], edges[k + 1]));
         }
@@ -229,7 +229,9 @@ impl Body {
             }
         }
         if u_sigma.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Numerical("the wake's source response is not finite".into()));
+            return Err(Error::Numerical(
+                "the wake's source response is not finite".into(),
+            ));
         }
         Ok(Wake {
             points: pts,
@@ -273,7 +275,11 @@ pub fn sigma_of_mass(body_s: &[f64], wake_s: &[f64], sgn: &[f64]) -> Vec<Vec<(us
     // Wake cell k: σ = (m_{k+½} − m_{k−½}) / len_k, m at the cells' ends the mean of the
     // neighbours (the first and last ends the end nodes).
     let len = |k: usize| -> f64 {
-        let lo = if k == 0 { 0.0 } else { 0.5 * (wake_s[k - 1] + wake_s[k]) };
+        let lo = if k == 0 {
+            0.0
+        } else {
+            0.5 * (wake_s[k - 1] + wake_s[k])
+        };
         let hi = if k + 1 == nw {
             wake_s[k] + 0.5 * (wake_s[k] - wake_s[k - 1])
         } else {

@@ -25,7 +25,15 @@ fn mix(w: f64, a: f64, b: f64) -> f64 {
 /// The three residuals of the interval `x[0] → x[1]` (arc length from the stagnation point),
 /// both stations of kind `k`. `simi`: the similarity station (both states equal, `uₑ ∝ ξ`).
 /// `wgap`: the blunt trailing edge's dead-air thickness at either station (wake only).
-pub fn interval(fl: &Fluid, k: Kind, simi: bool, x: [f64; 2], u1: &State, u2: &State, wgap: [f64; 2]) -> [f64; 3] {
+pub fn interval(
+    fl: &Fluid,
+    k: Kind,
+    simi: bool,
+    x: [f64; 2],
+    u1: &State,
+    u2: &State,
+    wgap: [f64; 2],
+) -> [f64; 3] {
     let mut u1 = *u1;
     let mut u2 = *u2;
     u1[1] -= wgap[0];
@@ -36,8 +44,12 @@ pub fn interval(fl: &Fluid, k: Kind, simi: bool, x: [f64; 2], u1: &State, u2: &S
         0.5 * (u1[2] + u2[2]),
         0.5 * (u1[3] + u2[3]),
     ];
-    let (mut thlog, mut uelog, mut xlog, mut dx) =
-        ((u2[0] / u1[0]).ln(), (u2[3] / u1[3]).ln(), (x[1] / x[0]).ln(), x[1] - x[0]);
+    let (mut thlog, mut uelog, mut xlog, mut dx) = (
+        (u2[0] / u1[0]).ln(),
+        (u2[3] / u1[3]).ln(),
+        (x[1] / x[0]).ln(),
+        x[1] - x[0],
+    );
     let (hs1, hs2) = (c::hs(&u1, k, fl), c::hs(&u2, k, fl));
     let mut hslog = (hs2 / hs1).ln();
     if simi {
@@ -113,7 +125,11 @@ pub fn transition_point(fl: &Fluid, x: [f64; 2], u1: &State, u2: &State) -> Opti
     let mut rh = rhi;
     for _ in 0..60 {
         let mid = (lo * rh - hi * rlo) / (rh - rlo);
-        let mid = if mid > lo && mid < hi { mid } else { 0.5 * (lo + hi) };
+        let mid = if mid > lo && mid < hi {
+            mid
+        } else {
+            0.5 * (lo + hi)
+        };
         let rm = r(mid);
         if rm.abs() < 1e-13 || hi - lo < 1e-14 * dx.abs().max(1e-300) {
             return Some(mid);
@@ -182,5 +198,9 @@ pub fn wake_start(fl: &Fluid, upper: (&State, bool), lower: (&State, bool), gap:
     let ct = |(u, turb): (&State, bool)| if turb { u[2] } else { c::cttr(u, fl) };
     let (uu, ul) = (upper.0, lower.0);
     let th = uu[0] + ul[0];
-    [th, uu[1] + ul[1] + gap, (ct(upper) * uu[0] + ct(lower) * ul[0]) / th]
+    [
+        th,
+        uu[1] + ul[1] + gap,
+        (ct(upper) * uu[0] + ct(lower) * ul[0]) / th,
+    ]
 }

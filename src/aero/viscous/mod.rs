@@ -16,4 +16,4 @@ pub mod equations;
 pub mod newton;
 pub mod polar;
 
-pub use polar::{polars, ViscousOptions, ViscousPoint, Viscous, Warm};
+pub use polar::{polars, Viscous, ViscousOptions, ViscousPoint, Warm};

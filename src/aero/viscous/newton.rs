@@ -151,7 +151,13 @@ impl<'a> System<'a> {
         }
         self.rows = rows;
         self.ueinv = (0..n + nw)
-            .map(|i| if i < n { self.sgn[i] * self.wake.uinv[i] } else { self.wake.uinv[i] })
+            .map(|i| {
+                if i < n {
+                    self.sgn[i] * self.wake.uinv[i]
+                } else {
+                    self.wake.uinv[i]
+                }
+            })
             .collect();
         self.d = ue_of_mass(&self.wake, &self.body.s, &self.sgn);
     }
@@ -256,8 +262,16 @@ impl<'a> System<'a> {
                 eq::similarity(&self.fl, &ust)
             }
             Row::WakeStart => {
-                let (ut, lt) = (*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0));
-                let w = eq::wake_start(&self.fl, (&u[ut], self.turb[ut]), (&u[lt], self.turb[lt]), self.body.gap);
+                let (ut, lt) = (
+                    *self.surf[0].last().unwrap_or(&0),
+                    *self.surf[1].last().unwrap_or(&0),
+                );
+                let w = eq::wake_start(
+                    &self.fl,
+                    (&u[ut], self.turb[ut]),
+                    (&u[lt], self.turb[lt]),
+                    self.body.gap,
+                );
                 [u[i][0] - w[0], u[i][1] - w[1], u[i][2] - w[2]]
             }
             Row::Interval(p) => {
@@ -279,7 +293,11 @@ impl<'a> System<'a> {
     fn deps(&self, i: usize) -> Vec<usize> {
         let mut d = match self.rows[i] {
             Row::Similarity(a, b) => vec![a, b],
-            Row::WakeStart => vec![*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0), i],
+            Row::WakeStart => vec![
+                *self.surf[0].last().unwrap_or(&0),
+                *self.surf[1].last().unwrap_or(&0),
+                i,
+            ],
             Row::Interval(p) => vec![p, i],
         };
         if !matches!(self.rows[i], Row::WakeStart) {
@@ -317,7 +335,11 @@ impl<'a> System<'a> {
             let mut p = [[0.0; 4]; 3];
             for q in 0..4 {
                 let v = u[j][q];
-                let h = if q == 2 { 1e-7 * v.abs().max(1e-3) } else { 1e-7 * v.abs().max(1e-12) };
+                let h = if q == 2 {
+                    1e-7 * v.abs().max(1e-3)
+                } else {
+                    1e-7 * v.abs().max(1e-12)
+                };
                 u[j][q] = v + h;
                 let r = self.block(i, &u);
                 u[j][q] = v;
@@ -487,12 +509,17 @@ impl<'a> System<'a> {
         let nt = self.u.len();
         let mut omega: f64 = 1.0;
         for k in 0..2 {
-            let fmin = (0..nt).map(|i| du[i][k] / self.u[i][k]).fold(f64::INFINITY, f64::min);
+            let fmin = (0..nt)
+                .map(|i| du[i][k] / self.u[i][k])
+                .fold(f64::INFINITY, f64::min);
             if fmin < -0.5 {
                 omega = omega.min((0.5 / fmin).abs());
             }
         }
-        let ctmax = (0..nt).filter(|&i| self.turb[i]).map(|i| self.u[i][2]).fold(0.0, f64::max);
+        let ctmax = (0..nt)
+            .filter(|&i| self.turb[i])
+            .map(|i| self.u[i][2])
+            .fold(0.0, f64::max);
         let (mut dlam, mut dturb) = (0.0_f64, 0.0_f64);
         for i in 0..nt {
             let (v, d) = (self.u[i][2], du[i][2]);
@@ -613,7 +640,10 @@ impl<'a> System<'a> {
     fn update_transition(&mut self) {
         for s in 0..2 {
             let l = self.surf[s].clone();
-            let ilam0 = l.iter().position(|&i| self.turb[i]).map_or(l.len() - 1, |k| k.max(1) - 1);
+            let ilam0 = l
+                .iter()
+                .position(|&i| self.turb[i])
+                .map_or(l.len() - 1, |k| k.max(1) - 1);
             let saved: Vec<f64> = l.iter().map(|&i| self.u[i][2]).collect();
             let ilam = self.march_amplification(s);
             if ilam == ilam0 {
@@ -624,12 +654,20 @@ impl<'a> System<'a> {
             }
             if ilam < ilam0 {
                 let sa0 = c::cttr(&self.u[l[ilam + 1]], &self.fl);
-                let sa1 = if ilam0 + 1 < l.len() { self.u[l[ilam0 + 1]][2] } else { sa0 };
+                let sa1 = if ilam0 + 1 < l.len() {
+                    self.u[l[ilam0 + 1]][2]
+                } else {
+                    sa0
+                };
                 let sst = self.sstag(&self.u);
                 let x0 = self.xi(l[ilam + 1], sst);
                 let dx = self.xi(l[(ilam0 + 1).min(l.len() - 1)], sst) - x0;
                 for k in ilam + 1..=ilam0 {
-                    let f = if dx == 0.0 || k == ilam + 1 { 0.0 } else { (self.xi(l[k], sst) - x0) / dx };
+                    let f = if dx == 0.0 || k == ilam + 1 {
+                        0.0
+                    } else {
+                        (self.xi(l[k], sst) - x0) / dx
+                    };
                     let f = if ilam + 1 == ilam0 { 1.0 } else { f };
                     self.u[l[k]][2] = (sa0 + f * (sa1 - sa0)).max(1e-7);
                     self.turb[l[k]] = true;
@@ -677,8 +715,16 @@ impl<'a> System<'a> {
                 }
                 self.u[l[0]] = [ust[0], ust[1], 0.0, ue[0]];
             } else {
-                let (ut, lt) = (*self.surf[0].last().unwrap_or(&0), *self.surf[1].last().unwrap_or(&0));
-                let w = eq::wake_start(&self.fl, (&self.u[ut], self.turb[ut]), (&self.u[lt], self.turb[lt]), self.body.gap);
+                let (ut, lt) = (
+                    *self.surf[0].last().unwrap_or(&0),
+                    *self.surf[1].last().unwrap_or(&0),
+                );
+                let w = eq::wake_start(
+                    &self.fl,
+                    (&self.u[ut], self.turb[ut]),
+                    (&self.u[lt], self.turb[lt]),
+                    self.body.gap,
+                );
                 self.u[l[0]] = [w[0], w[1], w[2], ue[0]];
                 self.turb[l[0]] = true;
             }
@@ -703,7 +749,11 @@ impl<'a> System<'a> {
                 let res = |v: &State| -> [f64; 3] {
                     if tran {
                         let free = eq::transition_point(&self.fl, x, &u1, v).unwrap_or(x[1]);
-                        let xt = if s < 2 && self.forced_s[s].is_finite() { free.min(forced.max(x[0])) } else { free };
+                        let xt = if s < 2 && self.forced_s[s].is_finite() {
+                            free.min(forced.max(x[0]))
+                        } else {
+                            free
+                        };
                         eq::transition(&self.fl, x, xt, &u1, v)
                     } else {
                         eq::interval(&self.fl, kind, false, x, &u1, v, g)
@@ -760,7 +810,8 @@ impl<'a> System<'a> {
                         hktgt = if kind.wake {
                             let mut h2 = hk0;
                             for _ in 0..6 {
-                                h2 -= (h2 + 0.03 * hkr * (h2 - 1.0).powi(3) - hk0) / (1.0 + 0.09 * hkr * (h2 - 1.0).powi(2));
+                                h2 -= (h2 + 0.03 * hkr * (h2 - 1.0).powi(3) - hk0)
+                                    / (1.0 + 0.09 * hkr * (h2 - 1.0).powi(2));
                             }
                             h2.max(1.01)
                         } else if turb_now {
@@ -807,19 +858,31 @@ impl<'a> System<'a> {
             let r = self.residual();
             let rn = norm(&r);
             if !rn.is_finite() {
-                return Outcome { converged: false, iterations: it };
+                return Outcome {
+                    converged: false,
+                    iterations: it,
+                };
             }
             if rn < TOL {
-                return Outcome { converged: true, iterations: it };
+                return Outcome {
+                    converged: true,
+                    iterations: it,
+                };
             }
             let Some(du) = self.step(&r) else {
-                return Outcome { converged: false, iterations: it };
+                return Outcome {
+                    converged: false,
+                    iterations: it,
+                };
             };
             self.update(&du);
             self.stagnation_move();
             self.update_transition();
             if self.u.iter().any(|s| !s.iter().all(|v| v.is_finite())) {
-                return Outcome { converged: false, iterations: it + 1 };
+                return Outcome {
+                    converged: false,
+                    iterations: it + 1,
+                };
             }
         }
         let rn = norm(&self.residual());
@@ -874,7 +937,9 @@ impl<'a> System<'a> {
     /// The transition point of a surface as a chord fraction (1 when laminar to the edge).
     fn transition_x(&self, s: usize) -> f64 {
         let l = &self.surf[s];
-        let Some(k) = l.iter().position(|&i| self.turb[i]) else { return 1.0 };
+        let Some(k) = l.iter().position(|&i| self.turb[i]) else {
+            return 1.0;
+        };
         if k == 0 {
             return self.x_over_c(l[0]);
         }
@@ -914,7 +979,11 @@ fn fd3(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; 3]; 3] {
     let mut a = [[0.0; 3]; 3];
     for q in 0..k.min(3) {
         let mut v = *u;
-        let h = if q == 2 { 1e-7 * v[q].abs().max(1e-3) } else { 1e-7 * v[q].abs().max(1e-12) };
+        let h = if q == 2 {
+            1e-7 * v[q].abs().max(1e-3)
+        } else {
+            1e-7 * v[q].abs().max(1e-12)
+        };
         v[q] += h;
         let r = f(&v);
         for e in 0..3 {
@@ -930,7 +999,11 @@ fn fd34(f: &dyn Fn(&State) -> [f64; 3], u: &State) -> [[f64; 4]; 3] {
     let mut a = [[0.0; 4]; 3];
     for q in 0..4 {
         let mut v = *u;
-        let h = if q == 2 { 1e-7 * v[q].abs().max(1e-3) } else { 1e-7 * v[q].abs().max(1e-12) };
+        let h = if q == 2 {
+            1e-7 * v[q].abs().max(1e-3)
+        } else {
+            1e-7 * v[q].abs().max(1e-12)
+        };
         v[q] += h;
         let r = f(&v);
         for e in 0..3 {

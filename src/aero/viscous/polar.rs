@@ -43,14 +43,22 @@ impl ViscousOptions {
     /// Refuse settings outside the ranges the closures are meant for.
     pub fn check(&self) -> Result<()> {
         if !(self.re >= 1e4 && self.re <= 1e8) {
-            return Err(Error::invalid(format!("the Reynolds number must be between 1e4 and 1e8, not {}", self.re)));
+            return Err(Error::invalid(format!(
+                "the Reynolds number must be between 1e4 and 1e8, not {}",
+                self.re
+            )));
         }
         if !(self.ncrit > 0.0 && self.ncrit <= 20.0) {
-            return Err(Error::invalid(format!("Ncrit must be in (0, 20], not {}", self.ncrit)));
+            return Err(Error::invalid(format!(
+                "Ncrit must be in (0, 20], not {}",
+                self.ncrit
+            )));
         }
         for (name, v) in [("top", self.xtr_top), ("bottom", self.xtr_bottom)] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(Error::invalid(format!("forced transition ({name}) must be a chord fraction in [0, 1], not {v}")));
+                return Err(Error::invalid(format!(
+                    "forced transition ({name}) must be a chord fraction in [0, 1], not {v}"
+                )));
             }
         }
         if self.max_iter == 0 {
@@ -112,12 +120,19 @@ impl Viscous {
         if nodes.len() < crate::aero::panel::MIN_NODES || nodes.iter().any(|p| !p.is_finite()) {
             return Err(Error::invalid("the viscous analysis needs finite panel nodes"));
         }
-        Ok(Viscous { body: Body::new(nodes)? })
+        Ok(Viscous {
+            body: Body::new(nodes)?,
+        })
     }
 
     /// One point at `alpha` degrees, from `warm` when given (else a marched boundary layer);
     /// the solution for the next point when it converged.
-    pub fn point(&self, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> (ViscousPoint, Option<Warm>) {
+    pub fn point(
+        &self,
+        alpha: f64,
+        opts: &ViscousOptions,
+        warm: Option<&Warm>,
+    ) -> (ViscousPoint, Option<Warm>) {
         let failed = |iterations| ViscousPoint {
             alpha,
             cl: None,
@@ -169,7 +184,12 @@ impl Viscous {
 
     /// A point from `warm`; when that fails, through the angle halfway from `warm`'s (twice
     /// over), then from a cold start.
-    fn point_retry(&self, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> (ViscousPoint, Option<Warm>) {
+    fn point_retry(
+        &self,
+        alpha: f64,
+        opts: &ViscousOptions,
+        warm: Option<&Warm>,
+    ) -> (ViscousPoint, Option<Warm>) {
         let (p, w) = self.point(alpha, opts, warm);
         let Some(start) = warm else { return (p, w) };
         if p.converged {
@@ -208,7 +228,9 @@ impl Viscous {
     pub fn polar(&self, alphas: &[f64], opts: &ViscousOptions) -> Vec<ViscousPoint> {
         let mut order: Vec<usize> = (0..alphas.len()).collect();
         order.sort_by(|&a, &b| alphas[a].total_cmp(&alphas[b]));
-        let Some(start) = (0..order.len()).min_by(|&a, &b| alphas[order[a]].abs().total_cmp(&alphas[order[b]].abs())) else {
+        let Some(start) =
+            (0..order.len()).min_by(|&a, &b| alphas[order[a]].abs().total_cmp(&alphas[order[b]].abs()))
+        else {
             return Vec::new();
         };
         let (first, warm0) = self.point(alphas[order[start]], opts, None);
@@ -267,11 +289,20 @@ mod tests {
 
     #[test]
     fn bad_options_are_refused() {
-        let o = ViscousOptions { re: 10.0, ..ViscousOptions::default() };
+        let o = ViscousOptions {
+            re: 10.0,
+            ..ViscousOptions::default()
+        };
         assert!(o.check().is_err());
-        let o = ViscousOptions { ncrit: 0.0, ..ViscousOptions::default() };
+        let o = ViscousOptions {
+            ncrit: 0.0,
+            ..ViscousOptions::default()
+        };
         assert!(o.check().is_err());
-        let o = ViscousOptions { xtr_top: 1.5, ..ViscousOptions::default() };
+        let o = ViscousOptions {
+            xtr_top: 1.5,
+            ..ViscousOptions::default()
+        };
         assert!(o.check().is_err());
         assert!(ViscousOptions::default().check().is_ok());
     }
