@@ -73,12 +73,15 @@ fn ok(o: Output) -> Output {
     o
 }
 
-/// A report without its clocks (every field whose name speaks of seconds or a rate).
+/// A report without its clocks (every field whose name speaks of seconds or a rate) and without
+/// the command line of its stamp (the runs name their own output files).
 fn without_clocks(v: &Value) -> Value {
     match v {
         Value::Object(m) => Value::Object(
             m.iter()
-                .filter(|(k, _)| !(k.contains("second") || k.contains("elapsed") || k.contains("per_s")))
+                .filter(|(k, _)| {
+                    !(k.contains("second") || k.contains("elapsed") || k.contains("per_s") || *k == "command")
+                })
                 .map(|(k, x)| (k.clone(), without_clocks(x)))
                 .collect(),
         ),
