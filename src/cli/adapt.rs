@@ -169,7 +169,7 @@ pub struct Args {
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
     /// Write the JSON report (the curve report with an `adapt` block, `docs/ARCHITECTURE.md`
-    /// §5.6; an array for a sweep); `-` for standard output (the table then goes to standard
+    /// §5.6; a sweep report for several tolerances, §5.10); `-` for standard output (the table then goes to standard
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,

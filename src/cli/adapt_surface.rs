@@ -47,7 +47,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
     pub chord_rule: ChordArg,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
-    /// §5.7; an array for a sweep); `-` for standard output (the summary then goes to standard
+    /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary then goes to standard
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
