@@ -1,7 +1,7 @@
 //! SVG pictures of pressure distributions: Cp against x (suction up, as aerodynamicists draw
 //! it) above the shapes that carry them, drawn to equal scales.
 
-use super::svg::{draw_xy_mesh, plot_err};
+use super::svg::{draw_legend, draw_xy_mesh, plot_err};
 use crate::aero::{AeroReport, OptimiseResult, PanelSolution, Study};
 use crate::error::Result;
 use glam::DVec2;
@@ -191,13 +191,7 @@ impl CpPlot {
                 .label(c.label.clone())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(150, 150, 150))
-            .draw()
-            .map_err(plot_err)?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         // Equal scales below.
         let plot_h = f64::from(shape_h - 80);
         let span = ((x1 - x0) / plot_w).max((yhi - ylo) / plot_h);
@@ -222,13 +216,7 @@ impl CpPlot {
                 .label(o.label.clone())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
         }
-        shape
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(150, 150, 150))
-            .draw()
-            .map_err(plot_err)?;
+        draw_legend(&mut shape, SeriesLabelPosition::LowerRight)?;
         Ok(())
     }
 }

@@ -2,7 +2,7 @@
 //! α side by side, one colour per aerofoil; points that did not converge are left out.
 
 use super::cp_plot::PALETTE;
-use super::svg::plot_err;
+use super::svg::{draw_legend, plot_err};
 use crate::aero::ViscousPoint;
 use crate::error::Result;
 use plotters::prelude::*;
@@ -114,13 +114,7 @@ impl PolarPlot {
                     .map_err(plot_err)?;
             }
             if xd == "CD" {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::LowerRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(RGBColor(150, 150, 150))
-                    .draw()
-                    .map_err(plot_err)?;
+                draw_legend(&mut chart, SeriesLabelPosition::LowerRight)?;
             }
         }
         Ok(())

@@ -30,14 +30,30 @@ pub(crate) fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Output(format!("svg plot: {e:?}"))
 }
 
-/// The axes and grid of a shape plot: x and y labelled, the minor lines white.
-pub(crate) fn draw_xy_mesh<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+/// A plot's chart over f64 axes, as every plot of the crate draws on.
+pub(crate) type Chart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// The legend of a chart: its series' labels at `position`, on a light box with a grey
+/// border (every plot of the crate draws it so).
+pub(crate) fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    position: SeriesLabelPosition,
 ) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(150, 150, 150))
+        .draw()
+        .map_err(plot_err)
+}
+
+/// The axes and grid of a shape plot: x and y labelled, the minor lines white.
+pub(crate) fn draw_xy_mesh<DB: DrawingBackend>(chart: &mut Chart<'_, DB>) -> Result<()> {
     chart
         .configure_mesh()
         .x_desc("x")
@@ -201,14 +217,7 @@ impl CurvePlot<'_> {
             .map_err(plot_err)?
             .label(format!("generated join points ({})", generated.len()))
             .legend(move |(x, y)| Circle::new((x + 9, y), 5, green.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(grey)
-            .draw()
-            .map_err(plot_err)?;
-        Ok(())
+        draw_legend(&mut chart, SeriesLabelPosition::LowerRight)
     }
 
     fn draw_offsets<DB: DrawingBackend>(&self, area: &DrawingArea<DB, plotters::coord::Shift>) -> Result<()> {

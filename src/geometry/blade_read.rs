@@ -90,7 +90,7 @@ impl Blade {
         match ext.as_deref() {
             Some("yaml" | "yml" | "json") => true,
             Some("csv" | "txt" | "xyz") => false,
-            _ if path.as_os_str() == "-" => false,
+            _ if io::is_stdin(path) => false,
             _ => io::read_text(path).is_ok_and(|t| super::aerodyn::is_primary(&t)),
         }
     }
