@@ -164,10 +164,12 @@ def aero(
     alpha: Sequence[float] = (0.0, 4.0, 8.0),
     re: Optional[float] = None,
     ncrit: float = 9.0,
+    xtr_top: float = 1.0,
+    xtr_bottom: float = 1.0,
     panels: int = 160,
     te_ratio: float = 0.15,
 ) -> Dict[str, Any]:
-    """The inviscid panel method, as ``bezchain aero``: a dict of arrays."""
+    """The panel method, as ``bezchain aero``: inviscid, or viscous with ``re``; a dict of arrays."""
 
 def optimise(
     start: _PathLike,

@@ -66,6 +66,10 @@ def test_fit_equals_the_cli_report(cli, naca4413, tmp_path):
     got = json.loads(chain.to_json())
     for key in ("kind", "degree", "segments", "continuity", "breaks", "design_points", "control_points", "offset"):
         assert got[key] == want[key], key
+    # Stamped as the CLI's, with the Python call as its command.
+    for key in ("bezchain_version", "schema", "units"):
+        assert got[key] == want[key], key
+    assert got["command"][0] == "python" and got["command"][1].startswith("bezchain.fit(")
     assert (chain.degree, chain.segments, chain.continuity) == (3, 5, "C1")
     # The report reader takes the CLI's report back.
     back = bezchain.Chain.from_json(rep.read_text())
@@ -89,6 +93,7 @@ def test_adapt_equals_the_cli_report(cli, naca4413, tmp_path):
     assert chain.max_offset == want["offset"]["max"]
     got = json.loads(chain.to_json())
     assert got["adapt"]["encoding"] == want["adapt"]["encoding"]
+    assert got["schema"] == want["schema"] == "bezchain.curve/1"
     back = bezchain.Chain.from_json(chain.to_json())
     np.testing.assert_array_equal(back.design_points, chain.design_points)
 
@@ -224,9 +229,26 @@ def test_aero_of_a_chain_equals_the_cli_on_its_report(cli, naca4413, tmp_path):
     assert got["cl"][0] == want["polar"][0]["cl"]
 
 
-def test_aero_viscous_is_not_yet_wired(naca4413):
-    with pytest.raises(NotImplementedError, match="re=None"):
-        bezchain.aero(bezchain.read_aerofoil(naca4413), alpha=[2.0], re=1e6)
+def test_aero_viscous_equals_the_cli(cli, naca4413, tmp_path):
+    rep = tmp_path / "polar.json"
+    cli("aero", naca4413, "--re", "1e6", "--alpha", "0,4", "--json", rep)
+    want = json.loads(rep.read_text())
+    got = bezchain.aero(naca4413, alpha=[0, 4], re=1e6)
+    assert list(got["converged"]) == [p["converged"] for p in want["polar"]] == [True, True]
+    for key in ("alpha", "cl", "cd", "cdp", "cm", "xtr_top", "xtr_bottom"):
+        assert list(got[key]) == [p[key] for p in want["polar"]], key
+    assert got["re"] == want["re"] and got["ncrit"] == want["ncrit"]
+    assert got["nodes"].shape == (want["nodes"], 2)
+
+
+def test_aero_viscous_refuses_what_the_cli_refuses(naca4413):
+    pts = bezchain.read_aerofoil(naca4413)
+    with pytest.raises(ValueError, match="Reynolds number"):
+        bezchain.aero(pts, alpha=[2.0], re=10.0)
+    with pytest.raises(ValueError, match="Ncrit"):
+        bezchain.aero(pts, alpha=[2.0], re=1e6, ncrit=0.0)
+    with pytest.raises(ValueError, match="between -30 and 30"):
+        bezchain.aero(pts, alpha=[45.0], re=1e6)
 
 
 def test_optimise_equals_the_cli(cli, naca4413, tmp_path):

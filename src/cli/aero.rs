@@ -6,7 +6,7 @@ use super::output::Outputs;
 use super::picture::PlotArgs;
 use super::{usage, warn};
 use anyhow::Result;
-use bezchain::aero::viscous::polar::MAX_ALPHA;
+use bezchain::aero::viscous::polar::check_alphas;
 use bezchain::aero::{
     analyse_input, check_polar, AeroInput, AeroReport, Paneling, Viscous, ViscousOptions, ViscousPoint,
     DEFAULT_NODES,
@@ -174,11 +174,7 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
     };
     opts.check()
         .map_err(|e| usage(format!("--re/--ncrit/--xtr-*: {e}")))?;
-    if alphas.iter().any(|a| a.abs() > MAX_ALPHA) {
-        return Err(usage(format!(
-            "--alpha: the viscous analysis takes angles between -{MAX_ALPHA} and {MAX_ALPHA} degrees"
-        )));
-    }
+    check_alphas(alphas).map_err(|e| usage(format!("--alpha: {e}")))?;
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let csv = outs.add_opt("--csv", args.csv.as_deref())?;

@@ -39,6 +39,16 @@ impl Default for ViscousOptions {
 /// The largest angle of attack (degrees, either sign) a viscous point accepts.
 pub const MAX_ALPHA: f64 = 30.0;
 
+/// Refuse angles of attack outside ±[`MAX_ALPHA`] (or not finite) before a polar is run.
+pub fn check_alphas(alphas: &[f64]) -> Result<()> {
+    match alphas.iter().find(|a| !(a.abs() <= MAX_ALPHA)) {
+        Some(a) => Err(Error::invalid(format!(
+            "the viscous analysis takes angles between -{MAX_ALPHA} and {MAX_ALPHA} degrees, not {a}"
+        ))),
+        None => Ok(()),
+    }
+}
+
 impl ViscousOptions {
     /// Refuse settings outside the ranges the closures are meant for.
     pub fn check(&self) -> Result<()> {
