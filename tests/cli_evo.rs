@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::cli::{assert_user_error, json, run, stderr};
+use common::cli::{assert_user_error, assert_user_error_naming, json, run, stderr};
 
 use bezchain::optim::evo::Checkpoint;
 use common::check::check_curve_report;
@@ -13,8 +13,6 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// Exit status 2, one `error:` line of ours naming `needle` (the Vulkan loader may print
-/// lines of its own), and no panic.
 /// `fit` on case 1 with the given method and extra arguments.
 fn fit(method: &str, extra: &[&str]) -> Output {
     let mut args = vec![
@@ -265,6 +263,30 @@ fn bad_settings_exit_2_with_a_clear_message() {
         &fit("ga", &["--resume", missing.to_str().unwrap()]),
         "missing.ckpt",
     );
+    // A checkpoint whose history does not reach its generation (its checksum recomputed),
+    // resumed with its generations spent: refused with the reason, and nothing written.
+    let mut short = Checkpoint::read(&ck).unwrap();
+    short.history.clear();
+    let short_ck = dir.join("short.ckpt");
+    std::fs::write(&short_ck, short.to_bytes()).unwrap();
+    let (next_ck, short_json) = (dir.join("next.ckpt"), dir.join("short.json"));
+    let resumed = fit(
+        "ga",
+        &[
+            "--population",
+            "16",
+            "--generations",
+            "2",
+            "--resume",
+            short_ck.to_str().unwrap(),
+            "--checkpoint",
+            next_ck.to_str().unwrap(),
+            "--json",
+            short_json.to_str().unwrap(),
+        ],
+    );
+    assert_user_error_naming(&resumed, &["short.ckpt", "0 lines for generation 2"]);
+    assert!(!next_ck.exists() && !short_json.exists());
     // The good checkpoint was never touched by the failed runs.
     assert_eq!(std::fs::read(&ck).unwrap(), bytes);
 }
