@@ -13,7 +13,7 @@ use bezchain::fit::{
     SurfaceOptions, SurfaceProgress,
 };
 use bezchain::geometry::read_cloud;
-use bezchain::optim::evo::{Checkpoint, EvoHooks, Evolution};
+use bezchain::optim::evo::Checkpoint;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -375,53 +375,42 @@ fn fit_with_progress(
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let monitor_in_run = &mut *monitor;
-    let outs_in_run = &mut *outs;
-    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
-    let mut hooks = EvoHooks {
-        on_generation: if evolutionary {
-            Some(&mut on_generation)
-        } else {
-            None
+    let fit = monitor.run(
+        outs,
+        (&args.evo, evolutionary, resume),
+        (&args.cloud, points.len()),
+        |hooks| {
+            fit_surface_with(
+                points,
+                grid,
+                layout,
+                opts,
+                &mut |p| match p {
+                    SurfaceProgress::Params { source, seconds } => {
+                        bar.suspend(|| tell!("parameters: {source} ({seconds:.2} s)"));
+                    }
+                    SurfaceProgress::Stage { name, points } => {
+                        stage = name;
+                        stage_points = points;
+                        let what = if matches!(name, "ga" | "cmaes") {
+                            "evolution"
+                        } else {
+                            "least squares"
+                        };
+                        bar.suspend(|| tell!("{name}: {what} on {points} points"));
+                    }
+                    SurfaceProgress::Iteration(it) => {
+                        let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
+                        bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
+                    }
+                    SurfaceProgress::Offsets { points } => {
+                        bar.set_message(format!("closest points of all {points} points"));
+                    }
+                },
+                hooks,
+            )
         },
-        resume,
-    };
-    let fit = fit_surface_with(
-        points,
-        grid,
-        layout,
-        opts,
-        &mut |p| match p {
-            SurfaceProgress::Params { source, seconds } => {
-                bar.suspend(|| tell!("parameters: {source} ({seconds:.2} s)"));
-            }
-            SurfaceProgress::Stage { name, points } => {
-                stage = name;
-                stage_points = points;
-                let what = if matches!(name, "ga" | "cmaes") {
-                    "evolution"
-                } else {
-                    "least squares"
-                };
-                bar.suspend(|| tell!("{name}: {what} on {points} points"));
-            }
-            SurfaceProgress::Iteration(it) => {
-                let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
-                bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
-            }
-            SurfaceProgress::Offsets { points } => {
-                bar.set_message(format!("closest points of all {points} points"));
-            }
-        },
-        &mut hooks,
     );
-    drop(hooks);
-    monitor.finish();
     bar.finish_and_clear();
-    let fit = fit.with_context(|| match &args.evo.run.resume {
-        Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
-        None => format!("{}: fitting {} points", args.cloud.display(), points.len()),
-    })?;
-    monitor.close(outs)?;
-    Ok(fit)
+    fit
 }

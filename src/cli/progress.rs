@@ -3,7 +3,6 @@
 //! terminal, a line every few seconds when the standard error is a file or a pipe (CI logs),
 //! nothing with `--quiet`.
 
-use super::output::{Output, Outputs};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
@@ -105,38 +104,6 @@ fn time_left(elapsed: Duration, done: u64, total: u64) -> String {
         format!(", about {} min {} s left", secs / 60, secs % 60)
     } else {
         format!(", about {secs} s left")
-    }
-}
-
-/// A run's checkpoint file: replaced every `every` generations and when the run stops (and put
-/// back as it was if the run fails, as every interim output is).
-pub struct Checkpoints {
-    output: Option<Output>,
-    every: u64,
-}
-
-impl Checkpoints {
-    /// `output` (none: no checkpoints), every `every` generations (at least 1).
-    pub fn new(output: Option<Output>, every: u64) -> Self {
-        Checkpoints {
-            output,
-            every: every.max(1),
-        }
-    }
-
-    /// After generation `generation`: write `bytes()` when a checkpoint is due or the run
-    /// `stopped`.
-    pub fn after(
-        &self,
-        outs: &mut Outputs,
-        generation: u64,
-        stopped: bool,
-        bytes: impl FnOnce() -> Vec<u8>,
-    ) -> bezchain::Result<()> {
-        match self.output {
-            Some(o) if stopped || generation.is_multiple_of(self.every) => outs.interim(o, &bytes()),
-            _ => Ok(()),
-        }
     }
 }
 

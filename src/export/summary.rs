@@ -137,6 +137,23 @@ pub fn fold_warning(fit: &CurveFit<DVec2>) -> Option<String> {
     })
 }
 
+/// The title of a fitted chain's plot: the contour's `name`, the layout, the method, the
+/// design points and the closest-point offsets.
+#[must_use]
+pub fn curve_title(name: &str, fit: &CurveFit<DVec2>) -> String {
+    let l = fit.chain.layout();
+    format!(
+        "{name} — degree {}, {} segments, {}, {}: {} design points, sum_sq {:.3e}, max {:.3e}",
+        l.degree(),
+        l.segments(),
+        l.continuity(),
+        fit.method,
+        l.design_count(),
+        fit.closest.sum_sq,
+        fit.closest.max
+    )
+}
+
 /// The warning for a fitted grid on which the coarse sampled search of outside checkers finds
 /// other offsets than the exact ones (`check`), if it does.
 #[must_use]

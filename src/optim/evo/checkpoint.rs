@@ -390,7 +390,12 @@ impl Checkpoint {
         }
         // One history line a generation, from 0 to the checkpoint's: a resumed run appends to
         // them, and a run resumed after its last generation writes its outputs from them.
-        if let Some((i, h)) = self.history.iter().enumerate().find(|(i, h)| h.generation != *i as u64) {
+        if let Some((i, h)) = self
+            .history
+            .iter()
+            .enumerate()
+            .find(|(i, h)| h.generation != *i as u64)
+        {
             return Err(format!(
                 "history[{i}] is of generation {} (line i is of generation i)",
                 h.generation
@@ -624,8 +629,14 @@ mod tests {
             (Box::new(|c| c.history[0].best = f64::NAN), "history[0].best"),
             (Box::new(|c| c.history.clear()), "0 lines for generation 50"),
             (Box::new(|c| c.history.truncate(50)), "50 lines for generation 50"),
-            (Box::new(|c| c.generation = u64::MAX), "for generation 18446744073709551615"),
-            (Box::new(|c| c.history[3].generation = 4), "history[3] is of generation 4"),
+            (
+                Box::new(|c| c.generation = u64::MAX),
+                "for generation 18446744073709551615",
+            ),
+            (
+                Box::new(|c| c.history[3].generation = 4),
+                "history[3] is of generation 4",
+            ),
         ];
         for (edit, want) in cases {
             let mut c = sample(Method::Ga);
