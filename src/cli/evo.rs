@@ -13,7 +13,6 @@ use bezchain::optim::evo::{
     MAX_GENERATIONS, MAX_POPULATION,
 };
 use bezchain::optim::Method;
-use bezchain::optim::SolveReport;
 use std::path::{Path, PathBuf};
 
 /// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).
@@ -336,17 +335,4 @@ impl Monitor {
     pub fn close(&mut self, outs: &mut Outputs) -> Result<()> {
         Ok(self.record.close(outs)?)
     }
-}
-
-/// Say on the terminal that a method stopped at its evaluation or iteration cap (the report
-/// says so too, as `"stopped"`).
-pub fn warn_cap(input: &Path, method: &str, cap: &str, report: &SolveReport) {
-    eprintln!(
-        "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
-         before converging: the result is the best found so far",
-        input.display(),
-        report.iterations,
-        report.evaluations,
-        report.seconds
-    );
 }

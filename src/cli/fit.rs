@@ -1,7 +1,7 @@
 //! `bezchain fit`: fit a chain of Bezier curves to a 2D contour and report it; the evolutionary
 //! methods with a progress bar, a history file and checkpoints.
 
-use super::evo::{warn_cap, EvoArgs, Monitor};
+use super::evo::{EvoArgs, Monitor};
 use super::output::Outputs;
 use super::{usage, warn, warn_all};
 use anyhow::Result;
@@ -101,7 +101,10 @@ pub fn run(args: Args) -> Result<()> {
         |hooks| fit_curve_with(&loaded.points, layout, &opts, hooks),
     )?;
     if let Some(cap) = fit.stopped() {
-        warn_cap(&args.input, &fit.method.to_string(), cap, &fit.report);
+        warn(
+            &args.input,
+            &summary::cap_warning(&fit.method.to_string(), cap, &fit.report),
+        );
     }
     if let Some(w) = summary::fold_warning(&fit) {
         warn(&args.input, &w);

@@ -1,7 +1,7 @@
 //! `bezchain fit-surface`: fit a grid of chained Bezier patches to a 3D point cloud and write
 //! the report, meshes and a picture.
 
-use super::evo::{warn_cap, EvoArgs, Monitor};
+use super::evo::{EvoArgs, Monitor};
 use super::output::Outputs;
 use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
@@ -232,7 +232,10 @@ pub fn run(args: Args) -> Result<()> {
         warn(&args.cloud, &w);
     }
     if let Some(cap) = fit.stopped() {
-        warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
+        warn(
+            &args.cloud,
+            &summary::cap_warning(args.method.name(), cap, &fit.report),
+        );
     }
     let rep = SurfaceReport::from_fit(
         &fit,
@@ -334,19 +337,7 @@ fn choose_breaks_v(
             return Ok(None);
         }
     };
-    let breaks = search.fit.grid.layout().v.breaks().to_vec();
-    let passed = search.candidates.iter().filter(|c| c.check.agrees).count();
-    tell!(
-        "breaks v: {} (auto: {} fits, {passed} pass the projection check; sum_sq {:.4e}, uniform {:.4e})",
-        breaks
-            .iter()
-            .map(|b| format!("{b:.4}"))
-            .collect::<Vec<_>>()
-            .join(" "),
-        search.candidates.len(),
-        search.fit.stats.sum_sq,
-        search.candidates[0].sum_sq
-    );
+    tell!("{}", search.describe());
     Ok(Some(search))
 }
 

@@ -9,6 +9,7 @@ use crate::error::Result;
 use crate::fit::report::{FitInfo, OffsetReport};
 use crate::fit::{CurveFit, FitOptions, Method, SurfaceFit};
 use crate::geometry::{Axes, Blade, Blend, Cloud, Loaded2};
+use crate::optim::SolveReport;
 use crate::problem::checker::ProjectionCheck;
 use crate::problem::Metric;
 use glam::{DVec2, DVec3};
@@ -151,6 +152,17 @@ pub fn curve_title(name: &str, fit: &CurveFit<DVec2>) -> String {
         l.design_count(),
         fit.closest.sum_sq,
         fit.closest.max
+    )
+}
+
+/// The warning for a `method` that stopped at its `cap` (its iteration or evaluation limit,
+/// [`SolveReport::cap`]) before converging, with the effort `report` says it spent.
+#[must_use]
+pub fn cap_warning(method: &str, cap: &str, report: &SolveReport) -> String {
+    format!(
+        "{method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) before converging: \
+         the result is the best found so far",
+        report.iterations, report.evaluations, report.seconds
     )
 }
 
@@ -590,5 +602,20 @@ mod tests {
             lines[3]
         );
         assert_eq!(fixed4(&[0.0, 0.8, 1.0], " "), "0.0000 0.8000 1.0000");
+    }
+
+    #[test]
+    fn a_capped_method_says_its_cap_and_effort() {
+        let report = SolveReport {
+            iterations: 200,
+            evaluations: 4100,
+            seconds: 1.26,
+            stop: crate::optim::StopReason::MaxIterations,
+        };
+        assert_eq!(
+            cap_warning("bfgs", "iteration limit", &report),
+            "bfgs stopped at its iteration limit (200 iterations, 4100 evaluations, 1.3 s) before \
+             converging: the result is the best found so far"
+        );
     }
 }
