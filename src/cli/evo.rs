@@ -186,45 +186,20 @@ impl EvoArgs {
                 "stop on --target or --stall instead, or continue with --resume",
             )?);
         }
-        if let Some(b) = self.backend {
-            o.backend = b;
-        }
-        if let Some(s) = self.seed {
-            o.seed = s;
-        }
-        if let Some(t) = self.target {
-            o.target = t;
-        }
-        if let Some(s) = self.stall {
-            o.stall_generations = s;
-        }
-        if let Some(k) = self.newton {
-            o.newton = k;
-        }
-        if let Some(s) = self.spread {
-            o.spread = s;
-        }
-        if let Some(m) = self.margin {
-            o.margin = m;
-        }
-        if let Some(r) = self.crossover_rate {
-            o.ga.crossover_rate = r;
-        }
-        if let Some(r) = self.mutation_rate {
-            o.ga.mutation_rate = Some(r);
-        }
-        if let Some(t) = self.tournament {
-            o.ga.tournament = t;
-        }
-        if let Some(r) = self.covariance_rate {
-            o.ga.covariance_rate = r;
-        }
-        if let Some(p) = self.covariance_pool {
-            o.ga.covariance_pool = p;
-        }
-        if let Some(r) = self.restarts {
-            o.cmaes.restarts = r;
-        }
+        // Each option given replaces the library's default.
+        o.backend = self.backend.unwrap_or(o.backend);
+        o.seed = self.seed.unwrap_or(o.seed);
+        o.target = self.target.unwrap_or(o.target);
+        o.stall_generations = self.stall.unwrap_or(o.stall_generations);
+        o.newton = self.newton.unwrap_or(o.newton);
+        o.spread = self.spread.unwrap_or(o.spread);
+        o.margin = self.margin.unwrap_or(o.margin);
+        o.ga.crossover_rate = self.crossover_rate.unwrap_or(o.ga.crossover_rate);
+        o.ga.mutation_rate = self.mutation_rate.or(o.ga.mutation_rate);
+        o.ga.tournament = self.tournament.unwrap_or(o.ga.tournament);
+        o.ga.covariance_rate = self.covariance_rate.unwrap_or(o.ga.covariance_rate);
+        o.ga.covariance_pool = self.covariance_pool.unwrap_or(o.ga.covariance_pool);
+        o.cmaes.restarts = self.restarts.unwrap_or(o.cmaes.restarts);
         if self.run.checkpoint_every == Some(0) {
             return Err(usage("--checkpoint-every must be at least 1"));
         }

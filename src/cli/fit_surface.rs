@@ -164,7 +164,10 @@ pub fn run(args: Args) -> Result<()> {
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let n = loaded.points.len();
-    check_patches(&args, &layout, n)?;
+    // Refused before the fit: a net with more design points than the cloud can determine.
+    layout
+        .check_points(n, &args.cloud)
+        .map_err(|e| usage(format!("--patches {}x{}: {e}", args.patches[0], args.patches[1])))?;
     args.evo.check_size(
         &evo,
         args.method.evolutionary().map(|e| e.0),
@@ -282,24 +285,6 @@ pub fn run(args: Args) -> Result<()> {
         clock.elapsed().as_secs_f64(),
     ));
     Ok(())
-}
-
-/// Refuse, before the fit, a grid with more design points than the cloud's `n` points can
-/// determine; the message suggests the patch counts that fit.
-fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
-    let [pu, pv] = args.patches;
-    let Some((nu, nv)) = layout.design_shape() else {
-        return Ok(()); // span breaks: checked by the fit, which knows the span
-    };
-    if nu * nv <= n {
-        return Ok(());
-    }
-    Err(usage(format!(
-        "--patches {pu}x{pv}: a {nu} x {nv} design net is more than the {n} points of {} can \
-         determine (at least {} are needed); ask for fewer patches",
-        args.cloud.display(),
-        nu * nv
-    )))
 }
 
 /// `--breaks-v auto` ([`auto_breaks_v`]) with a progress bar; `None` (uniform breaks) when the

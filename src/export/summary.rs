@@ -15,6 +15,7 @@ use crate::problem::Metric;
 use glam::{DVec2, DVec3};
 use std::fmt::Write as _;
 use std::path::Path;
+use std::time::Duration;
 
 /// `fit`'s lines: the data, the chain, its closest-point offsets (and corresponding ones), the
 /// method's effort and, for the evolutionary methods, the run and its stages.
@@ -153,6 +154,22 @@ pub fn curve_title(name: &str, fit: &CurveFit<DVec2>) -> String {
         fit.closest.sum_sq,
         fit.closest.max
     )
+}
+
+/// `, about 1 min 20 s left` after `done` of `total` steps in `elapsed`, at the mean pace so
+/// far (nothing before the first step or after the last).
+#[must_use]
+pub fn time_left(elapsed: Duration, done: u64, total: u64) -> String {
+    if done == 0 || done >= total {
+        return String::new();
+    }
+    let left = elapsed.as_secs_f64() / done as f64 * (total - done) as f64;
+    let secs = left.round() as u64;
+    if secs >= 60 {
+        format!(", about {} min {} s left", secs / 60, secs % 60)
+    } else {
+        format!(", about {secs} s left")
+    }
 }
 
 /// The warning for a `method` that stopped at its `cap` (its iteration or evaluation limit,
@@ -602,6 +619,17 @@ mod tests {
             lines[3]
         );
         assert_eq!(fixed4(&[0.0, 0.8, 1.0], " "), "0.0000 0.8000 1.0000");
+    }
+
+    /// The estimate is the mean pace so far times the steps left, in minutes past a minute,
+    /// and nothing before the first step or after the last.
+    #[test]
+    fn the_time_left_is_the_mean_pace_times_the_steps_left() {
+        let s = Duration::from_secs;
+        assert_eq!(time_left(s(10), 1, 4), ", about 30 s left");
+        assert_eq!(time_left(s(30), 3, 10), ", about 1 min 10 s left");
+        assert_eq!(time_left(s(30), 0, 10), "");
+        assert_eq!(time_left(s(30), 10, 10), "");
     }
 
     #[test]
