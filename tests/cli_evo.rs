@@ -169,6 +169,42 @@ fn hybrids_report_both_stages_and_end_at_a_least_squares_optimum() {
     }
 }
 
+/// A CMA-ES checkpoint whose step size has underflowed to a denormal has converged: resumed
+/// with generations left, the run takes no step and writes every output from the checkpoint
+/// (exit 0).
+#[test]
+fn a_cmaes_run_whose_step_underflowed_resumes_to_its_outputs() {
+    let dir = scratch("cli-evo-denormal");
+    let p = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let out = fit("cmaes", &["--generations", "3", "--checkpoint", &p("a.ckpt")]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let mut c = Checkpoint::read(&dir.join("a.ckpt")).unwrap();
+    c.cmaes.as_mut().unwrap().sigma = 5e-324;
+    std::fs::write(dir.join("tiny.ckpt"), c.to_bytes()).unwrap();
+    let out = fit(
+        "cmaes",
+        &[
+            "--generations",
+            "10",
+            "--resume",
+            &p("tiny.ckpt"),
+            "--checkpoint",
+            &p("b.ckpt"),
+            "--json",
+            &p("b.json"),
+            "--history",
+            &p("b.csv"),
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(json(&dir.join("b.json"))["fit"]["iterations"], 3);
+    let back = Checkpoint::read(&dir.join("b.ckpt")).unwrap();
+    assert_eq!(back.generation, 3);
+    assert_eq!(back.cmaes.unwrap().sigma, 5e-324);
+    let history = std::fs::read_to_string(dir.join("b.csv")).unwrap();
+    assert_eq!(history.lines().count(), 5, "{history}");
+}
+
 #[test]
 fn bad_settings_exit_2_with_a_clear_message() {
     let dir = scratch("cli-evo-bad");
