@@ -85,7 +85,7 @@ fn both_layouts_of_clark_y_need_the_same_scalars() {
     assert_eq!(a.count.total, b.count.total);
 }
 
-/// Issue 29, item 6: "met" includes the held-out check (refitted on every other point, the
+/// "Met" includes the held-out check (refitted on every other point, the
 /// others within 3 tolerances) and no more curvature sign changes than a spline through the
 /// source points; at 1e-4 every shipped file either meets all three, or says which fails.
 #[test]

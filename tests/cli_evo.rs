@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::cli::{assert_user_error, json, run, stderr};
+use common::cli::{assert_user_error, assert_user_error_naming, json, run, stderr};
 
 use bezchain::optim::evo::Checkpoint;
 use common::check::check_curve_report;
@@ -13,8 +13,6 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// Exit status 2, one `error:` line of ours naming `needle` (the Vulkan loader may print
-/// lines of its own), and no panic.
 /// `fit` on case 1 with the given method and extra arguments.
 fn fit(method: &str, extra: &[&str]) -> Output {
     let mut args = vec![
@@ -171,6 +169,42 @@ fn hybrids_report_both_stages_and_end_at_a_least_squares_optimum() {
     }
 }
 
+/// A CMA-ES checkpoint whose step size has underflowed to a denormal has converged: resumed
+/// with generations left, the run takes no step and writes every output from the checkpoint
+/// (exit 0).
+#[test]
+fn a_cmaes_run_whose_step_underflowed_resumes_to_its_outputs() {
+    let dir = scratch("cli-evo-denormal");
+    let p = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let out = fit("cmaes", &["--generations", "3", "--checkpoint", &p("a.ckpt")]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let mut c = Checkpoint::read(&dir.join("a.ckpt")).unwrap();
+    c.cmaes.as_mut().unwrap().sigma = 5e-324;
+    std::fs::write(dir.join("tiny.ckpt"), c.to_bytes()).unwrap();
+    let out = fit(
+        "cmaes",
+        &[
+            "--generations",
+            "10",
+            "--resume",
+            &p("tiny.ckpt"),
+            "--checkpoint",
+            &p("b.ckpt"),
+            "--json",
+            &p("b.json"),
+            "--history",
+            &p("b.csv"),
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(json(&dir.join("b.json"))["fit"]["iterations"], 3);
+    let back = Checkpoint::read(&dir.join("b.ckpt")).unwrap();
+    assert_eq!(back.generation, 3);
+    assert_eq!(back.cmaes.unwrap().sigma, 5e-324);
+    let history = std::fs::read_to_string(dir.join("b.csv")).unwrap();
+    assert_eq!(history.lines().count(), 5, "{history}");
+}
+
 #[test]
 fn bad_settings_exit_2_with_a_clear_message() {
     let dir = scratch("cli-evo-bad");
@@ -265,6 +299,30 @@ fn bad_settings_exit_2_with_a_clear_message() {
         &fit("ga", &["--resume", missing.to_str().unwrap()]),
         "missing.ckpt",
     );
+    // A checkpoint whose history does not reach its generation (its checksum recomputed),
+    // resumed with its generations spent: refused with the reason, and nothing written.
+    let mut short = Checkpoint::read(&ck).unwrap();
+    short.history.clear();
+    let short_ck = dir.join("short.ckpt");
+    std::fs::write(&short_ck, short.to_bytes()).unwrap();
+    let (next_ck, short_json) = (dir.join("next.ckpt"), dir.join("short.json"));
+    let resumed = fit(
+        "ga",
+        &[
+            "--population",
+            "16",
+            "--generations",
+            "2",
+            "--resume",
+            short_ck.to_str().unwrap(),
+            "--checkpoint",
+            next_ck.to_str().unwrap(),
+            "--json",
+            short_json.to_str().unwrap(),
+        ],
+    );
+    assert_user_error_naming(&resumed, &["short.ckpt", "0 lines for generation 2"]);
+    assert!(!next_ck.exists() && !short_json.exists());
     // The good checkpoint was never touched by the failed runs.
     assert_eq!(std::fs::read(&ck).unwrap(), bytes);
 }

@@ -436,6 +436,11 @@ fn bad_clouds_and_arguments_exit_2_with_nothing_written() {
         .unwrap_or_default()
         .to_string();
     assert!(!error.contains("blade.csv"), "{error}");
+    // A stations file that cannot be read is named with the option too.
+    for bad in ["data/no-such-blade.json", "data/naca4413.dat"] {
+        let o = fit(&p("blade.csv"), &["--breaks-v", &format!("stations:{bad}")]);
+        assert_user_error_naming(&o, &["--breaks-v", bad]);
+    }
     assert_user_error_naming(&fit(&p("blade.csv"), &["--method", "bfgs"]), &["bfgs"]);
     assert_user_error_naming(
         &fit(

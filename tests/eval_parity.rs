@@ -462,8 +462,8 @@ fn far_from_the_origin_the_sums_are_those_near_it() {
     }
 }
 
-/// `bezchain eval`'s path on the NACA 4413 degree-3 × 5 fit, over populations that move its
-/// foot points across basins: individual i perturbed by σ = 0.002·(i mod 7) chord, and by σ up
+/// `bezchain eval`'s path on the NACA 4413 degree-3 × 5 fit, over populations of 2,000 that move
+/// its foot points across basins: individual i perturbed by σ = 0.002·(i mod 7) chord, and by σ up
 /// to 0.05 chord (loops, crossings, the two ends parted at the trailing edge). With the
 /// candidate starts, the CPU and the GPU agree on every row within 1e-4, and both find the
 /// global closest point: every row's sum of squares is the f64 truth (a 64-sample search on
@@ -492,7 +492,7 @@ fn eval_finds_the_global_closest_point_on_every_backend() {
     let ctx = gpu();
     for (name, step) in [("sigma 0.002 (i mod 7)", 0.002), ("sigma up to 0.05", 0.05 / 6.0)] {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let size = 700;
+        let size = 2000;
         let population: Vec<f64> = (0..size)
             .flat_map(|i| {
                 let sigma = step * (i % 7) as f64;

@@ -1,15 +1,14 @@
 //! `bezchain compare`: the paper's optimiser comparison on its three NACA 4413 cases, one table.
 
+use super::evo::{generations_arg, population_arg};
 use super::fit::load;
 use super::output::Outputs;
-use super::{bounded, usage};
 use anyhow::Result;
 use bezchain::eval::Backend;
 use bezchain::export::Schema;
+use bezchain::fit::paper::{compare_head, compare_tail, CompareReport};
 use bezchain::fit::{compare, Method};
-use bezchain::optim::evo::{
-    CmaesOptions, EvoOptions, GA_GENERATIONS, GA_POPULATION, MAX_GENERATIONS, MAX_POPULATION,
-};
+use bezchain::optim::evo::{CmaesOptions, EvoOptions, GA_GENERATIONS, GA_POPULATION};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -45,35 +44,13 @@ pub struct Args {
 
 /// Run every method on every case and print the table.
 pub fn run(args: Args) -> Result<()> {
-    if args.population < 4 {
-        return Err(usage(format!(
-            "--population must be at least 4, not {}",
-            args.population
-        )));
-    }
-    if args.generations < 1 {
-        return Err(usage(format!(
-            "--generations must be at least 1, not {}",
-            args.generations
-        )));
-    }
-    bounded(
-        "--population",
-        args.population as u64,
-        MAX_POPULATION as u64,
-        &format!("the default is {GA_POPULATION}"),
-    )?;
-    bounded(
-        "--generations",
-        args.generations as u64,
-        MAX_GENERATIONS as u64,
-        &format!("the default is {GA_GENERATIONS}"),
-    )?;
+    let population = population_arg(args.population, &format!("the default is {GA_POPULATION}"))?;
+    let generations = generations_arg(args.generations, &format!("the default is {GA_GENERATIONS}"))?;
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let evo = EvoOptions {
-        population: Some(args.population as usize),
-        generations: Some(args.generations as usize),
+        population: Some(population),
+        generations: Some(generations),
         seed: args.seed,
         backend: args.backend,
         cmaes: CmaesOptions {
@@ -88,43 +65,12 @@ pub fn run(args: Args) -> Result<()> {
     // Rows are printed as they finish: the whole table takes tens of seconds.
     let to_stderr = outs.uses_stdout();
     let emit = |text: &str| super::output::say(to_stderr, text);
-    let mut table = String::new();
-    table += &format!(
-        "{}: {} points. Counts are the paper's; sum_sq is the closest-point sum of squares, re-measured.\n\n",
-        args.input.display(),
-        loaded.points.len()
-    );
-    if args.methods.iter().any(|m| m.evolutionary().is_some()) {
-        table += &format!(
-            "ga and cmaes: population {}, at most {} generations, seed {}; cmaes restarts {}; iterations are \
-             generations and evaluations individuals.\n\n",
-            args.population,
-            args.generations,
-            args.seed,
-            match args.restarts {
-                None => "while generations remain".to_string(),
-                Some(r) => format!("at most {r} times"),
-            }
-        );
-    }
-    table += "| case | degree | segments | design / expanded points | method | variables | iterations | evaluations | seconds | sum_sq | max | paper's total offset | sum_sq / paper |\n";
-    table += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-    emit(&table);
+    let input = args.input.display().to_string();
+    emit(&compare_head(&input, loaded.points.len(), &args.methods, &evo));
     let (rows, backends) = compare(&loaded.points, &args.methods, &evo, &mut |row| emit(&row.line()))?;
-    let mut tail = String::new();
-    for b in &backends {
-        tail += &format!("\nga and cmaes evaluated on {b}");
-    }
-    tail += &format!("\ntotal {:.1} s\n", clock.elapsed().as_secs_f64());
-    emit(&tail);
+    emit(&compare_tail(&backends, clock.elapsed().as_secs_f64()));
     if let Some(o) = json {
         outs.put_json(o, Schema::Compare, &CompareReport { rows: &rows })?;
     }
     outs.commit()
-}
-
-/// The JSON report of `compare`: the table's rows, one a case and method.
-#[derive(serde::Serialize)]
-struct CompareReport<'a, T: serde::Serialize> {
-    rows: &'a [T],
 }

@@ -2,14 +2,12 @@
 //! optimisers outside bezchain.
 
 use super::output::Outputs;
-use super::{parse_word, usage};
+use super::parse_word;
 use anyhow::Result;
 use bezchain::bezier::Vector;
 use bezchain::eval::Backend;
 use bezchain::export::Report;
-use bezchain::fit::population::{
-    self, eval_curve_population, eval_grid_population, BatchOptions, F32Overflow,
-};
+use bezchain::fit::population::{self, eval_curve_population, eval_grid_population, BatchOptions};
 use bezchain::geometry::{read_cloud, read_curve, read_population};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -54,19 +52,8 @@ pub struct Args {
 /// Refuse data or individuals whose squared distances overflow the evaluator's f32, naming the
 /// file and the point or individual.
 fn check_f32<P: Vector>(args: &Args, points: &[P], population: &[f64], n_vars: usize) -> Result<()> {
-    population::check_f32(points, population, n_vars).map_err(|o| match o {
-        F32Overflow::Data(at, message) => {
-            let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
-            usage(format!("{}{at}: {message}", args.points.display()))
-        }
-        F32Overflow::Individual(k, i, message) => usage(format!(
-            "{}: individual {} (its row {} of values), variable {}: {message}",
-            args.population.display(),
-            k + 1,
-            k + 1,
-            i + 1
-        )),
-    })
+    population::check_f32(points, population, n_vars)
+        .map_err(|o| o.in_files(&args.points, &args.population).into())
 }
 
 /// Evaluate and write the fitness file.

@@ -3,16 +3,16 @@
 //! a run's progress and writes its history file and checkpoints.
 
 use super::output::{Output, Outputs};
-use super::progress::{Checkpoints, Generations};
+use super::progress::Generations;
 use super::usage;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use bezchain::eval::Backend;
+use bezchain::export::RunRecord;
 use bezchain::optim::evo::{
-    check_generation_size, default_population, Checkpoint, EvoOptions, Watched, MAX_GENERATIONS,
-    MAX_POPULATION,
+    check_generation_size, default_population, Checkpoint, EvoHooks, EvoOptions, Evolution, Watched,
+    MAX_GENERATIONS, MAX_POPULATION,
 };
 use bezchain::optim::Method;
-use bezchain::optim::SolveReport;
 use std::path::{Path, PathBuf};
 
 /// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).
@@ -175,68 +175,31 @@ impl EvoArgs {
     pub fn options(&self) -> Result<EvoOptions> {
         let mut o = EvoOptions::default();
         if let Some(p) = self.population {
-            if p < 4 {
-                return Err(usage(format!("--population must be at least 4, not {p}")));
-            }
-            super::bounded(
-                "--population",
-                p as u64,
-                MAX_POPULATION as u64,
+            o.population = Some(population_arg(
+                p,
                 "a few thousand individuals are plenty for these problems",
-            )?;
-            o.population = Some(p as usize);
+            )?);
         }
         if let Some(g) = self.generations {
-            if g < 1 {
-                return Err(usage(format!("--generations must be at least 1, not {g}")));
-            }
-            super::bounded(
-                "--generations",
-                g as u64,
-                MAX_GENERATIONS as u64,
+            o.generations = Some(generations_arg(
+                g,
                 "stop on --target or --stall instead, or continue with --resume",
-            )?;
-            o.generations = Some(g as usize);
+            )?);
         }
-        if let Some(b) = self.backend {
-            o.backend = b;
-        }
-        if let Some(s) = self.seed {
-            o.seed = s;
-        }
-        if let Some(t) = self.target {
-            o.target = t;
-        }
-        if let Some(s) = self.stall {
-            o.stall_generations = s;
-        }
-        if let Some(k) = self.newton {
-            o.newton = k;
-        }
-        if let Some(s) = self.spread {
-            o.spread = s;
-        }
-        if let Some(m) = self.margin {
-            o.margin = m;
-        }
-        if let Some(r) = self.crossover_rate {
-            o.ga.crossover_rate = r;
-        }
-        if let Some(r) = self.mutation_rate {
-            o.ga.mutation_rate = Some(r);
-        }
-        if let Some(t) = self.tournament {
-            o.ga.tournament = t;
-        }
-        if let Some(r) = self.covariance_rate {
-            o.ga.covariance_rate = r;
-        }
-        if let Some(p) = self.covariance_pool {
-            o.ga.covariance_pool = p;
-        }
-        if let Some(r) = self.restarts {
-            o.cmaes.restarts = r;
-        }
+        // Each option given replaces the library's default.
+        o.backend = self.backend.unwrap_or(o.backend);
+        o.seed = self.seed.unwrap_or(o.seed);
+        o.target = self.target.unwrap_or(o.target);
+        o.stall_generations = self.stall.unwrap_or(o.stall_generations);
+        o.newton = self.newton.unwrap_or(o.newton);
+        o.spread = self.spread.unwrap_or(o.spread);
+        o.margin = self.margin.unwrap_or(o.margin);
+        o.ga.crossover_rate = self.crossover_rate.unwrap_or(o.ga.crossover_rate);
+        o.ga.mutation_rate = self.mutation_rate.or(o.ga.mutation_rate);
+        o.ga.tournament = self.tournament.unwrap_or(o.ga.tournament);
+        o.ga.covariance_rate = self.covariance_rate.unwrap_or(o.ga.covariance_rate);
+        o.ga.covariance_pool = self.covariance_pool.unwrap_or(o.ga.covariance_pool);
+        o.cmaes.restarts = self.restarts.unwrap_or(o.cmaes.restarts);
         if self.run.checkpoint_every == Some(0) {
             return Err(usage("--checkpoint-every must be at least 1"));
         }
@@ -245,16 +208,31 @@ impl EvoArgs {
     }
 }
 
+/// `--population` checked: at least 4, at most [`MAX_POPULATION`] (else `suggestion`).
+pub fn population_arg(p: i64, suggestion: &str) -> Result<usize> {
+    if p < 4 {
+        return Err(usage(format!("--population must be at least 4, not {p}")));
+    }
+    super::bounded("--population", p as u64, MAX_POPULATION as u64, suggestion)?;
+    Ok(p as usize)
+}
+
+/// `--generations` checked: at least 1, at most [`MAX_GENERATIONS`] (else `suggestion`).
+pub fn generations_arg(g: i64, suggestion: &str) -> Result<usize> {
+    if g < 1 {
+        return Err(usage(format!("--generations must be at least 1, not {g}")));
+    }
+    super::bounded("--generations", g as u64, MAX_GENERATIONS as u64, suggestion)?;
+    Ok(g as usize)
+}
+
 /// Progress display, history file and checkpoints of a run: an evolutionary fit, or an
 /// aerodynamic optimisation.
 pub struct Monitor {
     progress: Generations,
     started: bool,
-    /// The history file, written to its temporary file as the run goes and put in place with
-    /// the run's other outputs.
-    history: Option<Output>,
-    written: usize,
-    checkpoints: Checkpoints,
+    /// The history file and checkpoints.
+    record: RunRecord,
 }
 
 impl Monitor {
@@ -272,9 +250,7 @@ impl Monitor {
         Monitor {
             progress: Generations::new(),
             started: false,
-            history,
-            written: 0,
-            checkpoints: Checkpoints::new(checkpoint, every),
+            record: RunRecord::new(history, checkpoint, every),
         }
     }
 
@@ -286,34 +262,11 @@ impl Monitor {
             self.progress.start(&name, run.generation(), run.limit());
             self.started = true;
         }
-        let h = run.history();
-        let Some(last) = h.last() else { return Ok(()) };
-        self.progress
-            .show(&name, last.generation, run.limit(), run.status());
-        if let Some(o) = self.history {
-            let path = outs.path(o).to_path_buf();
-            let io = |source| bezchain::Error::Io {
-                path: path.clone(),
-                source,
-            };
-            let w = outs.writer(o)?;
-            if self.written == 0 {
-                writeln!(w, "generation,best,mean,evaluations,seconds").map_err(io)?;
-            }
-            for p in &h[self.written..] {
-                writeln!(
-                    w,
-                    "{},{:e},{:e},{},{:.6}",
-                    p.generation, p.best, p.mean, p.evaluations, p.seconds
-                )
-                .map_err(io)?;
-            }
-            self.written = h.len();
+        if let Some(last) = run.history().last() {
+            self.progress
+                .show(&name, last.generation, run.limit(), run.status());
         }
-        self.checkpoints
-            .after(outs, run.generation(), run.stopping(), || {
-                run.checkpoint().to_bytes()
-            })
+        self.record.generation(run, outs)
     }
 
     /// Clear the progress bar.
@@ -321,24 +274,40 @@ impl Monitor {
         self.progress.finish();
     }
 
+    /// Run `fit` with this monitor on its generations when `evolutionary`, from `args`'s
+    /// checkpoint `resume` when given. A failure names the `input` and what was running (the
+    /// fit of its `points` points, or the resumption); after a run, a history file with no
+    /// generation in it still gets its header.
+    pub fn run<T>(
+        &mut self,
+        outs: &mut Outputs,
+        (args, evolutionary, resume): (&EvoArgs, bool, Option<Checkpoint>),
+        (input, points): (&Path, usize),
+        fit: impl FnOnce(&mut EvoHooks<'_>) -> bezchain::Result<T>,
+    ) -> Result<T> {
+        let result = {
+            let mut on_generation = |run: &Evolution<'_>| self.generation(run, outs);
+            let mut hooks = EvoHooks {
+                on_generation: if evolutionary {
+                    Some(&mut on_generation)
+                } else {
+                    None
+                },
+                resume,
+            };
+            fit(&mut hooks)
+        };
+        self.finish();
+        let done = result.with_context(|| match &args.run.resume {
+            Some(p) => format!("{}: resuming from {}", input.display(), p.display()),
+            None => format!("{}: fitting {points} points", input.display()),
+        })?;
+        self.close(outs)?;
+        Ok(done)
+    }
+
     /// After a finished run: a history file with no generation in it still gets its header.
     pub fn close(&mut self, outs: &mut Outputs) -> Result<()> {
-        if let (Some(o), 0) = (self.history, self.written) {
-            outs.put(o, b"generation,best,mean,evaluations,seconds\n")?;
-        }
-        Ok(())
+        Ok(self.record.close(outs)?)
     }
-}
-
-/// Say on the terminal that a method stopped at its evaluation or iteration cap (the report
-/// says so too, as `"stopped"`).
-pub fn warn_cap(input: &Path, method: &str, cap: &str, report: &SolveReport) {
-    eprintln!(
-        "warning: {}: {method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) \
-         before converging: the result is the best found so far",
-        input.display(),
-        report.iterations,
-        report.evaluations,
-        report.seconds
-    );
 }

@@ -34,7 +34,7 @@ impl CadArgs {
     pub fn add(&self, outs: &mut Outputs) -> Result<CadOutputs> {
         let mut add = |flag: &str, path: &Option<PathBuf>| match path.as_deref() {
             Some(p) if p.as_os_str() == "-" => Err(usage(format!("{flag}: give a file name, not -"))),
-            Some(p) => outs.add(flag, p).map(Some),
+            Some(p) => Ok(Some(outs.add(flag, p)?)),
             None => Ok(None),
         };
         Ok(CadOutputs {
@@ -90,24 +90,13 @@ pub fn run(args: Args) -> Result<()> {
         .put(&mut outs, &cad, &shapes, &stem(&args.report))
         .with_context(|| format!("{}: exporting", args.report.display()))?;
     outs.commit()?;
-    let what = |s: &CadShape| match s {
-        CadShape::Curve(c) => format!(
-            "B-spline curve, degree {}, {} control points",
-            c.degree,
-            c.ctrl.len()
-        ),
-        CadShape::Surface(s) => format!(
-            "B-spline surface, degrees {} x {}, {} x {} control points",
-            s.degree[0], s.degree[1], s.count[0], s.count[1]
-        ),
-    };
     let to: Vec<String> = [&args.cad.step, &args.cad.iges]
         .into_iter()
         .flatten()
         .map(|p| p.display().to_string())
         .collect();
     for s in &shapes {
-        tell!("{}: {} → {}", args.report.display(), what(s), to.join(", "));
+        tell!("{}: {} → {}", args.report.display(), s.describe(), to.join(", "));
     }
     Ok(())
 }

@@ -1,16 +1,15 @@
 //! `bezchain fit`: fit a chain of Bezier curves to a 2D contour and report it; the evolutionary
 //! methods with a progress bar, a history file and checkpoints.
 
-use super::evo::{warn_cap, EvoArgs, Monitor};
+use super::evo::{EvoArgs, Monitor};
 use super::output::Outputs;
 use super::{usage, warn, warn_all};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
 use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo, Schema};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve_with, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
-use bezchain::optim::evo::{EvoHooks, Evolution};
 use bezchain::problem::{point_offsets, Metric};
 use std::path::{Path, PathBuf};
 
@@ -95,28 +94,17 @@ pub fn run(args: Args) -> Result<()> {
         evo,
         ..FitOptions::default()
     };
-    let outs_in_run = &mut outs;
-    let monitor_in_run = &mut monitor;
-    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
-    let resume_path = args.evo.run.resume.clone();
-    let mut hooks = EvoHooks {
-        on_generation: if evolutionary.is_some() {
-            Some(&mut on_generation)
-        } else {
-            None
-        },
-        resume,
-    };
-    let fit = fit_curve_with(&loaded.points, layout, &opts, &mut hooks);
-    drop(hooks);
-    monitor.finish();
-    let fit = fit.with_context(|| match &resume_path {
-        Some(p) => format!("{}: resuming from {}", args.input.display(), p.display()),
-        None => format!("{}: fitting {} points", args.input.display(), loaded.points.len()),
-    })?;
-    monitor.close(&mut outs)?;
+    let fit = monitor.run(
+        &mut outs,
+        (&args.evo, evolutionary.is_some(), resume),
+        (&args.input, loaded.points.len()),
+        |hooks| fit_curve_with(&loaded.points, layout, &opts, hooks),
+    )?;
     if let Some(cap) = fit.stopped() {
-        warn_cap(&args.input, &fit.method.to_string(), cap, &fit.report);
+        warn(
+            &args.input,
+            &summary::cap_warning(&fit.method.to_string(), cap, &fit.report),
+        );
     }
     if let Some(w) = summary::fold_warning(&fit) {
         warn(&args.input, &w);
@@ -138,20 +126,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     if plots.wanted() {
         let offsets = point_offsets(&fit.chain, &loaded.points)?;
-        let l = fit.chain.layout();
-        let title = format!(
-            "{} — degree {}, {} segments, {}, {}: {} design points, sum_sq {:.3e}, max {:.3e}",
-            loaded.name,
-            l.degree(),
-            l.segments(),
-            l.continuity(),
-            fit.method,
-            l.design_count(),
-            fit.closest.sum_sq,
-            fit.closest.max
-        );
         let plot = CurvePlot {
-            title,
+            title: summary::curve_title(&loaded.name, &fit),
             data: &loaded.points,
             chain: &fit.chain,
             offsets: &offsets,

@@ -1,7 +1,7 @@
 //! `bezchain fit-surface`: fit a grid of chained Bezier patches to a 3D point cloud and write
 //! the report, meshes and a picture.
 
-use super::evo::{warn_cap, EvoArgs, Monitor};
+use super::evo::{EvoArgs, Monitor};
 use super::output::Outputs;
 use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
@@ -13,7 +13,7 @@ use bezchain::fit::{
     SurfaceOptions, SurfaceProgress,
 };
 use bezchain::geometry::read_cloud;
-use bezchain::optim::evo::{Checkpoint, EvoHooks, Evolution};
+use bezchain::optim::evo::Checkpoint;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -164,7 +164,10 @@ pub fn run(args: Args) -> Result<()> {
     let loaded = read_cloud(&args.cloud)?;
     warn_all(&args.cloud, &loaded.warnings);
     let n = loaded.points.len();
-    check_patches(&args, &layout, n)?;
+    // Refused before the fit: a net with more design points than the cloud can determine.
+    layout
+        .check_points(n, &args.cloud)
+        .map_err(|e| usage(format!("--patches {}x{}: {e}", args.patches[0], args.patches[1])))?;
     args.evo.check_size(
         &evo,
         args.method.evolutionary().map(|e| e.0),
@@ -232,7 +235,10 @@ pub fn run(args: Args) -> Result<()> {
         warn(&args.cloud, &w);
     }
     if let Some(cap) = fit.stopped() {
-        warn_cap(&args.cloud, args.method.name(), cap, &fit.report);
+        warn(
+            &args.cloud,
+            &summary::cap_warning(args.method.name(), cap, &fit.report),
+        );
     }
     let rep = SurfaceReport::from_fit(
         &fit,
@@ -281,24 +287,6 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Refuse, before the fit, a grid with more design points than the cloud's `n` points can
-/// determine; the message suggests the patch counts that fit.
-fn check_patches(args: &Args, layout: &SurfaceLayout, n: usize) -> Result<()> {
-    let [pu, pv] = args.patches;
-    let Some((nu, nv)) = layout.design_shape() else {
-        return Ok(()); // span breaks: checked by the fit, which knows the span
-    };
-    if nu * nv <= n {
-        return Ok(());
-    }
-    Err(usage(format!(
-        "--patches {pu}x{pv}: a {nu} x {nv} design net is more than the {n} points of {} can \
-         determine (at least {} are needed); ask for fewer patches",
-        args.cloud.display(),
-        nu * nv
-    )))
-}
-
 /// `--breaks-v auto` ([`auto_breaks_v`]) with a progress bar; `None` (uniform breaks) when the
 /// library's policy skips the search.
 fn choose_breaks_v(
@@ -334,19 +322,7 @@ fn choose_breaks_v(
             return Ok(None);
         }
     };
-    let breaks = search.fit.grid.layout().v.breaks().to_vec();
-    let passed = search.candidates.iter().filter(|c| c.check.agrees).count();
-    tell!(
-        "breaks v: {} (auto: {} fits, {passed} pass the projection check; sum_sq {:.4e}, uniform {:.4e})",
-        breaks
-            .iter()
-            .map(|b| format!("{b:.4}"))
-            .collect::<Vec<_>>()
-            .join(" "),
-        search.candidates.len(),
-        search.fit.stats.sum_sq,
-        search.candidates[0].sum_sq
-    );
+    tell!("{}", search.describe());
     Ok(Some(search))
 }
 
@@ -375,53 +351,42 @@ fn fit_with_progress(
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;
-    let monitor_in_run = &mut *monitor;
-    let outs_in_run = &mut *outs;
-    let mut on_generation = |run: &Evolution<'_>| monitor_in_run.generation(run, outs_in_run);
-    let mut hooks = EvoHooks {
-        on_generation: if evolutionary {
-            Some(&mut on_generation)
-        } else {
-            None
+    let fit = monitor.run(
+        outs,
+        (&args.evo, evolutionary, resume),
+        (&args.cloud, points.len()),
+        |hooks| {
+            fit_surface_with(
+                points,
+                grid,
+                layout,
+                opts,
+                &mut |p| match p {
+                    SurfaceProgress::Params { source, seconds } => {
+                        bar.suspend(|| tell!("parameters: {source} ({seconds:.2} s)"));
+                    }
+                    SurfaceProgress::Stage { name, points } => {
+                        stage = name;
+                        stage_points = points;
+                        let what = if matches!(name, "ga" | "cmaes") {
+                            "evolution"
+                        } else {
+                            "least squares"
+                        };
+                        bar.suspend(|| tell!("{name}: {what} on {points} points"));
+                    }
+                    SurfaceProgress::Iteration(it) => {
+                        let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
+                        bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
+                    }
+                    SurfaceProgress::Offsets { points } => {
+                        bar.set_message(format!("closest points of all {points} points"));
+                    }
+                },
+                hooks,
+            )
         },
-        resume,
-    };
-    let fit = fit_surface_with(
-        points,
-        grid,
-        layout,
-        opts,
-        &mut |p| match p {
-            SurfaceProgress::Params { source, seconds } => {
-                bar.suspend(|| tell!("parameters: {source} ({seconds:.2} s)"));
-            }
-            SurfaceProgress::Stage { name, points } => {
-                stage = name;
-                stage_points = points;
-                let what = if matches!(name, "ga" | "cmaes") {
-                    "evolution"
-                } else {
-                    "least squares"
-                };
-                bar.suspend(|| tell!("{name}: {what} on {points} points"));
-            }
-            SurfaceProgress::Iteration(it) => {
-                let rms = (it.sum_sq / stage_points.max(1) as f64).sqrt();
-                bar.set_message(format!("{stage}: iteration {}, rms {rms:.3e}", it.iteration));
-            }
-            SurfaceProgress::Offsets { points } => {
-                bar.set_message(format!("closest points of all {points} points"));
-            }
-        },
-        &mut hooks,
     );
-    drop(hooks);
-    monitor.finish();
     bar.finish_and_clear();
-    let fit = fit.with_context(|| match &args.evo.run.resume {
-        Some(p) => format!("{}: resuming from {}", args.cloud.display(), p.display()),
-        None => format!("{}: fitting {} points", args.cloud.display(), points.len()),
-    })?;
-    monitor.close(outs)?;
-    Ok(fit)
+    fit
 }

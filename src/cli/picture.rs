@@ -6,7 +6,7 @@ use super::output::{Output, Outputs};
 use super::{parse_pair, usage};
 use anyhow::Result;
 use bezchain::chain::PatchGrid;
-use bezchain::export::{render, render_svg, CpPlot, CurvePlot, PolarPlot, RenderOptions};
+use bezchain::export::{render, render_svg, Plot, RenderOptions};
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -82,41 +82,6 @@ pub struct PlotArgs {
     /// Write the same plot as a PNG picture here.
     #[arg(long)]
     pub png: Option<PathBuf>,
-}
-
-/// A 2D plot that draws to both formats.
-pub trait Plot {
-    /// The SVG document.
-    fn svg(&self) -> bezchain::Result<String>;
-    /// The PNG bytes.
-    fn png(&self) -> bezchain::Result<Vec<u8>>;
-}
-
-impl Plot for CurvePlot<'_> {
-    fn svg(&self) -> bezchain::Result<String> {
-        self.to_svg()
-    }
-    fn png(&self) -> bezchain::Result<Vec<u8>> {
-        self.to_png()
-    }
-}
-
-impl Plot for PolarPlot {
-    fn svg(&self) -> bezchain::Result<String> {
-        self.to_svg()
-    }
-    fn png(&self) -> bezchain::Result<Vec<u8>> {
-        self.to_png()
-    }
-}
-
-impl Plot for CpPlot {
-    fn svg(&self) -> bezchain::Result<String> {
-        self.to_svg()
-    }
-    fn png(&self) -> bezchain::Result<Vec<u8>> {
-        self.to_png()
-    }
 }
 
 /// The plot outputs of a run, from [`PlotArgs::add`].

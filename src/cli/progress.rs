@@ -3,7 +3,7 @@
 //! terminal, a line every few seconds when the standard error is a file or a pipe (CI logs),
 //! nothing with `--quiet`.
 
-use super::output::{Output, Outputs};
+use bezchain::export::summary;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
@@ -79,7 +79,7 @@ impl Generations {
             eprintln!(
                 "{name} {} {generation}/{total}{}: {msg}",
                 self.unit.0,
-                time_left(self.started.elapsed(), generation, total)
+                summary::time_left(self.started.elapsed(), generation, total)
             );
             self.last_line = Instant::now();
         }
@@ -90,68 +90,5 @@ impl Generations {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }
-    }
-}
-
-/// `, about 1 min 20 s left` after `done` of `total` steps in `elapsed`, at the mean pace so
-/// far (nothing before the first step or after the last).
-fn time_left(elapsed: Duration, done: u64, total: u64) -> String {
-    if done == 0 || done >= total {
-        return String::new();
-    }
-    let left = elapsed.as_secs_f64() / done as f64 * (total - done) as f64;
-    let secs = left.round() as u64;
-    if secs >= 60 {
-        format!(", about {} min {} s left", secs / 60, secs % 60)
-    } else {
-        format!(", about {secs} s left")
-    }
-}
-
-/// A run's checkpoint file: replaced every `every` generations and when the run stops (and put
-/// back as it was if the run fails, as every interim output is).
-pub struct Checkpoints {
-    output: Option<Output>,
-    every: u64,
-}
-
-impl Checkpoints {
-    /// `output` (none: no checkpoints), every `every` generations (at least 1).
-    pub fn new(output: Option<Output>, every: u64) -> Self {
-        Checkpoints {
-            output,
-            every: every.max(1),
-        }
-    }
-
-    /// After generation `generation`: write `bytes()` when a checkpoint is due or the run
-    /// `stopped`.
-    pub fn after(
-        &self,
-        outs: &mut Outputs,
-        generation: u64,
-        stopped: bool,
-        bytes: impl FnOnce() -> Vec<u8>,
-    ) -> bezchain::Result<()> {
-        match self.output {
-            Some(o) if stopped || generation.is_multiple_of(self.every) => outs.interim(o, &bytes()),
-            _ => Ok(()),
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The estimate is the mean pace so far times the steps left, in minutes past a minute,
-    /// and nothing before the first step or after the last.
-    #[test]
-    fn the_time_left_is_the_mean_pace_times_the_steps_left() {
-        let s = Duration::from_secs;
-        assert_eq!(time_left(s(10), 1, 4), ", about 30 s left");
-        assert_eq!(time_left(s(30), 3, 10), ", about 1 min 10 s left");
-        assert_eq!(time_left(s(30), 0, 10), "");
-        assert_eq!(time_left(s(30), 10, 10), "");
     }
 }

@@ -77,6 +77,22 @@ impl CadUnit {
 }
 
 impl CadShape {
+    /// What the shape is, in words: `B-spline curve, degree 3, 8 control points`.
+    #[must_use]
+    pub fn describe(&self) -> String {
+        match self {
+            CadShape::Curve(c) => format!(
+                "B-spline curve, degree {}, {} control points",
+                c.degree,
+                c.ctrl.len()
+            ),
+            CadShape::Surface(s) => format!(
+                "B-spline surface, degrees {} x {}, {} x {} control points",
+                s.degree[0], s.degree[1], s.count[0], s.count[1]
+            ),
+        }
+    }
+
     /// The shape with its control points in `unit` (knots unchanged): what the files hold.
     #[must_use]
     pub fn in_unit(&self, unit: CadUnit) -> CadShape {
@@ -252,5 +268,31 @@ impl BsplineSurface {
             knots: self.knots_u.clone(),
             ctrl: (0..self.count[0]).map(|i| self.at(i, j)).collect(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shape_says_its_kind_degrees_and_control_points() {
+        let curve = CadShape::Curve(BsplineCurve {
+            degree: 3,
+            knots: vec![0.0; 8],
+            ctrl: vec![DVec3::ZERO; 4],
+        });
+        assert_eq!(curve.describe(), "B-spline curve, degree 3, 4 control points");
+        let surface = CadShape::Surface(BsplineSurface {
+            degree: [3, 2],
+            knots_u: Vec::new(),
+            knots_v: Vec::new(),
+            count: [4, 3],
+            ctrl: vec![DVec3::ZERO; 12],
+        });
+        assert_eq!(
+            surface.describe(),
+            "B-spline surface, degrees 3 x 2, 4 x 3 control points"
+        );
     }
 }

@@ -9,11 +9,13 @@ use crate::error::Result;
 use crate::fit::report::{FitInfo, OffsetReport};
 use crate::fit::{CurveFit, FitOptions, Method, SurfaceFit};
 use crate::geometry::{Axes, Blade, Blend, Cloud, Loaded2};
+use crate::optim::SolveReport;
 use crate::problem::checker::ProjectionCheck;
 use crate::problem::Metric;
 use glam::{DVec2, DVec3};
 use std::fmt::Write as _;
 use std::path::Path;
+use std::time::Duration;
 
 /// `fit`'s lines: the data, the chain, its closest-point offsets (and corresponding ones), the
 /// method's effort and, for the evolutionary methods, the run and its stages.
@@ -135,6 +137,50 @@ pub fn fold_warning(fit: &CurveFit<DVec2>) -> Option<String> {
             fit.span_ratio
         )
     })
+}
+
+/// The title of a fitted chain's plot: the contour's `name`, the layout, the method, the
+/// design points and the closest-point offsets.
+#[must_use]
+pub fn curve_title(name: &str, fit: &CurveFit<DVec2>) -> String {
+    let l = fit.chain.layout();
+    format!(
+        "{name} — degree {}, {} segments, {}, {}: {} design points, sum_sq {:.3e}, max {:.3e}",
+        l.degree(),
+        l.segments(),
+        l.continuity(),
+        fit.method,
+        l.design_count(),
+        fit.closest.sum_sq,
+        fit.closest.max
+    )
+}
+
+/// `, about 1 min 20 s left` after `done` of `total` steps in `elapsed`, at the mean pace so
+/// far (nothing before the first step or after the last).
+#[must_use]
+pub fn time_left(elapsed: Duration, done: u64, total: u64) -> String {
+    if done == 0 || done >= total {
+        return String::new();
+    }
+    let left = elapsed.as_secs_f64() / done as f64 * (total - done) as f64;
+    let secs = left.round() as u64;
+    if secs >= 60 {
+        format!(", about {} min {} s left", secs / 60, secs % 60)
+    } else {
+        format!(", about {secs} s left")
+    }
+}
+
+/// The warning for a `method` that stopped at its `cap` (its iteration or evaluation limit,
+/// [`SolveReport::cap`]) before converging, with the effort `report` says it spent.
+#[must_use]
+pub fn cap_warning(method: &str, cap: &str, report: &SolveReport) -> String {
+    format!(
+        "{method} stopped at its {cap} ({} iterations, {} evaluations, {:.1} s) before converging: \
+         the result is the best found so far",
+        report.iterations, report.evaluations, report.seconds
+    )
 }
 
 /// The warning for a fitted grid on which the coarse sampled search of outside checkers finds
@@ -573,5 +619,31 @@ mod tests {
             lines[3]
         );
         assert_eq!(fixed4(&[0.0, 0.8, 1.0], " "), "0.0000 0.8000 1.0000");
+    }
+
+    /// The estimate is the mean pace so far times the steps left, in minutes past a minute,
+    /// and nothing before the first step or after the last.
+    #[test]
+    fn the_time_left_is_the_mean_pace_times_the_steps_left() {
+        let s = Duration::from_secs;
+        assert_eq!(time_left(s(10), 1, 4), ", about 30 s left");
+        assert_eq!(time_left(s(30), 3, 10), ", about 1 min 10 s left");
+        assert_eq!(time_left(s(30), 0, 10), "");
+        assert_eq!(time_left(s(30), 10, 10), "");
+    }
+
+    #[test]
+    fn a_capped_method_says_its_cap_and_effort() {
+        let report = SolveReport {
+            iterations: 200,
+            evaluations: 4100,
+            seconds: 1.26,
+            stop: crate::optim::StopReason::MaxIterations,
+        };
+        assert_eq!(
+            cap_warning("bfgs", "iteration limit", &report),
+            "bfgs stopped at its iteration limit (200 iterations, 4100 evaluations, 1.3 s) before \
+             converging: the result is the best found so far"
+        );
     }
 }

@@ -6,7 +6,7 @@ use super::report::backend_label;
 use crate::chain::{ChainLayout, Continuity};
 use crate::error::Result;
 use crate::eval::BackendInfo;
-use crate::optim::evo::EvoOptions;
+use crate::optim::evo::{EvoOptions, GA_GENERATIONS, GA_POPULATION};
 use crate::optim::Method;
 use glam::DVec2;
 use serde::Serialize;
@@ -101,6 +101,50 @@ impl CompareRow {
     }
 }
 
+/// The head of the comparison's Markdown table: the contour `input` and its `points`, the
+/// evolutionary settings of `evo` when `methods` has an evolutionary one, the column titles.
+#[must_use]
+pub fn compare_head(input: &str, points: usize, methods: &[Method], evo: &EvoOptions) -> String {
+    let mut head = format!(
+        "{input}: {points} points. Counts are the paper's; sum_sq is the closest-point sum of squares, re-measured.\n\n"
+    );
+    if methods.iter().any(|m| m.evolutionary().is_some()) {
+        head += &format!(
+            "ga and cmaes: population {}, at most {} generations, seed {}; cmaes restarts {}; iterations are \
+             generations and evaluations individuals.\n\n",
+            evo.population.unwrap_or(GA_POPULATION),
+            evo.generations.unwrap_or(GA_GENERATIONS),
+            evo.seed,
+            match evo.cmaes.restarts {
+                usize::MAX => "while generations remain".to_string(),
+                r => format!("at most {r} times"),
+            }
+        );
+    }
+    head += "| case | degree | segments | design / expanded points | method | variables | iterations | evaluations | seconds | sum_sq | max | paper's total offset | sum_sq / paper |\n";
+    head += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    head
+}
+
+/// The end of the comparison's table: the `backends` the evolutionary methods ran on, and the
+/// `seconds` the whole comparison took.
+#[must_use]
+pub fn compare_tail(backends: &[BackendInfo], seconds: f64) -> String {
+    let mut tail = String::new();
+    for b in backends {
+        tail += &format!("\nga and cmaes evaluated on {b}");
+    }
+    tail += &format!("\ntotal {seconds:.1} s\n");
+    tail
+}
+
+/// The JSON report of the comparison: the table's rows, one a case and method.
+#[derive(Serialize)]
+pub struct CompareReport<'a> {
+    /// The rows in table order.
+    pub rows: &'a [CompareRow],
+}
+
 /// The paper's optimiser comparison: every method of `methods` on every case of
 /// [`PAPER_CASES`] fitted to `points` (C1 chains), the evolutionary ones with `evo`; each row
 /// goes to `on_row` when it is done. Returns the rows and the backends the evolutionary methods
@@ -150,4 +194,44 @@ pub fn compare(
         }
     }
     Ok((rows, backends))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The head names the input and, only when an evolutionary method is compared, its
+    /// settings (restarts unbounded: while generations remain); the tail every backend.
+    #[test]
+    fn the_table_head_and_tail_say_what_ran() {
+        let evo = EvoOptions {
+            population: Some(64),
+            generations: Some(20),
+            cmaes: crate::optim::evo::CmaesOptions {
+                restarts: usize::MAX,
+                ..Default::default()
+            },
+            ..EvoOptions::default()
+        };
+        let head = compare_head("a.dat", 82, &[Method::Bfgs, Method::Cmaes], &evo);
+        assert!(head.starts_with("a.dat: 82 points."), "{head}");
+        assert!(
+            head.contains(
+                "population 64, at most 20 generations, seed 1; cmaes restarts while generations remain"
+            ),
+            "{head}"
+        );
+        assert_eq!(head.lines().filter(|l| l.starts_with('|')).count(), 2);
+        let evo = EvoOptions {
+            cmaes: crate::optim::evo::CmaesOptions {
+                restarts: 2,
+                ..Default::default()
+            },
+            ..evo
+        };
+        let head = compare_head("a.dat", 82, &[Method::Cmaes], &evo);
+        assert!(head.contains("cmaes restarts at most 2 times"), "{head}");
+        assert!(!compare_head("a.dat", 82, &[Method::Lsq], &evo).contains("ga and cmaes"));
+        assert_eq!(compare_tail(&[], 1.04), "\ntotal 1.0 s\n");
+    }
 }

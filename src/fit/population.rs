@@ -32,6 +32,7 @@ use crate::geometry::{check_design_scale, check_scale, Precision};
 use crate::optim::evo::{EvoOptions, Fnv, PopulationObjective, Score, Scorer};
 use crate::problem::FitProblem;
 use glam::{DVec2, DVec3};
+use std::path::Path;
 
 /// Shapes the population evaluator can score: plane chains and patch grids in space.
 pub trait EvalShape<const K: usize>: Shape<K> {
@@ -447,6 +448,27 @@ pub enum F32Overflow {
     Individual(usize, usize, String),
 }
 
+impl F32Overflow {
+    /// The input error, naming the data file `points` (and the point to blame) or the
+    /// population file `population` (the individual, its row and the variable).
+    #[must_use]
+    pub fn in_files(&self, points: &Path, population: &Path) -> Error {
+        Error::invalid(match self {
+            F32Overflow::Data(at, message) => {
+                let at = at.map_or(String::new(), |k| format!(" (point {})", k + 1));
+                format!("{}{at}: {message}", points.display())
+            }
+            F32Overflow::Individual(k, i, message) => format!(
+                "{}: individual {} (its row {} of values), variable {}: {message}",
+                population.display(),
+                k + 1,
+                k + 1,
+                i + 1
+            ),
+        })
+    }
+}
+
 /// Check that `points` and every individual of `population` (rows of `n_vars`) keep their
 /// squared distances inside the evaluator's f32 ([`check_scale`], [`check_design_scale`]).
 pub fn check_f32<P: Vector>(points: &[P], population: &[f64], n_vars: usize) -> Result<(), F32Overflow> {
@@ -589,6 +611,30 @@ mod tests {
     use crate::chain::Continuity;
     use crate::optim::evo::PopulationObjective;
     use crate::problem::{CurveProblem, Metric};
+
+    /// An overflow names the data file and its point, or the population file, the
+    /// individual's row and its variable, all counted from 1.
+    #[test]
+    fn an_f32_overflow_names_the_file_and_where() {
+        let (pts, pop) = (Path::new("a.dat"), Path::new("p.csv"));
+        let data = F32Overflow::Data(Some(4), "too far".into()).in_files(pts, pop);
+        assert_eq!(data.to_string(), "a.dat (point 5): too far");
+        assert!(data.is_user_error());
+        let whole = F32Overflow::Data(None, "too wide".into()).in_files(pts, pop);
+        assert_eq!(whole.to_string(), "a.dat: too wide");
+        let row = F32Overflow::Individual(2, 0, "too large".into()).in_files(pts, pop);
+        assert_eq!(
+            row.to_string(),
+            "p.csv: individual 3 (its row 3 of values), variable 1: too large"
+        );
+        // A population with a design far beyond the data's scale is refused there.
+        let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0)];
+        let far = [0.0, 0.0, 1.0, 0.0, 1e30, 0.0, 1.0, 0.0];
+        assert!(matches!(
+            check_f32(&points, &far, 4),
+            Err(F32Overflow::Individual(1, 0, _))
+        ));
+    }
 
     /// The frame centres start and bounds on the bounds' box, `absolute` moves designs back,
     /// and the objective measured in model coordinates is the same wherever the data sit.

@@ -144,6 +144,20 @@ impl SurfaceLayout {
         self.unit_layout().ok().map(|g| g.design_shape())
     }
 
+    /// Refuse a design net with more points than the `n` points of `cloud` can determine; a
+    /// layout that cannot be built without the cloud's span passes here, the fit checks it.
+    pub fn check_points(&self, n: usize, cloud: &Path) -> Result<()> {
+        match self.design_shape() {
+            Some((nu, nv)) if nu * nv > n => Err(Error::invalid(format!(
+                "a {nu} x {nv} design net is more than the {n} points of {} can determine (at \
+                 least {} are needed); ask for fewer patches",
+                cloud.display(),
+                nu * nv
+            ))),
+            _ => Ok(()),
+        }
+    }
+
     /// The grid layout, with span positions mapped to `v` along `axis`.
     pub fn grid_layout(&self, axis: &SpanAxis) -> Result<GridLayout> {
         let chain = |k: usize, breaks: &Breaks, name: &str| -> Result<ChainLayout> {
@@ -676,6 +690,41 @@ pub fn fit_surface_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A net of more design points than the cloud has is refused, naming the cloud and the
+    /// count needed; a layout that needs the cloud's span is left to the fit.
+    #[test]
+    fn a_net_larger_than_the_cloud_is_refused() {
+        let layout = SurfaceLayout {
+            degree: [3, 3],
+            patches: [2, 1],
+            continuity: [Continuity::C1, Continuity::C1],
+            breaks_u: Breaks::Uniform,
+            breaks_v: Breaks::Uniform,
+        };
+        let (nu, nv) = layout.design_shape().unwrap();
+        let cloud = Path::new("c.csv");
+        assert!(layout.check_points(nu * nv, cloud).is_ok());
+        let e = layout.check_points(nu * nv - 1, cloud).unwrap_err();
+        assert!(e.is_user_error());
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "a {nu} x {nv} design net is more than the {} points of c.csv can determine (at \
+                 least {} are needed); ask for fewer patches",
+                nu * nv - 1,
+                nu * nv
+            )
+        );
+        // A break at radius 10 lies beyond the unit span: the net waits for the cloud's.
+        let span = SurfaceLayout {
+            patches: [2, 2],
+            breaks_v: Breaks::Span(vec![10.0]),
+            ..layout
+        };
+        assert_eq!(span.design_shape(), None);
+        assert!(span.check_points(1, cloud).is_ok());
+    }
 
     /// A net inside the cloud's box, or out by a few diagonals, passes; one 30 km from a 100 m
     /// blade is refused, naming the distance and advice.

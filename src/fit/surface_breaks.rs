@@ -38,6 +38,35 @@ pub struct BreakSearch {
     pub candidates: Vec<BreakCandidate>,
 }
 
+impl BreakSearch {
+    /// What the search chose, in one line: the breaks, how many fits it made and how many of
+    /// them passed the projection check, and the sum of squares kept against the uniform
+    /// breaks' (the first candidate).
+    #[must_use]
+    pub fn describe(&self) -> String {
+        describe(
+            self.fit.grid.layout().v.breaks(),
+            &self.candidates,
+            self.fit.stats.sum_sq,
+        )
+    }
+}
+
+/// [`BreakSearch::describe`] of `breaks` chosen among `candidates` with `sum_sq`.
+fn describe(breaks: &[f64], candidates: &[BreakCandidate], sum_sq: f64) -> String {
+    let passed = candidates.iter().filter(|c| c.check.agrees).count();
+    let uniform = candidates.first().map_or(f64::NAN, |c| c.sum_sq);
+    format!(
+        "breaks v: {} (auto: {} fits, {passed} pass the projection check; sum_sq {sum_sq:.4e}, uniform {uniform:.4e})",
+        breaks
+            .iter()
+            .map(|b| format!("{b:.4}"))
+            .collect::<Vec<_>>()
+            .join(" "),
+        candidates.len(),
+    )
+}
+
 /// Positions tried for one break, as fractions of the interval between its neighbours.
 const FRACTIONS: [f64; 11] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98];
 
@@ -178,4 +207,37 @@ pub fn check_fit(
 ) -> Option<ProjectionCheck> {
     (points.len() <= CHECKED_POINTS)
         .then(|| earlier.unwrap_or_else(|| projection_check(&fit.grid, points, fit.stats.rms, fit.stats.max)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The line gives the breaks to 4 places, the fits and those that pass, and the kept sum
+    /// of squares against the uniform breaks' (the first candidate).
+    #[test]
+    fn the_search_says_what_it_chose() {
+        let candidate = |sum_sq: f64, agrees: bool| BreakCandidate {
+            breaks_v: vec![0.0, 0.5, 1.0],
+            sum_sq,
+            check: ProjectionCheck {
+                rms: 0.0,
+                max: 0.0,
+                agrees,
+            },
+        };
+        let line = describe(
+            &[0.0, 0.25, 1.0],
+            &[
+                candidate(2e-3, true),
+                candidate(1e-3, false),
+                candidate(5e-4, true),
+            ],
+            5e-4,
+        );
+        assert_eq!(
+            line,
+            "breaks v: 0.0000 0.2500 1.0000 (auto: 3 fits, 2 pass the projection check; sum_sq 5.0000e-4, uniform 2.0000e-3)"
+        );
+    }
 }

@@ -388,6 +388,26 @@ impl Checkpoint {
                 self.stall_since, self.generation
             ));
         }
+        // One history line a generation, from 0 to the checkpoint's: a resumed run appends to
+        // them, and a run resumed after its last generation writes its outputs from them.
+        if let Some((i, h)) = self
+            .history
+            .iter()
+            .enumerate()
+            .find(|(i, h)| h.generation != *i as u64)
+        {
+            return Err(format!(
+                "history[{i}] is of generation {} (line i is of generation i)",
+                h.generation
+            ));
+        }
+        if self.history.len() as u64 != self.generation.saturating_add(1) {
+            return Err(format!(
+                "the history has {} lines for generation {} (one a generation from 0)",
+                self.history.len(),
+                self.generation
+            ));
+        }
         if let Some(i) = self.params.iter().flatten().position(|t| !t.is_finite()) {
             return Err(format!(
                 "params[{}][{}] is {} (not finite)",
@@ -544,13 +564,15 @@ mod tests {
             },
             stall_reference: 3e-7,
             stall_since: 44,
-            history: vec![Progress {
-                generation: 0,
-                best: 1.0,
-                mean: f64::INFINITY,
-                evaluations: 3,
-                seconds: 0.0,
-            }],
+            history: (0..=50)
+                .map(|g| Progress {
+                    generation: g,
+                    best: 1.0 / (g + 1) as f64,
+                    mean: f64::INFINITY,
+                    evaluations: 3 * (g + 1),
+                    seconds: 0.025 * g as f64,
+                })
+                .collect(),
             population,
             scores,
             cmaes,
@@ -605,6 +627,16 @@ mod tests {
             (Box::new(|c| c.seconds = f64::INFINITY), "seconds"),
             (Box::new(|c| c.stall_since = 51), "stall_since"),
             (Box::new(|c| c.history[0].best = f64::NAN), "history[0].best"),
+            (Box::new(|c| c.history.clear()), "0 lines for generation 50"),
+            (Box::new(|c| c.history.truncate(50)), "50 lines for generation 50"),
+            (
+                Box::new(|c| c.generation = u64::MAX),
+                "for generation 18446744073709551615",
+            ),
+            (
+                Box::new(|c| c.history[3].generation = 4),
+                "history[3] is of generation 4",
+            ),
         ];
         for (edit, want) in cases {
             let mut c = sample(Method::Ga);
