@@ -7,11 +7,8 @@ use super::picture::PlotArgs;
 use super::{usage, warn};
 use anyhow::Result;
 use bezchain::aero::viscous::polar::check_alphas;
-use bezchain::aero::{
-    analyse_input, check_polar, AeroInput, AeroReport, Paneling, Viscous, ViscousOptions, ViscousPoint,
-    DEFAULT_NODES,
-};
-use bezchain::export::{CpPlot, PolarPlot, Schema};
+use bezchain::aero::{analyse_input, check_polar, AeroReport, Paneling, ViscousOptions, DEFAULT_NODES};
+use bezchain::export::{CpPlot, Schema, ViscousReport};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -131,39 +128,6 @@ fn inviscid(args: &Args, alphas: &[f64], paneling: &Paneling) -> Result<()> {
     Ok(())
 }
 
-/// One file's viscous polar as the JSON report holds it.
-#[derive(serde::Serialize)]
-struct FilePolar {
-    file: String,
-    input: AeroInput,
-    nodes: usize,
-    polar: Vec<ViscousPoint>,
-}
-
-/// The JSON report of a viscous run: the operating point and one polar per file (one file:
-/// its fields at the top).
-#[derive(serde::Serialize)]
-struct ViscousReport {
-    re: f64,
-    mach: f64,
-    ncrit: f64,
-    xtr_top: f64,
-    xtr_bottom: f64,
-    #[serde(flatten)]
-    polars: Polars,
-}
-
-#[derive(serde::Serialize)]
-#[serde(untagged)]
-enum Polars {
-    One(FilePolar),
-    Many { aerofoils: Vec<FilePolar> },
-}
-
-fn opt(v: Option<f64>, prec: usize) -> String {
-    v.map_or(String::new(), |x| format!("{x:.prec$}"))
-}
-
 fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<()> {
     let opts = ViscousOptions {
         re,
@@ -179,101 +143,18 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
     let json = outs.add_opt("--json", args.json.as_deref())?;
     let csv = outs.add_opt("--csv", args.csv.as_deref())?;
     let plots = args.plot.add(&mut outs)?;
-    let mut bodies = Vec::new();
-    let mut inputs = Vec::new();
-    for path in &args.input {
-        let (analysis, input, what) = analyse_input(path, paneling, &mut warn)?;
-        let body = Viscous::new(analysis.solution.nodes())
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        bodies.push(body);
-        inputs.push((
-            path.display().to_string(),
-            input,
-            what,
-            analysis.solution.nodes().len(),
-        ));
-    }
-    let polars = bezchain::aero::polars(&bodies, alphas, &opts);
-    let mut text = String::new();
-    let mut table = String::from("file,alpha,cl,cd,cdp,cm,xtr_top,xtr_bottom,converged\n");
-    for ((file, _, what, nodes), polar) in inputs.iter().zip(&polars) {
-        let _ = writeln!(
-            text,
-            "{file}: {what}, {nodes} panel nodes, Re {re:.3e}, Ncrit {}, transition forced at {} / {}",
-            opts.ncrit, opts.xtr_top, opts.xtr_bottom
-        );
-        let _ = writeln!(
-            text,
-            "   alpha        CL         CD        CDp         CM   xtr_top  xtr_bot"
-        );
-        for p in polar {
-            match (p.cl, p.cd, p.cdp, p.cm, p.xtr_top, p.xtr_bottom) {
-                (Some(cl), Some(cd), Some(cdp), Some(cm), Some(xt), Some(xb)) => {
-                    let _ = writeln!(
-                        text,
-                        "{:8.3} {cl:9.5} {cd:10.6} {cdp:10.6} {cm:10.5} {xt:9.4} {xb:8.4}",
-                        p.alpha
-                    );
-                }
-                _ => {
-                    let _ = writeln!(text, "{:8.3}   not converged", p.alpha);
-                }
-            }
-            let _ = writeln!(
-                table,
-                "{file},{},{},{},{},{},{},{},{}",
-                p.alpha,
-                opt(p.cl, 6),
-                opt(p.cd, 7),
-                opt(p.cdp, 7),
-                opt(p.cm, 6),
-                opt(p.xtr_top, 5),
-                opt(p.xtr_bottom, 5),
-                p.converged
-            );
-        }
-    }
+    let report = ViscousReport::analyse(&args.input, alphas, paneling, &opts, &mut warn)?;
     if plots.wanted() {
-        let plot = PolarPlot {
-            title: format!("viscous polar, Re {re:.3e}, Ncrit {}", opts.ncrit),
-            polars: inputs
-                .iter()
-                .zip(&polars)
-                .map(|((file, ..), p)| (file.clone(), p.clone()))
-                .collect(),
-        };
-        plots.put(&mut outs, &plot)?;
+        plots.put(&mut outs, &report.plot())?;
     }
-    let mut files: Vec<FilePolar> = inputs
-        .into_iter()
-        .zip(polars)
-        .map(|((file, input, _, nodes), polar)| FilePolar {
-            file,
-            input,
-            nodes,
-            polar,
-        })
-        .collect();
-    let report = ViscousReport {
-        re,
-        mach: 0.0,
-        ncrit: opts.ncrit,
-        xtr_top: opts.xtr_top,
-        xtr_bottom: opts.xtr_bottom,
-        polars: if files.len() == 1 {
-            Polars::One(files.remove(0))
-        } else {
-            Polars::Many { aerofoils: files }
-        },
-    };
     if let Some(o) = json {
         outs.put_json(o, Schema::Aero, &report)?;
     }
     if let Some(o) = csv {
-        outs.put(o, table.as_bytes())?;
+        outs.put(o, report.table().as_bytes())?;
     }
     outs.commit()?;
-    outs.say(&text);
+    outs.say(&report.summary());
     Ok(())
 }
 

@@ -20,6 +20,7 @@ mod stamp;
 mod step;
 pub mod summary;
 mod svg;
+mod viscous_report;
 
 pub use crate::fit::report::{
     backend_label, CurveReport, FitInfo, InputInfo, OffsetReport, Report, SurfaceReport,
@@ -45,3 +46,4 @@ pub use run_record::{RunRecord, HISTORY_HEADER};
 pub use stamp::{Schema, Stamp, Stamped, Sweep, Units, UNITS};
 pub use step::step_text;
 pub use svg::CurvePlot;
+pub use viscous_report::{FilePolar, Polars, ViscousReport};
