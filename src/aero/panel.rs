@@ -229,7 +229,9 @@ fn log_r2(r2: f64) -> f64 {
 /// The integrals of the panel `a → b` at field point `f` (and their derivatives along `n`
 /// when `n` is non-zero). The subtended angle is `atan2(r₁ × r₂, r₁ · r₂)`, which has no
 /// branch cut on the body; the source's own angles (used for the trailing-edge panel only)
-/// are measured from the panel's inward normal, so their cut runs downstream.
+/// are measured from the panel's inward normal, so their cut runs downstream; the source's
+/// velocity (`d_psig`) is taken without the cut, so that it holds in the wake behind a blunt
+/// trailing edge too.
 pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms {
     let d = b - a;
     let len = d.length();
@@ -263,7 +265,12 @@ pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms 
         let pdyy = ((x1 + x2) * psyy - yy * (g1 - g2)) / dx;
         terms.d_psis = (psx1 + psx2) * xn + psyy * yn;
         terms.d_psid = (pdx1 + pdx2) * xn + pdyy * yn;
-        terms.d_psig = (t2 - t1) * xn + 0.5 * (g1 - g2) * yn;
+        // The source's normal velocity is the angle the panel subtends, single-valued off
+        // the panel: in the strip on the panel's right, where the stream function's cut
+        // lies, `t2 − t1` is 2π short of it (on the panel itself it is −π, the left side's
+        // limit, as the stream function gives it).
+        let dt = if t2 - t1 < -PI { t2 - t1 + 2.0 * PI } else { t2 - t1 };
+        terms.d_psig = dt * xn + 0.5 * (g1 - g2) * yn;
     }
     terms
 }
