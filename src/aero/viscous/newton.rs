@@ -69,6 +69,11 @@ pub struct Outcome {
 /// Residual norm (2-norm over all equations) taken as converged.
 const TOL: f64 = 1e-9;
 
+/// In [`System::solve_held`], above this residual norm the transition points stay where they
+/// are: re-marched on a state far from the solution (the first steps from a marched start),
+/// they can jump by tens of stations, often off the surface, and Newton does not recover.
+const HOLD_TRANSITION_ABOVE: f64 = 0.5;
+
 impl<'a> System<'a> {
     /// The system at `alpha` degrees, its boundary layer started by marching on the inviscid
     /// edge speed, or from `warm` (a previous solution's states and flags on the same body).
@@ -854,6 +859,16 @@ impl<'a> System<'a> {
 
     /// Newton to convergence or `max_iter` iterations.
     pub fn solve(&mut self, max_iter: usize) -> Outcome {
+        self.newton(max_iter, f64::INFINITY)
+    }
+
+    /// [`System::solve`], the transition points held while the residual norm is large (for
+    /// the first ten steps at most): the second try of a point the first did not converge.
+    pub fn solve_held(&mut self, max_iter: usize) -> Outcome {
+        self.newton(max_iter, HOLD_TRANSITION_ABOVE)
+    }
+
+    fn newton(&mut self, max_iter: usize, hold_above: f64) -> Outcome {
         for it in 0..max_iter {
             let r = self.residual();
             let rn = norm(&r);
@@ -877,7 +892,9 @@ impl<'a> System<'a> {
             };
             self.update(&du);
             self.stagnation_move();
-            self.update_transition();
+            if rn < hold_above || it >= 10 {
+                self.update_transition();
+            }
             if self.u.iter().any(|s| !s.iter().all(|v| v.is_finite())) {
                 return Outcome {
                     converged: false,

@@ -153,9 +153,17 @@ impl Viscous {
         let Ok(mut sys) = System::new(&self.body, alpha, opts.fluid(), xtr, w) else {
             return (failed(0), None);
         };
-        let out = sys.solve(opts.max_iter);
+        let mut out = sys.solve(opts.max_iter);
         if !out.converged {
-            return (failed(out.iterations), None);
+            // Again from the same start, the transition points held while far off.
+            let Ok(again) = System::new(&self.body, alpha, opts.fluid(), xtr, w) else {
+                return (failed(out.iterations), None);
+            };
+            sys = again;
+            out = sys.solve_held(opts.max_iter);
+            if !out.converged {
+                return (failed(out.iterations), None);
+            }
         }
         let f = sys.forces(alpha);
         let ok = [f.cl, f.cm, f.cd, f.cdf].iter().all(|v| v.is_finite()) && f.cd > 0.0;
