@@ -188,7 +188,7 @@ fn viscous(args: &Args, re: f64, alphas: &[f64], paneling: &Paneling) -> Result<
     for path in &args.input {
         let (analysis, input, what) = analyse_input(path, paneling, &mut warn)?;
         let body = Viscous::new(analysis.solution.nodes())
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            .map_err(|e| anyhow::Error::new(e).context(path.display().to_string()))?;
         bodies.push(body);
         inputs.push((
             path.display().to_string(),
