@@ -334,11 +334,18 @@ impl<'a> System<'a> {
     /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
     fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
         let deps = self.deps(i);
+        // The stations the row holds come first; the stagnation nodes added after them enter
+        // through ξ alone, which reads their uₑ: their other partials are zero.
+        let own = if matches!(self.rows[i], Row::WakeStart) {
+            3
+        } else {
+            2
+        };
         let mut out = Vec::with_capacity(deps.len());
         let mut u = std::mem::take(&mut self.u);
-        for &j in &deps {
+        for (k, &j) in deps.iter().enumerate() {
             let mut p = [[0.0; 4]; 3];
-            for q in 0..4 {
+            for q in if k < own { 0 } else { 3 }..4 {
                 let v = u[j][q];
                 let h = if q == 2 {
                     1e-7 * v.abs().max(1e-3)
