@@ -229,7 +229,9 @@ fn log_r2(r2: f64) -> f64 {
 /// The integrals of the panel `a → b` at field point `f` (and their derivatives along `n`
 /// when `n` is non-zero). The subtended angle is `atan2(r₁ × r₂, r₁ · r₂)`, which has no
 /// branch cut on the body; the source's own angles (used for the trailing-edge panel only)
-/// are measured from the panel's inward normal, so their cut runs downstream.
+/// are measured from the panel's inward normal, so their cut runs downstream; the source's
+/// velocity (`d_psig`) is taken without the cut, so that it holds in the wake behind a blunt
+/// trailing edge too.
 pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms {
     let d = b - a;
     let len = d.length();
@@ -263,7 +265,16 @@ pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms 
         let pdyy = ((x1 + x2) * psyy - yy * (g1 - g2)) / dx;
         terms.d_psis = (psx1 + psx2) * xn + psyy * yn;
         terms.d_psid = (pdx1 + pdx2) * xn + pdyy * yn;
-        terms.d_psig = (t2 - t1) * xn + 0.5 * (g1 - g2) * yn;
+        // The source's normal velocity is the angle the panel subtends, single-valued off
+        // the panel: in the strip on the panel's right, where the stream function's cut
+        // lies, `t2 − t1` is 2π short of it (on the panel itself it is −π, the left side's
+        // limit, as the stream function gives it).
+        let dt = if t2 - t1 < -PI {
+            t2 - t1 + 2.0 * PI
+        } else {
+            t2 - t1
+        };
+        terms.d_psig = dt * xn + 0.5 * (g1 - g2) * yn;
     }
     terms
 }
@@ -452,6 +463,30 @@ impl PanelSolution {
         let (cl, cm) = integrate(&self.nodes, &self.cp(alpha), alpha, &self.chord);
         Coefficients { alpha, cl, cm }
     }
+}
+
+/// The first two panels between consecutive `nodes` that cross each other (neighbours, which
+/// share a node, aside; touching is not crossing), or `None` for a contour that does not cross
+/// itself. A fitted chain can fold back over its data in a small loop; its offsets stay small,
+/// but no boundary layer runs along such a surface.
+#[must_use]
+pub fn crossing(nodes: &[DVec2]) -> Option<(usize, usize)> {
+    let m = nodes.len();
+    let side = |o: DVec2, p: DVec2, q: DVec2| (p - o).perp_dot(q - o);
+    for i in 0..m.saturating_sub(1) {
+        let (a, b) = (nodes[i], nodes[i + 1]);
+        let (lo, hi) = (a.min(b), a.max(b));
+        for j in i + 2..m - 1 {
+            let (c, d) = (nodes[j], nodes[j + 1]);
+            if c.max(d).cmplt(lo).any() || c.min(d).cmpgt(hi).any() {
+                continue;
+            }
+            if side(c, d, a) * side(c, d, b) < 0.0 && side(a, b, c) * side(a, b, d) < 0.0 {
+                return Some((i, j));
+            }
+        }
+    }
+    None
 }
 
 /// CL and CM from node pressures: trapezoidal `Cp` on every panel, the trailing-edge panel

@@ -102,30 +102,44 @@ pub fn hs(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
     }
 }
 
-/// The skin-friction coefficient `Cf` (zero in the wake).
+/// The skin-friction coefficient `Cf` (zero in the wake); turbulent: never below the laminar
+/// value (which only happens at unreasonably small `Re_θ`), as XFOIL's `BLVAR` takes it.
 pub fn cf(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+    cf_of(hk_limited(u, k), ret(u, f), k)
+}
+
+/// [`cf`] from the kinematic shape parameter and `Re_θ` (the interval's midpoint value takes
+/// the ends' means of the two, XFOIL's `BLMID`).
+pub fn cf_of(hk: f64, rt: f64, k: Kind) -> f64 {
     if k.wake {
-        return 0.0;
-    }
-    let hk = h(u);
-    let rt = ret(u, f);
-    if k.turb {
-        let mut aa = -1.33 * hk;
-        if aa < -17.0 {
-            aa = -20.0 + 3.0 * ((aa + 17.0) / 3.0).exp();
-        }
-        let bb = rt.ln().max(3.0) / std::f64::consts::LN_10;
-        let cc = -1.74 - 0.31 * hk;
-        let dd = (4.0 - hk / 0.875).tanh();
-        0.3 * aa.exp() * bb.powf(cc) + 1.1e-4 * (dd - 1.0)
+        0.0
+    } else if k.turb {
+        cf_turbulent(hk, rt).max(cf_laminar(hk, rt))
     } else {
-        let num = if hk < 5.5 {
-            0.0727 * (5.5 - hk).powi(3) / (hk + 1.0) - 0.07
-        } else {
-            0.015 * (1.0 - 1.0 / (hk - 4.5)).powi(2) - 0.07
-        };
-        num / rt
+        cf_laminar(hk, rt)
     }
+}
+
+/// Swafford's turbulent skin friction at Mach 0 (XFOIL's `CFT`).
+fn cf_turbulent(hk: f64, rt: f64) -> f64 {
+    let mut aa = -1.33 * hk;
+    if aa < -17.0 {
+        aa = -20.0 + 3.0 * ((aa + 17.0) / 3.0).exp();
+    }
+    let bb = rt.ln().max(3.0) / std::f64::consts::LN_10;
+    let cc = -1.74 - 0.31 * hk;
+    let dd = (4.0 - hk / 0.875).tanh();
+    0.3 * aa.exp() * bb.powf(cc) + 1.1e-4 * (dd - 1.0)
+}
+
+/// The laminar skin friction (XFOIL's `CFL`).
+fn cf_laminar(hk: f64, rt: f64) -> f64 {
+    let num = if hk < 5.5 {
+        0.0727 * (5.5 - hk).powi(3) / (hk + 1.0) - 0.07
+    } else {
+        0.015 * (1.0 - 1.0 / (hk - 4.5)).powi(2) - 0.07
+    };
+    num / rt
 }
 
 /// The normalised slip velocity `Us`.
@@ -195,7 +209,7 @@ pub fn cdi(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
         let lr = rt.ln();
         let hmin = 1.0 + 2.1 / lr;
         let fac = 0.5 + 0.5 * ((hk - 1.0) / (hmin - 1.0)).tanh();
-        d += cf(u, k, f) * usv / hsv * fac;
+        d += cf_turbulent(hk.max(1.05), rt) * usv / hsv * fac;
         cdi_lam(u, f)
     };
     d += u[2] * u[2] * (0.995 - usv) * 2.0 / hsv;
@@ -237,7 +251,7 @@ pub fn damp(u: &[f64; 4], f: &Fluid) -> f64 {
     };
     let ar = 3.87 * hmi - 2.52;
     let da = 0.028 * (hk - 1.0) - 0.0345 * (-ar * ar).exp();
-    let af = -0.05 + 2.7 * hmi - 5.5 * hmi * hmi + 3.0 * hmi.powi(3) + 0.1 * (-20.0 * hmi).exp();
+    let af = -0.05 + 2.7 * hmi - 5.5 * hmi * hmi + 3.0 * hmi.powi(3);
     rf * af * da / th
 }
 

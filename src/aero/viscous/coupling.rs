@@ -21,7 +21,8 @@ pub struct Body {
     pub chord: Chord,
     /// The trailing-edge gap normal to the bisector (XFOIL's `ANTE`), unit chord.
     pub gap: f64,
-    /// Sine of the angle between the end tangents (the wake gap's closing slope).
+    /// The slope at which the blunt edge's gap opens along the wake: the tangent of the angle
+    /// between the two end tangents, negative where the surfaces converge (XFOIL's `DWDXTE`).
     pub dtdx: f64,
     te: TrailingEdge,
     lu: LU<f64, Dyn, Dyn>,
@@ -105,7 +106,10 @@ impl Body {
         let t2 = (local[n - 1] - local[n - 2]).normalize();
         let bis = (t1 + t2).normalize_or_zero();
         let gap = (local[0] - local[n - 1]).perp_dot(bis).abs();
-        let dtdx = t1.perp_dot(t2);
+        // t1 and t2 point downstream: converging surfaces (t1 turning down onto t2) close
+        // the gap, a negative slope.
+        let cross = t2.perp_dot(t1).clamp(-0.99, 0.99);
+        let dtdx = cross / (1.0 - cross * cross).sqrt();
         let panels: Vec<(DVec2, DVec2)> = (0..n - 1).map(|j| (local[j], local[j + 1])).collect();
         let b = source_rows(&local, &te, &panels);
         let sol = lu
@@ -194,7 +198,14 @@ impl Body {
         }
         let np = panels.len();
         // Body rows: the body panels' part is fixed, the wake cells' through the system.
-        let bw = source_rows(&self.nodes, &self.te, &panels[n - 1..]);
+        let mut bw = source_rows(&self.nodes, &self.te, &panels[n - 1..]);
+        if sharp_control(&self.nodes, &self.te).is_some() {
+            // The sharp edge's bisector condition sees the body's sheets and sources only, as
+            // XFOIL's (QDCALC): the first wake cell starts at the edge, a tenth of a panel
+            // from the control point, where a uniform source's tangential speed is
+            // logarithmically large and would set the circulation by the wake's growth.
+            bw.row_mut(n - 1).fill(0.0);
+        }
         let solw = self
             .lu
             .solve(&bw)
@@ -334,20 +345,23 @@ mod tests {
     use super::*;
 
     /// A unit uniform source panel blows outwards: half the strength just off its middle on
-    /// its left (the body's inner side for a counterclockwise contour), and away from it far
-    /// off. (On its right, within the strip the panel casts, the stream function's cut makes
-    /// its derivative no velocity: no field point of the method lies there, §2.14.)
+    /// its left (the body's inner side for a counterclockwise contour) and on its right (where
+    /// the stream function has its cut: the wake behind a blunt trailing edge), and away from
+    /// it far off.
     #[test]
     fn a_positive_source_blows_outwards() {
         let (a, b) = (DVec2::new(-0.5, 0.0), DVec2::new(0.5, 0.0));
         for (f, t) in [
             (DVec2::new(0.0, 1e-6), DVec2::Y),
+            (DVec2::new(0.2, -0.3), DVec2::new(0.0, -1.0)),
             (DVec2::new(3.0, 0.2), DVec2::new(3.0, 0.2).normalize()),
             (DVec2::new(-2.0, -0.5), DVec2::new(-2.0, -0.5).normalize()),
         ] {
             let v = HOPI * panel_terms(f, a, b, t.perp()).d_psig;
             assert!(v > 0.0, "{f} {v}");
         }
+        let v = HOPI * panel_terms(DVec2::new(0.0, -1e-9), a, b, DVec2::NEG_Y.perp()).d_psig;
+        assert!((v - 0.5).abs() < 1e-6, "{v}");
         let v = HOPI * panel_terms(DVec2::new(0.0, 1e-9), a, b, DVec2::Y.perp()).d_psig;
         assert!((v - 0.5).abs() < 1e-6, "{v}");
     }

@@ -85,7 +85,10 @@ pub fn interval(
 
     let cfxt = |u: &State, x: f64| c::cf(u, k, fl) * x / u[0];
     let (cfxt1, cfxt2) = (cfxt(&u1, x[0]), cfxt(&u2, x[1]));
-    let cfxtm = cfxt(&um, 0.5 * (x[0] + x[1]));
+    // The midpoint's Cf from the ends' mean Hk and Re_θ (XFOIL's BLMID).
+    let hka = 0.5 * (c::hk_limited(&u1, k) + c::hk_limited(&u2, k));
+    let rta = 0.5 * (c::ret(&u1, fl) + c::ret(&u2, fl));
+    let cfxtm = c::cf_of(hka, rta, k) * 0.5 * (x[0] + x[1]) / um[0];
     let cfxt_mom = 0.25 * cfxt1 + 0.5 * cfxtm + 0.25 * cfxt2;
     let mom = thlog + (2.0 + hav + hw) * uelog - 0.5 * xlog * cfxt_mom;
 
@@ -166,7 +169,9 @@ pub fn transition(fl: &Fluid, x: [f64; 2], xt: f64, u1: &State, u2: &State) -> [
     utt[2] = c::cttr(&ut, fl);
     let rl = interval(fl, Kind::LAMINAR, false, [x[0], xt], u1, &utl, [0.0; 2]);
     let rt = interval(fl, Kind::TURBULENT, false, [xt, x[1]], &utt, u2, [0.0; 2]);
-    [rl[0] + rt[0], rl[1] + rt[1], rl[2] + rt[2]]
+    // The third equation is the turbulent part's shear lag alone (XFOIL's TRDIF): the laminar
+    // part's amplification equation only places xt, and vanishes there unless xt is forced.
+    [rl[0] + rt[0], rl[1] + rt[1], rt[2]]
 }
 
 /// The state at the stagnation point extrapolated from the first two stations of a surface

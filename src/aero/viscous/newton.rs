@@ -69,6 +69,11 @@ pub struct Outcome {
 /// Residual norm (2-norm over all equations) taken as converged.
 const TOL: f64 = 1e-9;
 
+/// In [`System::solve_held`], above this residual norm the transition points stay where they
+/// are: re-marched on a state far from the solution (the first steps from a marched start),
+/// they can jump by tens of stations, often off the surface, and Newton does not recover.
+const HOLD_TRANSITION_ABOVE: f64 = 0.5;
+
 impl<'a> System<'a> {
     /// The system at `alpha` degrees, its boundary layer started by marching on the inviscid
     /// edge speed, or from `warm` (a previous solution's states and flags on the same body).
@@ -329,11 +334,18 @@ impl<'a> System<'a> {
     /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
     fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
         let deps = self.deps(i);
+        // The stations the row holds come first; the stagnation nodes added after them enter
+        // through ξ alone, which reads their uₑ: their other partials are zero.
+        let own = if matches!(self.rows[i], Row::WakeStart) {
+            3
+        } else {
+            2
+        };
         let mut out = Vec::with_capacity(deps.len());
         let mut u = std::mem::take(&mut self.u);
-        for &j in &deps {
+        for (k, &j) in deps.iter().enumerate() {
             let mut p = [[0.0; 4]; 3];
-            for q in 0..4 {
+            for q in if k < own { 0 } else { 3 }..4 {
                 let v = u[j][q];
                 let h = if q == 2 {
                     1e-7 * v.abs().max(1e-3)
@@ -854,6 +866,16 @@ impl<'a> System<'a> {
 
     /// Newton to convergence or `max_iter` iterations.
     pub fn solve(&mut self, max_iter: usize) -> Outcome {
+        self.newton(max_iter, f64::INFINITY)
+    }
+
+    /// [`System::solve`], the transition points held while the residual norm is large (for
+    /// the first ten steps at most): the second try of a point the first did not converge.
+    pub fn solve_held(&mut self, max_iter: usize) -> Outcome {
+        self.newton(max_iter, HOLD_TRANSITION_ABOVE)
+    }
+
+    fn newton(&mut self, max_iter: usize, hold_above: f64) -> Outcome {
         for it in 0..max_iter {
             let r = self.residual();
             let rn = norm(&r);
@@ -877,7 +899,9 @@ impl<'a> System<'a> {
             };
             self.update(&du);
             self.stagnation_move();
-            self.update_transition();
+            if rn < hold_above || it >= 10 {
+                self.update_transition();
+            }
             if self.u.iter().any(|s| !s.iter().all(|v| v.is_finite())) {
                 return Outcome {
                     converged: false,

@@ -130,6 +130,16 @@ impl Viscous {
         if nodes.len() < crate::aero::panel::MIN_NODES || nodes.iter().any(|p| !p.is_finite()) {
             return Err(Error::invalid("the viscous analysis needs finite panel nodes"));
         }
+        if let Some((i, j)) = crate::aero::panel::crossing(nodes) {
+            return Err(Error::invalid(format!(
+                "the contour crosses itself (panel nodes {i}–{} and {j}–{}, near ({:.4}, {:.4})): \
+                 a boundary layer cannot run along it",
+                i + 1,
+                j + 1,
+                nodes[i].x,
+                nodes[i].y
+            )));
+        }
         Ok(Viscous {
             body: Body::new(nodes)?,
         })
@@ -163,9 +173,17 @@ impl Viscous {
         let Ok(mut sys) = System::new(&self.body, alpha, opts.fluid(), xtr, w) else {
             return (failed(0), None);
         };
-        let out = sys.solve(opts.max_iter);
+        let mut out = sys.solve(opts.max_iter);
         if !out.converged {
-            return (failed(out.iterations), None);
+            // Again from the same start, the transition points held while far off.
+            let Ok(again) = System::new(&self.body, alpha, opts.fluid(), xtr, w) else {
+                return (failed(out.iterations), None);
+            };
+            sys = again;
+            out = sys.solve_held(opts.max_iter);
+            if !out.converged {
+                return (failed(out.iterations), None);
+            }
         }
         let f = sys.forces(alpha);
         let ok = [f.cl, f.cm, f.cd, f.cdf].iter().all(|v| v.is_finite()) && f.cd > 0.0;
@@ -295,6 +313,26 @@ mod tests {
         assert!(p.converged, "{p:?}");
         let cd = p.cd.unwrap();
         assert!(cd > 0.004 && cd < 0.01, "{p:?}");
+    }
+
+    /// A figure eight is refused, the panel nodes that cross named.
+    #[test]
+    fn a_contour_that_crosses_itself_is_refused() {
+        let nodes: Vec<DVec2> = (0..=40)
+            .map(|k| {
+                let t = std::f64::consts::TAU * f64::from(k) / 40.0;
+                DVec2::new(0.5 + 0.5 * t.cos(), 0.1 * (2.0 * t).sin())
+            })
+            .collect();
+        let Err(e) = Viscous::new(&nodes) else {
+            panic!("a figure eight was analysed");
+        };
+        assert!(
+            e.is_user_error() && e.to_string().contains("crosses itself"),
+            "{e}"
+        );
+        let v = shipped("data/naca4413.dat");
+        assert!(crate::aero::panel::crossing(&v.body.nodes).is_none());
     }
 
     #[test]
