@@ -103,8 +103,8 @@ fn bezchain(args: &[&str], dir: &Path) -> Output {
         .expect("run bezchain")
 }
 
-/// Run `optimise` from NACA 4412 with `args`, 100 panel nodes, CMA-ES; the report.
-fn optimise(d: &Path, args: &[&str]) -> Value {
+/// Run `optimise` from NACA 4412 with `args`, 100 panel nodes; the report and the warnings.
+fn optimise(d: &Path, args: &[&str]) -> (Value, String) {
     let mut all = vec![
         "optimise",
         "n4412.dat",
@@ -124,7 +124,8 @@ fn optimise(d: &Path, args: &[&str]) -> Value {
         "{args:?}: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    serde_json::from_str(&std::fs::read_to_string(d.join("o.json")).unwrap()).unwrap()
+    let v = serde_json::from_str(&std::fs::read_to_string(d.join("o.json")).unwrap()).unwrap();
+    (v, String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
 fn naca4412(d: &Path) {
@@ -158,7 +159,7 @@ fn every_viscous_objective_improves_on_its_start() {
     ] {
         let mut args = vec!["--objective", objective];
         args.extend(extra.iter().chain(&short));
-        let v = optimise(d, &args);
+        let (v, _) = optimise(d, &args);
         let o = &v["optimise"];
         let (start, result) = (&o["start"], &o["result"]);
         let (s, r) = (
@@ -181,16 +182,19 @@ fn every_viscous_objective_improves_on_its_start() {
 }
 
 /// The constraints checked after the kernel bite and the report names those the result sits
-/// on; an unconstrained max-cl is refused.
+/// on, and the variables on the box (a box of ±0.002 chord, narrower than the first spread),
+/// with a warning; an unconstrained max-cl is refused.
 #[test]
 fn constraints_are_reported_and_max_cl_needs_one() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     naca4412(d);
     // The thickness at 0.9 chord cannot reach 0.1 within the box: every shape breaks it.
-    let v = optimise(
+    let (v, warnings) = optimise(
         d,
         &[
+            "--margin",
+            "0.002",
             "--objective",
             "max-cl",
             "--min-thickness-at",
@@ -224,6 +228,12 @@ fn constraints_are_reported_and_max_cl_needs_one() {
         o["reasons"]["thin_at"].as_u64().unwrap() >= 16,
         "{}",
         o["reasons"]
+    );
+    let on_box = o["at_bounds"].as_array().unwrap();
+    assert!(!on_box.is_empty(), "{o}");
+    assert!(
+        warnings.contains(&format!("sits on the box bound of {} of", on_box.len())),
+        "{warnings}"
     );
     let o = bezchain(
         &[

@@ -807,18 +807,29 @@ impl Watched for Optimisation<'_> {
         let (_, best) = self.best();
         let r = self.reasons();
         format!(
-            "best {:.5e} (CL {:.4}, CM {:.4}, t/c {:.4}) | {} stage | {:.0} shapes/s | {} flagged",
+            "best {:.5e} (CL {:.4}, CM {:.4}, t/c {:.4}) | {} stage | {} shapes/s | {} flagged",
             last.best,
             best.cl,
             best.cm,
             best.thickness,
             self.stage(),
-            last.evaluations as f64 / last.seconds.max(1e-9),
+            per_second(last.evaluations as f64 / last.seconds.max(1e-9)),
             r.flagged()
         )
     }
     fn checkpoint(&self) -> Checkpoint {
         Optimisation::checkpoint(self)
+    }
+}
+
+/// A rate as printed: whole numbers from 10 up, two decimals below (a viscous run scores a few
+/// shapes a second).
+#[must_use]
+pub fn per_second(rate: f64) -> String {
+    if rate >= 10.0 {
+        format!("{rate:.0}")
+    } else {
+        format!("{rate:.2}")
     }
 }
 

@@ -12,7 +12,7 @@ use super::design::DesignSpace;
 use super::input::{samples, surface_report, Aerofoil, Warn};
 use super::objectives::{chord_line, constraint_handling, AeroObjective, Conditions, Target};
 use super::operating::Condition;
-use super::optimise::Reasons;
+use super::optimise::{per_second, Reasons};
 use super::optimise::{AeroProblem, OptimiseOptions, OptimiseResult, ViscousScoring};
 use crate::adaptive::{adapt_curve, chain_of, AdaptOptions, Encoding};
 use crate::chain::CurveChain;
@@ -470,11 +470,11 @@ impl Outcome {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "{} generations, {} shapes in {:.1} s ({:.0} shapes/s in the evaluator); stopped: {}",
+            "{} generations, {} shapes in {:.1} s ({} shapes/s in the evaluator); stopped: {}",
             result.generations,
             result.evaluations,
             result.seconds,
-            result.evaluations as f64 / result.eval_seconds.max(1e-12),
+            per_second(result.evaluations as f64 / result.eval_seconds.max(1e-12)),
             result.stop
         );
         let flagged = r.describe();
