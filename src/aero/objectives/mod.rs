@@ -218,6 +218,6 @@ alpha=A or cl=C, RE), inverse:TARGET (an aerofoil file or curve report) or max-c
         }
         assert!(constraint_handling().contains("; max-cl: −CL)"));
         assert!(constraint_handling().contains("inverse: the arclength-weighted mean of (Cp − Cp_target)²"));
-        assert!(chord_line().contains("and for max-cl the leading edge's y too"));
+        assert!(chord_line().contains("and for max-ld, min-cd, multipoint, max-cl the leading edge's y too"));
     }
 }
