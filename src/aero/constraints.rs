@@ -44,7 +44,7 @@ impl ExtraConstraints {
     /// `Ok` when every bound is meaningful; otherwise the error naming its option.
     pub fn check(&self) -> Result<()> {
         for &(x, t) in &self.thickness_at {
-            if !(x > 0.0 && x < 1.0) || !(0.0..1.0).contains(&t) {
+            if !(x > 0.0 && x < 1.0 && (0.0..1.0).contains(&t)) {
                 return Err(Error::invalid(format!(
                     "--min-thickness-at takes X:T with 0 < X < 1 and 0 <= T < 1, not {x}:{t}"
                 )));
