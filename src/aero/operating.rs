@@ -164,18 +164,49 @@ fn inviscid_alpha(nodes: &[DVec2], cl: f64) -> f64 {
         .clamp(-MAX_ALPHA, MAX_ALPHA)
 }
 
-/// One point at `alpha`, from `warm` and, when that fails, from a cold start.
+/// Where a ramp to an angle that fails from a cold start begins: cold starts at these
+/// fractions of the angle, tried in turn.
+const RAMP_FROM: [f64; 2] = [0.5, 0.0];
+/// The largest step of α along a ramp, degrees.
+const RAMP_STEP: f64 = 1.0;
+
+/// One point at `alpha`, from `warm`; when that fails, from a cold start; when that fails too,
+/// along a ramp: a cold start at a smaller angle ([`RAMP_FROM`]), then steps of at most
+/// [`RAMP_STEP`] each from the last (as a polar's continuation reaches angles a cold start
+/// does not).
 fn point(body: &Viscous, alpha: f64, opts: &ViscousOptions, warm: Option<&Warm>) -> Option<Solved> {
-    let solved = |(p, w): (ViscousPoint, Option<Warm>)| {
+    let solve = |a: f64, w: Option<&Warm>| {
+        let (p, w): (ViscousPoint, Option<Warm>) = body.point(a, opts, w);
         Some(Solved {
-            alpha,
+            alpha: a,
             cl: p.cl?,
             cd: p.cd?,
             cm: p.cm?,
             warm: w?,
         })
     };
-    solved(body.point(alpha, opts, warm)).or_else(|| warm.and_then(|_| solved(body.point(alpha, opts, None))))
+    if let Some(s) = solve(alpha, warm) {
+        return Some(s);
+    }
+    if warm.is_some() {
+        if let Some(s) = solve(alpha, None) {
+            return Some(s);
+        }
+    }
+    RAMP_FROM.iter().find_map(|&f| {
+        let mut cur = solve(f * alpha, None)?;
+        let from = cur.alpha;
+        let steps = ((alpha - from).abs() / RAMP_STEP).ceil().max(1.0) as usize;
+        for k in 1..=steps {
+            let a = if k == steps {
+                alpha
+            } else {
+                from + (alpha - from) * k as f64 / steps as f64
+            };
+            cur = solve(a, Some(&cur.warm))?;
+        }
+        Some(cur)
+    })
 }
 
 /// The point whose CL is `cl`: secant steps on α from `alpha0`, each from the last converged

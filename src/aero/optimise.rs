@@ -1,20 +1,26 @@
 //! Aerodynamic shape optimisation: the GA and CMA-ES of [`crate::optim::evo`] on an
 //! [`AeroProblem`] (an adapted encoding's stored numbers as bounded offsets, [`DesignSpace`]),
 //! a [`PopulationObjective`] whose every generation is one call of the panel-method evaluator
-//! ([`AeroBatch`] on the GPU or the CPU). The run is the project's one evolutionary driver,
+//! ([`AeroBatch`] on the GPU or the CPU), or for a viscous objective ([`ViscousScoring`]) the
+//! viscous analysis of every individual in f64, rayon over the population, each point begun
+//! from the population centre's solution. The run is the project's one evolutionary driver,
 //! [`Evolution`]; [`Optimisation`] adds the `ga+cmaes` handover and the per-reason counts.
 //!
-//! **Constraints and bad shapes** (see [`super::batch`]): the optimisers rank the kernel's
-//! score, which is the objective for a valid shape meeting the constraints, `1e3 + shortfall`
-//! for a valid shape breaking them, and `1e6 + violation` for an unusable one; so every
-//! feasible shape ranks before every infeasible one, and infeasible ones by how far they are
-//! from feasible (Deb's rules, as a penalty). Every individual flagged is counted per reason;
-//! the generation means of the progress lines are over the feasible ones.
+//! **Constraints and bad shapes** (see [`super::batch`]): the optimisers rank the score, which
+//! is the objective for a valid shape meeting the constraints, `1e3 + shortfall` for a valid
+//! shape breaking them (the kernel's, plus those of [`ExtraConstraints`] checked after it),
+//! `1e4 + shortfall` for a valid shape whose viscous analysis does not converge, and
+//! `1e6 + violation` for an unusable one; so every feasible shape ranks before every
+//! infeasible one, and infeasible ones by how far they are from feasible (Deb's rules, as a
+//! penalty), and no shape gains by not converging. Every individual flagged is counted per
+//! reason; the generation means of the progress lines are over the feasible ones. A first
+//! generation without a single shape that can be scored stops the run with the counts.
 //!
 //! **Checkpoints** are the evolutionary [`Checkpoint`]s; the scorer's state (its `params`
-//! field) holds the per-reason counts, one `(count, 0)` pair per reason of [`flags::NAMES`]
-//! then the individuals evaluated, and then the best individual's kernel result, one pair per
-//! field. A run resumed from one continues bit-identically on the same backend.
+//! field) holds the counts, one `(count, 0)` pair each: the individuals evaluated, those that
+//! could not be scored, then one per reason of [`flags::NAMES`]; and then the best
+//! individual's result, one pair per field. A run resumed from one continues bit-identically
+//! on the same backend (a viscous run's warm starts follow from the centre alone).
 
 use super::batch::{
     build_aero_evaluator, flags, AeroBatch, AeroEval, AeroEvaluator, AeroResult, Objective, MAX_VIOLATION,
