@@ -6,8 +6,8 @@
 
 use bezchain::adaptive::{adapt_curve, AdaptOptions};
 use bezchain::aero::{
-    AeroBatch, AeroProblem, Constraints, DesignSpace, Hold, Method, Objective, Optimisation, OptimiseOptions,
-    Paneling,
+    AeroBatch, AeroProblem, Constraints, DesignSpace, ExtraConstraints, Hold, Method, Objective,
+    Optimisation, OptimiseOptions, Paneling,
 };
 use bezchain::eval::Backend;
 use bezchain::geometry::{Naca, NacaOptions};
@@ -42,7 +42,12 @@ fn problem(alpha: f64, margin: f64) -> AeroProblem {
         },
     )
     .unwrap();
-    AeroProblem { space, batch }
+    AeroProblem {
+        space,
+        batch,
+        extra: ExtraConstraints::default(),
+        viscous: None,
+    }
 }
 
 fn options(generations: usize) -> OptimiseOptions {
@@ -295,6 +300,8 @@ fn bad_arguments_are_refused_before_anything_is_written() {
                 s,
                 "--objective",
                 "max-cl",
+                "--min-thickness",
+                "0.1",
                 "--alpha",
                 "45",
                 "--json",
@@ -321,6 +328,8 @@ fn bad_arguments_are_refused_before_anything_is_written() {
                 s,
                 "--objective",
                 "max-cl",
+                "--min-thickness",
+                "0.1",
                 "--dat",
                 "no/such/o.dat",
                 "--json",
@@ -334,6 +343,8 @@ fn bad_arguments_are_refused_before_anything_is_written() {
                 "nothing.dat",
                 "--objective",
                 "max-cl",
+                "--min-thickness",
+                "0.1",
                 "--json",
                 "o.json",
             ],

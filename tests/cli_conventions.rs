@@ -136,6 +136,8 @@ fn the_2d_plots_come_as_png_too() {
                 "data/naca4413.dat",
                 "--objective",
                 "max-cl",
+                "--min-thickness",
+                "0.1",
                 "--population",
                 "16",
                 "--generations",

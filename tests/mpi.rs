@@ -193,7 +193,14 @@ fn optimise_gives_the_same_bits_on_1_2_and_3_ranks() {
         &d,
         "ga+cmaes",
         "max-cl",
-        &["--generations", "6", "--population", "11"],
+        &[
+            "--generations",
+            "6",
+            "--population",
+            "11",
+            "--min-thickness",
+            "0.1",
+        ],
     );
     // Only rank 0 wrote: no other file appeared.
     let mut files: Vec<String> = std::fs::read_dir(&d)
@@ -213,6 +220,8 @@ fn a_checkpoint_written_under_mpi_resumes_to_the_same_bits() {
         "n0012.dat",
         "--objective",
         "max-cl",
+        "--min-thickness",
+        "0.1",
         "--method",
         "ga",
         "--population",
@@ -332,14 +341,34 @@ fn a_bad_input_ends_every_rank_with_one_error_line() {
     aerofoils(&d);
     for ranks in [1, 3] {
         // Every rank fails alike before any collective: a missing file, a bad option.
-        let o = mpirun(ranks, &["optimise", "missing.dat", "--objective", "max-cl"], &d);
+        let o = mpirun(
+            ranks,
+            &[
+                "optimise",
+                "missing.dat",
+                "--objective",
+                "max-cl",
+                "--min-thickness",
+                "0.1",
+            ],
+            &d,
+        );
         let (code, lines) = errors(&o);
         assert_eq!(code, Some(2), "{ranks} ranks: {lines:?}");
         assert_eq!(lines.len(), 1, "{ranks} ranks: {lines:?}");
         assert!(lines[0].contains("missing.dat"), "{lines:?}");
         let o = mpirun(
             ranks,
-            &["optimise", "n0012.dat", "--objective", "max-cl", "--alpha", "99"],
+            &[
+                "optimise",
+                "n0012.dat",
+                "--objective",
+                "max-cl",
+                "--min-thickness",
+                "0.1",
+                "--alpha",
+                "99",
+            ],
             &d,
         );
         let (code, lines) = errors(&o);
@@ -354,6 +383,8 @@ fn a_bad_input_ends_every_rank_with_one_error_line() {
                 "n0012.dat",
                 "--objective",
                 "max-cl",
+                "--min-thickness",
+                "0.1",
                 "--tol",
                 "1e-3",
                 "--panels",
@@ -387,6 +418,8 @@ fn a_failing_rank_ends_every_rank_with_one_error_line() {
         "n0012.dat",
         "--objective",
         "max-cl",
+        "--min-thickness",
+        "0.1",
         "--method",
         "ga",
         "--population",

@@ -178,6 +178,8 @@ fn every_report_kind_is_valid_against_its_schema() {
             foil,
             "--objective",
             "max-cl",
+            "--min-thickness",
+            "0.1",
             "--population",
             "16",
             "--generations",

@@ -187,6 +187,13 @@ def optimise(
     min_thickness: Optional[float] = None,
     cm_min: Optional[float] = None,
     backend: str = "auto",
+    re: Optional[float] = None,
+    ncrit: float = 9.0,
+    cl: Optional[float] = None,
+    min_thickness_at: Sequence[Tuple[float, float]] = (),
+    cl_min: Optional[float] = None,
+    min_te_angle: Optional[float] = None,
+    min_area: Optional[float] = None,
 ) -> Dict[str, Any]:
     """Optimise an aerofoil as ``bezchain optimise``."""
 

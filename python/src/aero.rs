@@ -4,7 +4,7 @@ use crate::convert::*;
 use crate::shapes::Chain;
 use bezchain::aero::viscous::polar::check_alphas;
 use bezchain::aero::{
-    analyse_input, check_polar, objectives, AeroReport, Analysis, Constraints, Method as AeroMethod,
+    analyse_input, check_polar, objectives, AeroReport, Analysis, Constraints, ExtraConstraints, Method as AeroMethod,
     Optimisation, OptimiseOptions, Paneling, Setup, Viscous, ViscousOptions, ViscousPoint, DEFAULT_NODES,
 };
 use bezchain::chain::CurveChain;
@@ -160,8 +160,10 @@ struct Optimised {
 }
 
 /// Optimise an aerofoil as `bezchain optimise START --objective OBJ` does: `start` an aerofoil
-/// file (adapted to `tol` first) or an adapt report; `objective` `max-cl` or
-/// `inverse:TARGET`; the other options as the CLI's (same defaults). Returns a dict: `chain`
+/// file (adapted to `tol` first) or an adapt report; `objective` `max-ld`, `min-cd`,
+/// `multipoint:FILE` (viscous: `re`, `ncrit`, `cl` as the CLI's `--re`, `--ncrit`, `--cl`),
+/// `inverse:TARGET` or `max-cl` (with a constraint); `min_thickness_at` a list of `(x, t)`
+/// pairs; the other options as the CLI's (same defaults). Returns a dict: `chain`
 /// (the result, a Chain whose `to_json()` is the CLI's report), `design_points` (its design
 /// points), `design` (the optimised variables, the encoding's free numbers), `history` (per generation: `generation`, `best`, `mean`, `evaluations`,
 /// `seconds` arrays), `cl`, `cm`, `thickness`, `objective` (f64, at `alpha`), `selig` (the
@@ -169,8 +171,8 @@ struct Optimised {
 /// `backend`. The GIL is released while it runs.
 #[pyfunction]
 #[pyo3(
-    signature = (start, objective, alpha=4.0, method="cmaes", population=None, generations=None, seed=1, tol=1e-4, margin=0.1, spread=0.01, stall=0, panels=DEFAULT_NODES, min_thickness=None, cm_min=None, backend="auto"),
-    text_signature = "(start, objective, alpha=4.0, method='cmaes', population=None, generations=None, seed=1, tol=0.0001, margin=0.1, spread=0.01, stall=0, panels=160, min_thickness=None, cm_min=None, backend='auto')"
+    signature = (start, objective, alpha=4.0, method="cmaes", population=None, generations=None, seed=1, tol=1e-4, margin=0.1, spread=0.01, stall=0, panels=DEFAULT_NODES, min_thickness=None, cm_min=None, backend="auto", re=None, ncrit=9.0, cl=None, min_thickness_at=Vec::new(), cl_min=None, min_te_angle=None, min_area=None),
+    text_signature = "(start, objective, alpha=4.0, method='cmaes', population=None, generations=None, seed=1, tol=0.0001, margin=0.1, spread=0.01, stall=0, panels=160, min_thickness=None, cm_min=None, backend='auto', re=None, ncrit=9.0, cl=None, min_thickness_at=[], cl_min=None, min_te_angle=None, min_area=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn optimise<'py>(
@@ -190,6 +192,13 @@ pub(crate) fn optimise<'py>(
     min_thickness: Option<f64>,
     cm_min: Option<f64>,
     backend: &str,
+    re: Option<f64>,
+    ncrit: f64,
+    cl: Option<f64>,
+    min_thickness_at: Vec<(f64, f64)>,
+    cl_min: Option<f64>,
+    min_te_angle: Option<f64>,
+    min_area: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let method = AeroMethod::parse_among(method, AeroMethod::AERO).map_err(py_err)?;
     let backend: Backend = word(backend)?;
@@ -204,6 +213,15 @@ pub(crate) fn optimise<'py>(
             min_thickness,
             cm_min,
         },
+        extra: ExtraConstraints {
+            thickness_at: min_thickness_at,
+            min_te_angle,
+            min_area,
+            cl_min,
+        },
+        re,
+        ncrit,
+        cl,
     };
     setup.check().map_err(py_err)?;
     let options = OptimiseOptions {
@@ -299,7 +317,8 @@ pub(crate) fn optimise<'py>(
     Ok(d)
 }
 
-/// The names of the objectives `optimise` takes (`max-cl`, `inverse:TARGET`).
+/// The names of the objectives `optimise` takes (`max-ld`, `min-cd`, `multipoint:FILE`,
+/// `inverse:TARGET`, `max-cl`).
 #[pyfunction]
 pub(crate) fn objectives_list(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
     let names: Vec<String> = bezchain::aero::OBJECTIVES

@@ -6,12 +6,14 @@
 //! (`docs/ARCHITECTURE.md` §5.9).
 
 use super::batch::{flags, AeroBatch, AeroEval, AeroResult, Constraints};
+use super::constraints::{active, Active, ExtraConstraints, Measures};
 use super::contour::{panel_params, Paneling};
 use super::design::DesignSpace;
 use super::input::{samples, surface_report, Aerofoil, Warn};
-use super::objectives::{chord_line, constraint_handling, AeroObjective, Target};
-use super::optimise::Reasons;
-use super::optimise::{AeroProblem, OptimiseOptions, OptimiseResult};
+use super::objectives::{chord_line, constraint_handling, AeroObjective, Conditions, Target};
+use super::operating::Condition;
+use super::optimise::{per_second, Reasons};
+use super::optimise::{AeroProblem, OptimiseOptions, OptimiseResult, ViscousScoring};
 use crate::adaptive::{adapt_curve, chain_of, AdaptOptions, Encoding};
 use crate::chain::CurveChain;
 use crate::error::{Error, Result};
@@ -40,9 +42,29 @@ pub struct Setup {
     pub margin: f64,
     /// Panel nodes per shape.
     pub panels: usize,
-    /// Constraints on the shapes.
+    /// Constraints on the shapes that the panel kernel checks.
     pub constraints: Constraints,
+    /// Constraints checked after it.
+    pub extra: ExtraConstraints,
+    /// The Reynolds number (viscous objectives).
+    pub re: Option<f64>,
+    /// Ncrit of the e^N transition (viscous objectives; default 9).
+    pub ncrit: f64,
+    /// A design CL (`max-ld`, `min-cd`).
+    pub cl: Option<f64>,
 }
+
+/// A variable of the result that sits on its box.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AtBound {
+    /// Its name (`y3`).
+    pub variable: String,
+    /// `lower` or `upper`.
+    pub side: &'static str,
+}
+
+/// A variable counts as on its box when within this fraction of the box's width of a bound.
+pub const AT_BOUND_FRACTION: f64 = 1e-3;
 
 /// An optimisation ready to run: the problem and what the report and picture need.
 pub struct Study {
@@ -66,8 +88,20 @@ impl Setup {
     /// nodes at most, a thickness bound in [0, 1), a finite CM bound and a positive tolerance;
     /// otherwise the error it prints, naming its options.
     pub fn check(&self) -> Result<()> {
-        super::objectives::parse(&self.spec)
+        let (objective, _) = super::objectives::parse(&self.spec)
             .map_err(|e| Error::invalid(format!("--objective {}: {e}", self.spec)))?;
+        self.extra.check()?;
+        if let Some(re) = self.re {
+            if !(1e4..=1e8).contains(&re) {
+                return Err(Error::invalid("--re takes a Reynolds number between 1e4 and 1e8"));
+            }
+        }
+        if !(self.ncrit > 0.0 && self.ncrit <= 20.0) {
+            return Err(Error::invalid("--ncrit takes a number in (0, 20]"));
+        }
+        if self.cl.is_some_and(|c| !c.is_finite()) {
+            return Err(Error::invalid("--cl must be a finite number"));
+        }
         if !self.alpha.is_finite() || self.alpha.abs() > 30.0 {
             return Err(Error::invalid(
                 "--alpha takes an angle in degrees between -30 and 30",
@@ -92,6 +126,16 @@ impl Setup {
         if !self.tol.is_finite() || self.tol <= 0.0 {
             return Err(Error::invalid("--tol must be a positive length"));
         }
+        let constrained = self.constraints.min_thickness.is_some()
+            || self.constraints.cm_min.is_some()
+            || !self.extra.is_empty();
+        if objective.needs_constraint() && !constrained {
+            return Err(Error::invalid(format!(
+                "--objective {} needs a constraint (--min-thickness, --min-thickness-at, --cm-min, --cl-min, \
+--min-te-angle or --min-area): unconstrained it drives every variable to its box",
+                objective.name()
+            )));
+        }
         Ok(())
     }
 
@@ -106,22 +150,81 @@ impl Setup {
         let paneling = Paneling::with_nodes(self.panels);
         let (start_points, encoding, start_what) = start_encoding(&self.start, self.tol, warn)?;
         let space = DesignSpace::new(&encoding, &paneling, self.margin, objective.hold())?;
-        let prepared = objective.prepare(argument, &paneling, self.alpha, warn)?;
+        let conditions = Conditions {
+            alpha: self.alpha,
+            cl: self.cl,
+            re: self.re,
+            ncrit: self.ncrit,
+        };
+        let prepared = objective.prepare(argument, &paneling, &conditions, warn)?;
+        // A viscous objective checks CM on the viscous CM, not the kernel's.
+        let kernel_constraints = match prepared.viscous {
+            Some(_) => Constraints {
+                cm_min: None,
+                ..self.constraints
+            },
+            None => self.constraints,
+        };
         let batch = AeroBatch::new(
             space.map().clone(),
             self.alpha,
             prepared.objective,
-            self.constraints,
+            kernel_constraints,
         )?;
+        let mut problem = AeroProblem {
+            space,
+            batch,
+            extra: self.extra.clone(),
+            viscous: None,
+        };
+        let invalid = |message: String| Error::Input {
+            path: self.start.clone(),
+            message,
+        };
+        let start = problem.reference(problem.space.start());
+        if start.flags & flags::GEOMETRY != 0 {
+            return Err(invalid(format!(
+                "the start is not a usable shape on {} panel nodes ({})",
+                self.panels,
+                flag_names(start.flags).join(", ")
+            )));
+        }
+        if let Some(goal) = prepared.viscous {
+            goal.check()?;
+            let nodes = problem.space.map().nodes(problem.space.start());
+            let solved = goal.solve(&nodes, &[])?;
+            if let Some(k) = solved.iter().position(Option::is_none) {
+                let p = &goal.points[k];
+                let at = match p.at {
+                    Condition::Alpha(a) => format!("α {a}°"),
+                    Condition::Cl(c) => format!("CL {c}"),
+                };
+                return Err(invalid(format!(
+                    "the viscous analysis of the start does not converge at {at}, Re {:e} (its adapted chain on {} \
+panel nodes): nothing to optimise from",
+                    p.re, self.panels
+                )));
+            }
+            problem.viscous = Some(ViscousScoring::new(goal, self.constraints.cm_min, solved));
+        }
         Ok(Study {
             setup: self,
             objective,
-            problem: AeroProblem { space, batch },
+            problem,
             start_points,
             start_what,
             target: prepared.target,
         })
     }
+}
+
+/// The names of the [`flags`] bits set in `bits`.
+fn flag_names(bits: u32) -> Vec<&'static str> {
+    flags::NAMES
+        .iter()
+        .filter(|(b, _)| bits & b != 0)
+        .map(|(_, n)| *n)
+        .collect()
 }
 
 /// The start's points (for the report's offsets), its encoding and how it was made.
@@ -191,7 +294,7 @@ impl Study {
     /// The start measured in f64.
     #[must_use]
     pub fn start_eval(&self) -> AeroEval {
-        self.problem.batch.reference(self.problem.space.start())
+        self.problem.reference(self.problem.space.start())
     }
 
     /// The outcome of `result`, a run under `options`.
@@ -269,11 +372,20 @@ impl Study {
                 population: options.population,
                 generations: result.generations,
                 stop: result.stop.to_string(),
+                re: self.problem.viscous.as_ref().and(s.re),
+                ncrit: self.problem.viscous.as_ref().map(|_| s.ncrit),
+                cl: s.cl,
                 constraints: ConstraintBlock {
                     min_thickness: s.constraints.min_thickness,
+                    min_thickness_at: s.extra.thickness_at.iter().map(|&(x, t)| [x, t]).collect(),
                     cm_min: s.constraints.cm_min,
+                    cl_min: s.extra.cl_min,
+                    min_te_angle: s.extra.min_te_angle,
+                    min_area: s.extra.min_area,
                 },
                 constraint_handling: constraint_handling(),
+                active_constraints: self.active_constraints(&result.design, &result.eval),
+                at_bounds: self.at_bounds(&result.design),
                 tol: s.tol,
                 variables: space.names(),
                 dependents: space.dependents(),
@@ -292,6 +404,50 @@ impl Study {
                 shapes_per_second,
             },
         }
+    }
+
+    /// The constraints that `design` (measured as `eval`) sits on or breaks.
+    #[must_use]
+    pub fn active_constraints(&self, design: &[f64], eval: &AeroEval) -> Vec<Active> {
+        let (c, x) = (&self.setup.constraints, &self.setup.extra);
+        let m = Measures::of(&self.problem.space.map().nodes(design));
+        let mut all = Vec::new();
+        let mut add = |name: String, bound: Option<f64>, value: f64| {
+            if let Some(b) = bound {
+                all.push((name, b, value));
+            }
+        };
+        add("min-thickness".into(), c.min_thickness, eval.thickness);
+        for &(at, t) in &x.thickness_at {
+            add(format!("min-thickness-at {at}"), Some(t), m.thickness_at(at));
+        }
+        add("cm-min".into(), c.cm_min, eval.cm);
+        add("cl-min".into(), x.cl_min, eval.cl);
+        add("min-te-angle".into(), x.min_te_angle, m.te_angle());
+        add("min-area".into(), x.min_area, m.area());
+        active(all)
+    }
+
+    /// The variables of `design` that sit on their box.
+    #[must_use]
+    pub fn at_bounds(&self, design: &[f64]) -> Vec<AtBound> {
+        let space = &self.problem.space;
+        space
+            .names()
+            .into_iter()
+            .zip(design.iter().zip(space.bounds()))
+            .filter_map(|(variable, (&d, &[lo, hi]))| {
+                let near = AT_BOUND_FRACTION * (hi - lo);
+                let side = if d - lo <= near {
+                    "lower"
+                } else if hi - d <= near {
+                    "upper"
+                } else {
+                    return None;
+                };
+                Some(AtBound { variable, side })
+            })
+            .collect()
     }
 
     /// The name line of the result's Selig file.
@@ -314,28 +470,51 @@ impl Outcome {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "{} generations, {} shapes in {:.1} s ({:.0} shapes/s in the evaluator); stopped: {}",
+            "{} generations, {} shapes in {:.1} s ({} shapes/s in the evaluator); stopped: {}",
             result.generations,
             result.evaluations,
             result.seconds,
-            result.evaluations as f64 / result.eval_seconds.max(1e-12),
+            per_second(result.evaluations as f64 / result.eval_seconds.max(1e-12)),
             result.stop
         );
+        let flagged = r.describe();
         let _ = writeln!(
             s,
-            "flagged: {} non-finite, {} fold, {} crossing, {} singular, {} thin, {} cm (of {})",
-            r.non_finite, r.fold, r.crossing, r.singular, r.thin, r.cm, r.evaluated
+            "flagged: {} (of {})",
+            if flagged.is_empty() { "none" } else { &flagged },
+            r.evaluated
         );
-        let _ = writeln!(
-            s,
-            "            CL        CM       t/c   objective   at α = {alpha}°"
-        );
-        for (name, v) in [("start ", &self.start), ("result", &result.eval)] {
+        if result.eval.cd.is_some() {
             let _ = writeln!(
                 s,
-                "{name}  {:8.5}  {:8.5}  {:8.5}  {:10.4e}",
-                v.cl, v.cm, v.thickness, v.objective
+                "            CL        CM       t/c         CD       L/D   objective   at α°"
             );
+            for (name, v) in [("start ", &self.start), ("result", &result.eval)] {
+                let cd = v.cd.unwrap_or(f64::NAN);
+                let _ = writeln!(
+                    s,
+                    "{name}  {:8.5}  {:8.5}  {:8.5}  {:9.6}  {:8.2}  {:10.4e}  {:.3}",
+                    v.cl,
+                    v.cm,
+                    v.thickness,
+                    cd,
+                    v.cl / cd,
+                    v.objective,
+                    v.alpha.unwrap_or(alpha)
+                );
+            }
+        } else {
+            let _ = writeln!(
+                s,
+                "            CL        CM       t/c   objective   at α = {alpha}°"
+            );
+            for (name, v) in [("start ", &self.start), ("result", &result.eval)] {
+                let _ = writeln!(
+                    s,
+                    "{name}  {:8.5}  {:8.5}  {:8.5}  {:10.4e}",
+                    v.cl, v.cm, v.thickness, v.objective
+                );
+            }
         }
         let _ = writeln!(
             s,
@@ -355,6 +534,12 @@ struct ShapeFigures {
     thickness: f64,
     objective: f64,
     score: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cd: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ld: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    alpha: Option<f64>,
     flags: Vec<&'static str>,
 }
 
@@ -366,20 +551,23 @@ impl ShapeFigures {
             thickness: e.thickness,
             objective: e.objective,
             score: e.score,
-            flags: flags::NAMES
-                .iter()
-                .filter(|(b, _)| e.flags & b != 0)
-                .map(|(_, n)| *n)
-                .collect(),
+            cd: e.cd,
+            ld: e.cd.map(|cd| e.cl / cd),
+            alpha: e.alpha,
+            flags: flag_names(e.flags),
         }
     }
 }
 
 /// The constraints as given.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 struct ConstraintBlock {
     min_thickness: Option<f64>,
+    min_thickness_at: Vec<[f64; 2]>,
     cm_min: Option<f64>,
+    cl_min: Option<f64>,
+    min_te_angle: Option<f64>,
+    min_area: Option<f64>,
 }
 
 /// The report's `optimise` block.
@@ -392,8 +580,13 @@ struct OptimiseBlock {
     population: Option<usize>,
     generations: u64,
     stop: String,
+    re: Option<f64>,
+    ncrit: Option<f64>,
+    cl: Option<f64>,
     constraints: ConstraintBlock,
     constraint_handling: String,
+    active_constraints: Vec<Active>,
+    at_bounds: Vec<AtBound>,
     tol: f64,
     variables: Vec<String>,
     dependents: Vec<String>,
@@ -449,7 +642,14 @@ mod tests {
             tol: 1e-3,
             margin: 0.1,
             panels: 60,
-            constraints: Constraints::default(),
+            constraints: Constraints {
+                min_thickness: Some(0.1),
+                cm_min: None,
+            },
+            extra: ExtraConstraints::default(),
+            re: None,
+            ncrit: 9.0,
+            cl: None,
         };
         let study = setup
             .prepare(objectives::parse("max-cl").unwrap(), &mut |_, _| {})

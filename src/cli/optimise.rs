@@ -1,12 +1,15 @@
 //! `bezchain optimise`: compress a start aerofoil to its adapted encoding, then optimise those
 //! stored numbers for an aerodynamic objective with the GA or CMA-ES on the panel-method
-//! evaluator; a curve report, a Selig file and a picture of the result.
+//! evaluator (viscous objectives: on the viscous analysis); a curve report, a Selig file and a
+//! picture of the result.
 
 use super::evo::{Monitor, RunArgs};
 use super::output::Outputs;
 use super::warn;
 use anyhow::Result;
-use bezchain::aero::{objectives, Constraints, Method, Optimisation, OptimiseOptions, Setup, DEFAULT_NODES};
+use bezchain::aero::{
+    objectives, Constraints, ExtraConstraints, Method, Optimisation, OptimiseOptions, Setup, DEFAULT_NODES,
+};
 use bezchain::eval::Backend;
 use bezchain::export::{CpPlot, Schema};
 use bezchain::geometry::write_selig_to;
@@ -20,13 +23,27 @@ pub struct Args {
     /// The start: an aerofoil file (adapted to `--tol` first) or an `adapt` report (its
     /// encoding is used as it stands).
     pub start: PathBuf,
-    /// `max-cl` (maximise CL at --alpha) or `inverse:TARGET` (match TARGET's Cp at --alpha;
-    /// TARGET an aerofoil file or a curve report).
+    /// `max-ld` (maximise the viscous CL/CD at --alpha, or at the design --cl; needs --re),
+    /// `min-cd` (minimise the viscous CD at the design --cl; needs --re), `multipoint:FILE`
+    /// (maximise the weighted mean CL/CD over FILE's points, one a line: `WEIGHT, alpha=A` or
+    /// `cl=C`, `RE`; `#` comments), `inverse:TARGET` (match TARGET's inviscid Cp at --alpha;
+    /// TARGET an aerofoil file or a curve report) or `max-cl` (maximise the inviscid CL at
+    /// --alpha; needs a constraint).
     #[arg(long)]
     pub objective: String,
     /// Angle of attack, degrees.
     #[arg(long, default_value_t = 4.0, allow_negative_numbers = true)]
     pub alpha: f64,
+    /// Chord Reynolds number: max-ld and min-cd are scored by the viscous analysis at it (on
+    /// the CPU, rayon over the population).
+    #[arg(long)]
+    pub re: Option<f64>,
+    /// Critical amplification factor of the e^N transition (viscous objectives).
+    #[arg(long, default_value_t = 9.0)]
+    pub ncrit: f64,
+    /// Design lift coefficient of max-ld and min-cd (the angle of attack solved for it).
+    #[arg(long, allow_negative_numbers = true)]
+    pub cl: Option<f64>,
     /// Method: ga, cmaes or ga+cmaes (the GA for half the generations, then CMA-ES from its
     /// best).
     #[arg(long, default_value = "cmaes", value_parser = |s: &str| Method::parse_among(s, Method::AERO).map_err(|e| e.to_string()))]
@@ -59,9 +76,23 @@ pub struct Args {
     /// Constraint: thickness/chord at least this.
     #[arg(long)]
     pub min_thickness: Option<f64>,
-    /// Constraint: CM about the quarter chord at least this.
+    /// Constraint: thickness/chord at chord fraction X at least T, as X:T (repeatable).
+    #[arg(long, value_name = "X:T", value_parser = parse_station)]
+    pub min_thickness_at: Vec<(f64, f64)>,
+    /// Constraint: CM about the quarter chord at least this (viscous objectives: the viscous
+    /// CM at the first operating point).
     #[arg(long, allow_negative_numbers = true)]
     pub cm_min: Option<f64>,
+    /// Constraint: CL at least this (viscous objectives: at the first operating point).
+    #[arg(long, allow_negative_numbers = true)]
+    pub cl_min: Option<f64>,
+    /// Constraint: trailing-edge wedge angle at least this, degrees (between the surfaces'
+    /// lines from 95 % of the chord to the trailing edge).
+    #[arg(long)]
+    pub min_te_angle: Option<f64>,
+    /// Constraint: enclosed area over chord² at least this.
+    #[arg(long)]
+    pub min_area: Option<f64>,
     /// Where populations are evaluated: auto, gpu or cpu.
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<Backend>)]
     pub backend: Backend,
@@ -96,6 +127,15 @@ pub fn run(args: Args) -> Result<()> {
             min_thickness: args.min_thickness,
             cm_min: args.cm_min,
         },
+        extra: ExtraConstraints {
+            thickness_at: args.min_thickness_at.clone(),
+            min_te_angle: args.min_te_angle,
+            min_area: args.min_area,
+            cl_min: args.cl_min,
+        },
+        re: args.re,
+        ncrit: args.ncrit,
+        cl: args.cl,
     };
     setup.check()?;
     let resume = args.run.resume.as_deref().map(Checkpoint::read).transpose()?;
@@ -139,5 +179,31 @@ pub fn run(args: Args) -> Result<()> {
     }
     outs.commit()?;
     outs.say(&outcome.summary(args.alpha, elapsed));
+    let on_box = study.at_bounds(&outcome.result.design);
+    if !on_box.is_empty() {
+        let names: Vec<String> = on_box
+            .iter()
+            .map(|b| format!("{} ({})", b.variable, b.side))
+            .collect();
+        warn(
+            &args.start,
+            &format!(
+                "the result sits on the box bound of {} of {} variables: {}; the box (--margin {}) limits it",
+                on_box.len(),
+                study.problem.space.dim(),
+                names.join(", "),
+                args.margin
+            ),
+        );
+    }
     Ok(())
+}
+
+/// `X:T` of `--min-thickness-at`: a chord fraction and a thickness/chord.
+fn parse_station(s: &str) -> std::result::Result<(f64, f64), String> {
+    let bad = || format!("expected X:T (a chord fraction and a thickness/chord, e.g. 0.9:0.02), not '{s}'");
+    let (x, t) = s.split_once(':').ok_or_else(bad)?;
+    let x: f64 = x.trim().parse().map_err(|_| bad())?;
+    let t: f64 = t.trim().parse().map_err(|_| bad())?;
+    Ok((x, t))
 }

@@ -97,22 +97,40 @@ pub mod flags {
     pub const THIN: u32 = 16;
     /// CM below its minimum.
     pub const CM: u32 = 32;
+    /// The viscous analysis did not converge (set on the CPU, never by the kernel).
+    pub const UNCONVERGED: u32 = 64;
+    /// Thinner than a minimum at a given station (set on the CPU after the kernel).
+    pub const THIN_AT: u32 = 128;
+    /// A trailing-edge wedge angle below its minimum (set on the CPU after the kernel).
+    pub const TE_ANGLE: u32 = 256;
+    /// An area below its minimum (set on the CPU after the kernel).
+    pub const AREA: u32 = 512;
+    /// CL below its minimum (set on the CPU after the kernel).
+    pub const CL: u32 = 1024;
     /// The flags that make the geometry unusable.
     pub const GEOMETRY: u32 = NON_FINITE | FOLD | CROSSING | SINGULAR;
 
     /// The reasons, one word each, with their bits.
-    pub const NAMES: [(u32, &str); 6] = [
+    pub const NAMES: [(u32, &str); 11] = [
         (NON_FINITE, "non-finite"),
         (FOLD, "fold"),
         (CROSSING, "crossing"),
         (SINGULAR, "singular"),
         (THIN, "thin"),
         (CM, "cm"),
+        (UNCONVERGED, "unconverged"),
+        (THIN_AT, "thin-at"),
+        (TE_ANGLE, "te-angle"),
+        (AREA, "area"),
+        (CL, "cl"),
     ];
 }
 
 /// Added to the score of a shape that breaks a constraint.
 pub const PENALTY_CONSTRAINT: f64 = 1e3;
+/// Added to the score of a valid shape whose viscous analysis does not converge (it ranks
+/// after every converged shape, before every unusable one).
+pub const PENALTY_UNCONVERGED: f64 = 1e4;
 /// Added to the score of an unusable shape.
 pub const PENALTY_GEOMETRY: f64 = 1e6;
 /// The largest violation counted in a score.

@@ -30,7 +30,7 @@ pub mod kernel;
 
 pub use kernel::{
     flags, AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, FOLD_TOLERANCE, LOOP_BUDGET,
-    MAX_GPU_NODES, MAX_VIOLATION, PENALTY_CONSTRAINT, PENALTY_GEOMETRY, TARGET_SAMPLES,
+    MAX_GPU_NODES, MAX_VIOLATION, PENALTY_CONSTRAINT, PENALTY_GEOMETRY, PENALTY_UNCONVERGED, TARGET_SAMPLES,
 };
 
 /// Panel nodes as an affine function of the design offsets: node `k` is
@@ -173,6 +173,11 @@ pub struct AeroEval {
     pub flags: u32,
     /// The violation.
     pub violation: f64,
+    /// The drag coefficient, for viscous objectives (at the first operating point).
+    pub cd: Option<f64>,
+    /// The angle of attack of the first operating point, degrees, for viscous objectives
+    /// (solved for when the point is a CL).
+    pub alpha: Option<f64>,
 }
 
 /// Thickness, folds and crossings of nodes in chord axes (see the module documentation):
@@ -354,6 +359,7 @@ impl AeroBatch {
             },
             flags: fl,
             violation: cviol,
+            ..AeroEval::default()
         }
     }
 

@@ -1,7 +1,7 @@
 //! `inverse:TARGET`: the shape whose pressure distribution matches a target's at the angle of
 //! attack (inverse design).
 
-use super::{AeroObjective, Prepared, Target, Warn};
+use super::{AeroObjective, Conditions, Prepared, Target, Warn};
 use crate::aero::batch::{Objective, TargetCp};
 use crate::aero::contour::Paneling;
 use crate::aero::design::Hold;
@@ -28,7 +28,15 @@ impl AeroObjective for Inverse {
         Hold::Similarity
     }
     /// The target's pressures at `alpha`, on the start's paneling.
-    fn prepare(&self, argument: Option<&str>, on: &Paneling, alpha: f64, warn: Warn<'_>) -> Result<Prepared> {
+    fn prepare(
+        &self,
+        argument: Option<&str>,
+        on: &Paneling,
+        at: &Conditions,
+        warn: Warn<'_>,
+    ) -> Result<Prepared> {
+        at.inviscid(self.name())?;
+        let alpha = at.alpha;
         let path = PathBuf::from(argument.ok_or_else(|| Error::invalid("inverse needs a TARGET"))?);
         let (points, analysis) = Aerofoil::analyse(&path, on, ", not a curve", warn)?;
         let table = TargetCp::of(&analysis.solution, alpha)?;
@@ -39,6 +47,7 @@ impl AeroObjective for Inverse {
                 points,
                 analysis,
             }),
+            viscous: None,
         })
     }
 }

@@ -1,6 +1,8 @@
-//! `max-cl`: the largest lift coefficient at the angle of attack.
+//! `max-cl`: the largest inviscid lift coefficient at the angle of attack. Unconstrained it
+//! drives every variable to its box (an inviscid solver rewards camber and a blunt base without
+//! limit), so it is refused without a constraint.
 
-use super::{AeroObjective, Prepared, Warn};
+use super::{AeroObjective, Conditions, Prepared, Warn};
 use crate::aero::batch::Objective;
 use crate::aero::contour::Paneling;
 use crate::aero::design::Hold;
@@ -24,10 +26,15 @@ impl AeroObjective for MaxCl {
     fn hold(&self) -> Hold {
         Hold::ChordLine
     }
-    fn prepare(&self, _: Option<&str>, _: &Paneling, _: f64, _: Warn<'_>) -> Result<Prepared> {
+    fn needs_constraint(&self) -> bool {
+        true
+    }
+    fn prepare(&self, _: Option<&str>, _: &Paneling, at: &Conditions, _: Warn<'_>) -> Result<Prepared> {
+        at.inviscid(self.name())?;
         Ok(Prepared {
             objective: Objective::MaxCl,
             target: None,
+            viscous: None,
         })
     }
 }

@@ -5,27 +5,69 @@
 //!
 //! Adding an objective is one new file implementing [`AeroObjective`] and one line in
 //! [`OBJECTIVES`]: the command's parsing, its usage message and the report's texts follow from
-//! the list. (An objective the kernel does not compute yet needs its
-//! [`Objective`] variant in `shaders/aero.wgsl` and its CPU mirror too.)
+//! the list. An inviscid objective is scored by the panel kernel (one the kernel does not
+//! compute yet needs its [`Objective`] variant in `shaders/aero.wgsl` and its CPU mirror too);
+//! a viscous one hands over its operating points ([`ViscousGoal`]) and is scored on the CPU.
 
 mod inverse;
 mod max_cl;
+mod max_ld;
+mod min_cd;
+mod multipoint;
 
 pub use inverse::Inverse;
 pub use max_cl::MaxCl;
+pub use max_ld::MaxLd;
+pub use min_cd::MinCd;
+pub use multipoint::Multipoint;
 
 use super::analysis::Analysis;
 use super::batch::Objective;
 use super::contour::Paneling;
 use super::design::Hold;
 pub use super::input::Warn;
+use super::operating::ViscousGoal;
 use crate::error::{Error, Result};
 use crate::keyword::or_list;
 use glam::DVec2;
 use std::path::PathBuf;
 
 /// Every objective, in the order the usage lists them.
-pub const OBJECTIVES: &[&dyn AeroObjective] = &[&MaxCl, &Inverse];
+pub const OBJECTIVES: &[&dyn AeroObjective] = &[&MaxLd, &MinCd, &Multipoint, &Inverse, &MaxCl];
+
+/// The operating conditions as the command line gives them, for [`AeroObjective::prepare`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conditions {
+    /// Angle of attack, degrees.
+    pub alpha: f64,
+    /// A design CL (`--cl`), when given.
+    pub cl: Option<f64>,
+    /// The Reynolds number (`--re`), when given: the scoring is then viscous.
+    pub re: Option<f64>,
+    /// Ncrit of the e^N transition (`--ncrit`, default 9).
+    pub ncrit: f64,
+}
+
+impl Conditions {
+    /// An error when `--re` or `--cl` is given to an objective (`name`) that takes neither.
+    pub fn inviscid(&self, name: &str) -> Result<()> {
+        if self.re.is_some() {
+            return Err(Error::invalid(format!(
+                "{name} is scored inviscid: drop --re (max-ld, min-cd and multipoint are viscous)"
+            )));
+        }
+        if self.cl.is_some() {
+            return Err(Error::invalid(format!("{name} takes no --cl")));
+        }
+        Ok(())
+    }
+
+    /// The Reynolds number, or an error saying `name` needs one.
+    pub fn re(&self, name: &str) -> Result<f64> {
+        self.re
+            .ok_or_else(|| Error::invalid(format!("{name} is viscous: give the Reynolds number with --re")))
+    }
+}
 
 /// An objective of `bezchain optimise`, named on the command line by its word and, for some,
 /// an argument after a colon (`inverse:TARGET`).
@@ -43,10 +85,22 @@ pub trait AeroObjective: Sync {
     /// What the shape keeps of its start while it is optimised.
     fn hold(&self) -> Hold;
 
-    /// The kernel's objective at `alpha` degrees on the paneling `on`, and the target shape when
-    /// the objective has one; `argument` is the text after the colon, the reader's warnings go
-    /// to `warn`.
-    fn prepare(&self, argument: Option<&str>, on: &Paneling, alpha: f64, warn: Warn<'_>) -> Result<Prepared>;
+    /// Whether the objective is refused without a constraint (one that, unconstrained, has no
+    /// optimum a designer would build). Default no.
+    fn needs_constraint(&self) -> bool {
+        false
+    }
+
+    /// The kernel's objective at the conditions `at` on the paneling `on`, the viscous
+    /// operating points and the target shape when the objective has them; `argument` is the
+    /// text after the colon, the reader's warnings go to `warn`.
+    fn prepare(
+        &self,
+        argument: Option<&str>,
+        on: &Paneling,
+        at: &Conditions,
+        warn: Warn<'_>,
+    ) -> Result<Prepared>;
 }
 
 /// What an objective hands the optimisation.
@@ -56,6 +110,9 @@ pub struct Prepared {
     pub objective: Objective,
     /// The shape to match, for objectives that have one.
     pub target: Option<Target>,
+    /// The operating points, for viscous objectives (the kernel's objective is then
+    /// [`Objective::None`]).
+    pub viscous: Option<ViscousGoal>,
 }
 
 /// A target shape: the file it came from, its points (the result's offsets are measured from
@@ -110,10 +167,12 @@ pub fn constraint_handling() -> String {
         .collect();
     format!(
         "penalties ranked as Deb's rules: a valid shape meeting the constraints scores its objective ({}); \
-a valid shape breaking them 1e3 + the summed shortfalls (t/c below the minimum, CM below the minimum); an \
-unusable shape (non-finite, a surface folding back in x by more than 1e-3 chord, upper below lower, coincident \
-nodes or a singular system) 1e6 + how far it is from valid; so every feasible shape ranks before every \
-infeasible one",
+a valid shape breaking them 1e3 + the summed shortfalls (t/c below the minimum overall and at each station, CM \
+and CL below their minimums, the trailing-edge angle's in radians, the area below its minimum); a valid shape \
+whose viscous analysis does not converge 1e4 + its geometric shortfalls; an unusable shape (non-finite, a \
+surface folding back in x by more than 1e-3 chord, upper below lower, coincident nodes or a singular system) \
+1e6 + how far it is from valid; so every feasible shape ranks before every infeasible one, and no shape is \
+rewarded for failing to converge",
         scores.join("; ")
     )
 }
@@ -143,17 +202,22 @@ mod tests {
     #[test]
     fn every_objective_parses_by_its_word_and_others_are_listed() {
         assert_eq!(parse("MAX-CL").unwrap().0.name(), "max-cl");
+        assert_eq!(parse("max-ld").unwrap().0.name(), "max-ld");
         let (o, a) = parse("inverse:a:b.dat").unwrap();
         assert_eq!((o.name(), a), ("inverse", Some("a:b.dat")));
-        for bad in ["foo", "inverse:", "inverse", "max-cl:x"] {
+        let (o, a) = parse("multipoint:p.txt").unwrap();
+        assert_eq!((o.name(), a), ("multipoint", Some("p.txt")));
+        for bad in ["foo", "inverse:", "inverse", "max-cl:x", "multipoint"] {
             let e = parse(bad).err().unwrap().to_string();
             assert_eq!(
-                e, "expected max-cl or inverse:TARGET (an aerofoil file or curve report)",
+                e,
+                "expected max-ld, min-cd, multipoint:FILE (weighted operating points, one a line: WEIGHT, \
+alpha=A or cl=C, RE), inverse:TARGET (an aerofoil file or curve report) or max-cl",
                 "{bad}"
             );
         }
-        assert!(constraint_handling()
-            .contains("(max-cl: −CL; inverse: the arclength-weighted mean of (Cp − Cp_target)²)"));
-        assert!(chord_line().contains("and for max-cl the leading edge's y too"));
+        assert!(constraint_handling().contains("; max-cl: −CL)"));
+        assert!(constraint_handling().contains("inverse: the arclength-weighted mean of (Cp − Cp_target)²"));
+        assert!(chord_line().contains("and for max-ld, min-cd, multipoint, max-cl the leading edge's y too"));
     }
 }
