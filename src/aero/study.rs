@@ -428,6 +428,25 @@ impl Study {
         active(all)
     }
 
+    /// The warning a result at `design` deserves when it sits on its box (the box of
+    /// `--margin margin`): which variables, of how many; `None` inside the box.
+    #[must_use]
+    pub fn box_warning(&self, design: &[f64], margin: f64) -> Option<String> {
+        let on_box = self.at_bounds(design);
+        let names: Vec<String> = on_box
+            .iter()
+            .map(|b| format!("{} ({})", b.variable, b.side))
+            .collect();
+        (!on_box.is_empty()).then(|| {
+            format!(
+                "the result sits on the box bound of {} of {} variables: {}; the box (--margin {margin}) limits it",
+                on_box.len(),
+                self.problem.space.dim(),
+                names.join(", ")
+            )
+        })
+    }
+
     /// The variables of `design` that sit on their box.
     #[must_use]
     pub fn at_bounds(&self, design: &[f64]) -> Vec<AtBound> {

@@ -179,22 +179,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     outs.commit()?;
     outs.say(&outcome.summary(args.alpha, elapsed));
-    let on_box = study.at_bounds(&outcome.result.design);
-    if !on_box.is_empty() {
-        let names: Vec<String> = on_box
-            .iter()
-            .map(|b| format!("{} ({})", b.variable, b.side))
-            .collect();
-        warn(
-            &args.start,
-            &format!(
-                "the result sits on the box bound of {} of {} variables: {}; the box (--margin {}) limits it",
-                on_box.len(),
-                study.problem.space.dim(),
-                names.join(", "),
-                args.margin
-            ),
-        );
+    if let Some(w) = study.box_warning(&outcome.result.design, args.margin) {
+        warn(&args.start, &w);
     }
     Ok(())
 }
