@@ -1,5 +1,5 @@
 //! The viscous analysis against XFOIL 6.99 at Re 1e6, Ncrit 9, PANE (160 nodes), α −2…8° by
-//! continuation, on every aerofoil file the project ships. The bars (issue 30): where both
+//! continuation, on every aerofoil file the project ships. The bars: where both
 //! converge, CL within 2 % of max(|CL|, 0.5), CD within 5 % and the median CD error at most 2 %,
 //! CM within 0.005, transition within 0.03 chord; converged on at least 95 % of the points
 //! where XFOIL converges.
