@@ -172,7 +172,7 @@ struct Optimised {
 #[pyfunction]
 #[pyo3(
     signature = (start, objective, alpha=4.0, method="cmaes", population=None, generations=None, seed=1, tol=1e-4, margin=0.1, spread=0.01, stall=0, panels=DEFAULT_NODES, min_thickness=None, cm_min=None, backend="auto", re=None, ncrit=9.0, cl=None, min_thickness_at=Vec::new(), cl_min=None, min_te_angle=None, min_area=None),
-    text_signature = "(start, objective, alpha=4.0, method='cmaes', population=None, generations=None, seed=1, tol=0.0001, margin=0.1, spread=0.01, stall=0, panels=160, min_thickness=None, cm_min=None, backend='auto', re=None, ncrit=9.0, cl=None, min_thickness_at=[], cl_min=None, min_te_angle=None, min_area=None)"
+    text_signature = "(start, objective, alpha=4.0, method='cmaes', population=None, generations=None, seed=1, tol=0.0001, margin=0.1, spread=0.01, stall=0, panels=160, min_thickness=None, cm_min=None, backend='auto', re=None, ncrit=9.0, cl=None, min_thickness_at=(), cl_min=None, min_te_angle=None, min_area=None)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn optimise<'py>(
