@@ -57,6 +57,20 @@ impl Error {
         Error::Invalid(msg.into())
     }
 
+    /// This error as one about the file `path`: an [`Error::Invalid`] (a shape or layout the
+    /// method cannot take) becomes [`Error::Input`] naming it; errors that name their file
+    /// already, or are not about the input, stay as they are.
+    #[must_use]
+    pub fn in_file(self, path: &std::path::Path) -> Self {
+        match self {
+            Error::Invalid(message) => Error::Input {
+                path: path.to_path_buf(),
+                message,
+            },
+            e => e,
+        }
+    }
+
     /// `Ok` when `value` is finite and ≥ 0, else the input error "`what` must be finite and
     /// ≥ 0, not `value`" (options' tolerances, targets, margins).
     pub(crate) fn check_non_negative(what: &str, value: f64) -> Result<()> {

@@ -107,6 +107,10 @@ fn bad_input_is_refused_and_nothing_is_written() {
         &run(&["aero", open.to_str().unwrap(), "--json", js]),
         "trailing edge",
     );
+    // A contour that crosses itself has no inside: refused with its file's name.
+    let eight = common::figure_eight(dir.path());
+    let out = run(&["aero", eight.to_str().unwrap(), "--json", js]);
+    common::cli::assert_user_error_naming(&out, &["crosses itself", "eight.dat"]);
     assert!(!j.exists());
     // An SVG in a folder that does not exist: refused before anything is written.
     let o = run(&[

@@ -97,13 +97,7 @@ fn bad_viscous_input_is_refused() {
     );
     // A contour that crosses itself (a figure eight; a fitted chain that folds back over its
     // data in a small loop is the case met in practice) is refused with its file's name.
-    let eight = dir.path().join("eight.dat");
-    let mut text = String::from("figure eight\n");
-    for k in 0..=80 {
-        let t = std::f64::consts::TAU * f64::from(k) / 80.0;
-        text += &format!("{:.6} {:.6}\n", 0.5 + 0.5 * t.cos(), 0.1 * (2.0 * t).sin());
-    }
-    std::fs::write(&eight, text).unwrap();
+    let eight = common::figure_eight(dir.path());
     let out = run(&["aero", eight.to_str().unwrap(), "--re", "1e6", "--json", js]);
     assert_user_error_naming(&out, &["crosses itself", "eight.dat"]);
     assert!(!j.exists());

@@ -17,10 +17,12 @@ pub struct Analysis {
 }
 
 impl Analysis {
-    /// Panel `contour` and solve.
+    /// Panel `contour` and solve; a contour whose panels cross is refused
+    /// ([`check_simple`](super::panel::check_simple)).
     pub fn of(contour: &dyn Contour, paneling: &Paneling) -> Result<Analysis> {
         let params = panel_params(contour, paneling)?;
         let nodes: Vec<DVec2> = params.iter().map(|&t| contour.point(t)).collect();
+        super::panel::check_simple(&nodes)?;
         Ok(Analysis {
             solution: PanelSolution::solve(&nodes)?,
             params,

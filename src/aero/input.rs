@@ -52,12 +52,13 @@ impl Aerofoil {
     ) -> Result<(Vec<DVec2>, Analysis)> {
         match Aerofoil::read(path, warn)? {
             Aerofoil::Points(loaded) => {
-                let a = Analysis::of_points(&loaded.points, paneling)?;
+                let a = Analysis::of_points(&loaded.points, paneling).map_err(|e| e.in_file(path))?;
                 Ok((loaded.points, a))
             }
             Aerofoil::Curve(r, _) => {
                 let chain = r.chain()?;
-                Ok((samples(&chain), Analysis::of_chain(&chain, paneling)?))
+                let a = Analysis::of_chain(&chain, paneling).map_err(|e| e.in_file(path))?;
+                Ok((samples(&chain), a))
             }
             Aerofoil::Surface => Err(surface_report(path, surface)),
         }
@@ -80,7 +81,8 @@ pub fn analyse_input(
                 kind: "coordinates".into(),
                 points: loaded.points.len(),
             };
-            Ok((Analysis::of_points(&loaded.points, paneling)?, input, what))
+            let a = Analysis::of_points(&loaded.points, paneling).map_err(|e| e.in_file(path))?;
+            Ok((a, input, what))
         }
         Aerofoil::Curve(r, _) => {
             let chain = r.chain()?;
@@ -94,7 +96,8 @@ pub fn analyse_input(
                 kind: "curve report".into(),
                 points: chain.ctrl().len(),
             };
-            Ok((Analysis::of_chain(&chain, paneling)?, input, what))
+            let a = Analysis::of_chain(&chain, paneling).map_err(|e| e.in_file(path))?;
+            Ok((a, input, what))
         }
         Aerofoil::Surface => Err(surface_report(path, "; aero needs a curve")),
     }

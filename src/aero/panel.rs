@@ -465,6 +465,23 @@ impl PanelSolution {
     }
 }
 
+/// `Ok` when the closed contour through `nodes` does not cross itself ([`crossing`]); else the
+/// input error naming the crossing panels and where they are. A figure-eight or a folded chain
+/// has no inside: neither the panel method nor a boundary layer means anything on it.
+pub fn check_simple(nodes: &[DVec2]) -> Result<()> {
+    match crossing(nodes) {
+        None => Ok(()),
+        Some((i, j)) => Err(Error::invalid(format!(
+            "the contour crosses itself (panel nodes {i}–{} and {j}–{}, near ({:.4}, {:.4})): \
+             a panel method needs a contour without crossings",
+            i + 1,
+            j + 1,
+            nodes[i].x,
+            nodes[i].y
+        ))),
+    }
+}
+
 /// The first two panels between consecutive `nodes` that cross each other (neighbours, which
 /// share a node, aside; touching is not crossing), or `None` for a contour that does not cross
 /// itself. A fitted chain can fold back over its data in a small loop; its offsets stay small,

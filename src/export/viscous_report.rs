@@ -4,7 +4,7 @@
 use super::polar_plot::PolarPlot;
 use crate::aero::input::Warn;
 use crate::aero::{analyse_input, polars, AeroInput, Paneling, Viscous, ViscousOptions, ViscousPoint};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -72,7 +72,7 @@ impl ViscousReport {
         for path in paths {
             let (analysis, input, what) = analyse_input(path, paneling, warn)?;
             let nodes = analysis.solution.nodes();
-            let body = Viscous::new(nodes).map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
+            let body = Viscous::new(nodes).map_err(|e| e.in_file(path))?;
             bodies.push(body);
             files.push(FilePolar {
                 file: path.display().to_string(),

@@ -6,6 +6,7 @@
 
 pub mod check;
 pub mod cli;
+pub mod xfoil;
 
 use std::path::PathBuf;
 
@@ -50,4 +51,18 @@ pub fn read_airfoil(name: &str) -> Vec<glam::DVec2> {
     bezchain::geometry::read_curve(&airfoil(name))
         .unwrap_or_else(|e| panic!("{name}: {e}"))
         .points
+}
+
+/// A figure-eight contour written as a Selig file `eight.dat` in `dir`: closed, sharp at both
+/// ends, crossing itself at mid-chord (what a fitted chain that folds back over its data looks
+/// like to an analysis, in the large).
+pub fn figure_eight(dir: &std::path::Path) -> PathBuf {
+    let path = dir.join("eight.dat");
+    let mut text = String::from("figure eight\n");
+    for k in 0..=80 {
+        let t = std::f64::consts::TAU * f64::from(k) / 80.0;
+        text += &format!("{:.6} {:.6}\n", 0.5 + 0.5 * t.cos(), 0.1 * (2.0 * t).sin());
+    }
+    std::fs::write(&path, text).expect("write eight.dat");
+    path
 }
