@@ -7,6 +7,8 @@
 //! --release --test aero_optimise_xfoil -- --nocapture` (needs `xvfb-run` and `xfoil`:
 //! `apt-get install -y xfoil xvfb xauth xfonts-base`); skipped otherwise.
 
+mod common;
+
 use bezchain::aero::constraints::Measures;
 use bezchain::geometry::read_curve;
 use std::path::Path;
@@ -14,33 +16,10 @@ use std::process::Command;
 
 /// XFOIL's polar rows (α, CL, CD) of `file` at Re 1e6 from 0° to 4° by continuation.
 fn xfoil(file: &Path) -> Vec<[f64; 3]> {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(file, dir.path().join("a.dat")).unwrap();
-    let mut child = Command::new("xvfb-run")
-        .args(["-a", "xfoil"])
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("xvfb-run and xfoil are installed");
-    use std::io::Write;
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"LOAD a.dat\n\nPANE\nOPER\nVISC 1e6\nITER 200\nPACC\npol.txt\n\nASEQ 0 4 1\n\nQUIT\n")
-        .unwrap();
-    child.wait().unwrap();
-    let text = std::fs::read_to_string(dir.path().join("pol.txt")).unwrap_or_default();
-    text.lines()
-        .filter_map(|l| {
-            let f: Vec<f64> = l.split_whitespace().filter_map(|w| w.parse().ok()).collect();
-            let row = l
-                .trim_start()
-                .starts_with(|c: char| c.is_ascii_digit() || c == '-');
-            (row && f.len() >= 7).then(|| [f[0], f[1], f[2]])
-        })
+    let rows = common::xfoil::polar(file, "VISC 1e6\nITER 200\n", "ASEQ 0 4 1");
+    rows.unwrap_or_default()
+        .iter()
+        .map(|f| [f[0], f[1], f[2]])
         .collect()
 }
 
@@ -67,8 +46,7 @@ fn bezchain(args: &[&str], dir: &Path) {
 
 #[test]
 fn max_ld_beats_naca4412_by_10_percent_in_xfoil() {
-    if std::env::var("BEZCHAIN_XFOIL").as_deref() != Ok("1") {
-        eprintln!("skipped: set BEZCHAIN_XFOIL=1 to run XFOIL");
+    if !common::xfoil::wanted() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -10,6 +10,8 @@
 //! errors is printed (`--nocapture`; `BEZCHAIN_XFOIL_POINTS=1` adds every point) and the
 //! issue's bars are asserted.
 
+mod common;
+
 use bezchain::aero::{Analysis, Paneling, Viscous, ViscousOptions, ViscousPoint};
 use bezchain::geometry::read_curve;
 use std::path::{Path, PathBuf};
@@ -202,44 +204,15 @@ fn every_shipped_aerofoil_agrees_with_the_recorded_xfoil_polar() {
     }
 }
 
-/// XFOIL run now on `file`, the whole sweep by continuation.
+/// XFOIL run now on `file`, the whole sweep by continuation (no rows when it failed).
 fn xfoil(file: &Path) -> Vec<Row> {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(file, dir.path().join("a.dat")).unwrap();
-    let mut child = std::process::Command::new("xvfb-run")
-        .args(["-a", "xfoil"])
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("xvfb-run and xfoil are installed (apt-get install -y xfoil xvfb xauth xfonts-base)");
-    use std::io::Write;
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"LOAD a.dat\n\nPANE\nOPER\nVISC 1e6\nITER 200\nPACC\npol.txt\n\nASEQ -2 8 1\n\nQUIT\n")
-        .unwrap();
-    child.wait().unwrap();
-    let text = std::fs::read_to_string(dir.path().join("pol.txt")).unwrap_or_default();
-    text.lines()
-        .filter_map(|l| {
-            let f: Vec<f64> = l.split_whitespace().filter_map(|w| w.parse().ok()).collect();
-            (f.len() >= 7
-                && l.trim_start()
-                    .chars()
-                    .next()
-                    .is_some_and(|c| c.is_ascii_digit() || c == '-'))
-            .then(|| parse(&f))
-        })
-        .collect()
+    let rows = common::xfoil::polar(file, "VISC 1e6\nITER 200\n", "ASEQ -2 8 1");
+    rows.unwrap_or_default().iter().map(|f| parse(f)).collect()
 }
 
 #[test]
 fn every_shipped_aerofoil_agrees_with_xfoil_run_now() {
-    if std::env::var("BEZCHAIN_XFOIL").as_deref() != Ok("1") {
-        eprintln!("skipped: set BEZCHAIN_XFOIL=1 to run XFOIL");
+    if !common::xfoil::wanted() {
         return;
     }
     let alphas: Vec<f64> = (-2..=8).map(f64::from).collect();

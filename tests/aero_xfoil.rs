@@ -4,7 +4,9 @@
 //!
 //! By default against XFOIL's numbers recorded in `data/xfoil/inviscid.csv` (made by
 //! `data/xfoil/make.sh`); with `BEZCHAIN_XFOIL=1` XFOIL itself is run on each file
-//! (`xfoil`, `xvfb-run` on the path: `apt-get install -y xfoil xvfb xauth xfonts-base`: XFOIL opens an X font when it plots and dies without one).
+//! (see `tests/common/xfoil.rs`).
+
+mod common;
 
 use bezchain::aero::{Analysis, Paneling};
 use bezchain::geometry::read_curve;
@@ -94,56 +96,19 @@ fn every_shipped_aerofoil_agrees_with_the_recorded_xfoil_numbers() {
     }
 }
 
-/// XFOIL run now on `file`: `(alpha, cl, cm)` at 0°, 4° and 8°, or what it printed last on
-/// standard error when it fails (an X error where the fonts are missing).
+/// XFOIL run now on `file`: `(alpha, cl, cm)` at 0°, 4° and 8°, or why it failed.
 fn xfoil(file: &Path) -> Result<Vec<(f64, f64, f64)>, String> {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(file, dir.path().join("a.dat")).unwrap();
-    let mut child = std::process::Command::new("xvfb-run")
-        .args(["-a", "xfoil"])
-        .current_dir(dir.path())
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("xvfb-run and xfoil are installed (apt-get install -y xfoil xvfb xauth xfonts-base)");
-    use std::io::Write;
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"LOAD a.dat\n\nPANE\nOPER\nPACC\npol.txt\n\nALFA 0\nALFA 4\nALFA 8\n\nQUIT\n")
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    let failed = || {
-        let err = String::from_utf8_lossy(&out.stderr);
-        let last: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).take(2).collect();
-        format!("{} ({})", out.status, last.join("; "))
-    };
-    let text = std::fs::read_to_string(dir.path().join("pol.txt")).map_err(|_| failed())?;
-    let rows: Vec<(f64, f64, f64)> = text
-        .lines()
-        .filter_map(|l| {
-            let f: Vec<f64> = l.split_whitespace().filter_map(|w| w.parse().ok()).collect();
-            (f.len() >= 5
-                && l.trim_start()
-                    .chars()
-                    .next()
-                    .is_some_and(|c| c.is_ascii_digit() || c == '-'))
-            .then(|| (f[0], f[1], f[4]))
-        })
-        .collect();
+    let rows = common::xfoil::polar(file, "", "ALFA 0\nALFA 4\nALFA 8")?;
     if rows.len() == 3 {
-        Ok(rows)
+        Ok(rows.iter().map(|f| (f[0], f[1], f[4])).collect())
     } else {
-        Err(failed())
+        Err(format!("{} of 3 points converged", rows.len()))
     }
 }
 
 #[test]
 fn every_shipped_aerofoil_agrees_with_xfoil_run_now() {
-    if std::env::var("BEZCHAIN_XFOIL").as_deref() != Ok("1") {
-        eprintln!("skipped: set BEZCHAIN_XFOIL=1 to run XFOIL");
+    if !common::xfoil::wanted() {
         return;
     }
     let rows = recorded();
