@@ -59,13 +59,20 @@ impl CpPlot {
         let cp = |s: &PanelSolution| -> Vec<(f64, f64)> {
             s.nodes().iter().zip(s.cp(alpha)).map(|(p, c)| (p.x, c)).collect()
         };
+        // A viscous objective scores the coupled analysis; the pressures drawn are the panel
+        // method's, and the labels say so.
+        let cl = if study.setup.re.is_some() {
+            "inviscid CL"
+        } else {
+            "CL"
+        };
         let mut curves = vec![
             CpCurve {
-                label: format!("start: CL {:.4}", start.coefficients(alpha).cl),
+                label: format!("start: {cl} {:.4}", start.coefficients(alpha).cl),
                 points: cp(&start),
             },
             CpCurve {
-                label: format!("result: CL {:.4}", end.coefficients(alpha).cl),
+                label: format!("result: {cl} {:.4}", end.coefficients(alpha).cl),
                 points: cp(&end),
             },
         ];
@@ -91,10 +98,16 @@ impl CpPlot {
             });
         }
         Ok(CpPlot {
-            title: format!(
-                "bezchain optimise --objective {} at α = {alpha}°",
-                study.setup.spec
-            ),
+            title: match study.setup.re {
+                None => format!(
+                    "bezchain optimise --objective {} at α = {alpha}°",
+                    study.setup.spec
+                ),
+                Some(re) => format!(
+                    "bezchain optimise --objective {} at Re {re:.1e}: inviscid Cp at α = {alpha}°",
+                    study.setup.spec
+                ),
+            },
             curves,
             outlines,
         })
