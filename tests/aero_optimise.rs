@@ -4,34 +4,18 @@
 //! another problem is refused, and the command's outputs read back (the report as a curve
 //! report, the Selig file as an aerofoil).
 
-use bezchain::adaptive::{adapt_curve, AdaptOptions};
+mod common;
+
 use bezchain::aero::{
-    AeroBatch, AeroProblem, Constraints, DesignSpace, ExtraConstraints, Hold, Method, Objective,
-    Optimisation, OptimiseOptions, Paneling,
+    AeroBatch, AeroProblem, Constraints, ExtraConstraints, Method, Objective, Optimisation, OptimiseOptions,
 };
 use bezchain::eval::Backend;
-use bezchain::geometry::{Naca, NacaOptions};
 use bezchain::optim::evo::Checkpoint;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn problem(alpha: f64, margin: f64) -> AeroProblem {
-    let pts = Naca::parse("0012")
-        .unwrap()
-        .contour(&NacaOptions {
-            points: 121,
-            ..NacaOptions::default()
-        })
-        .unwrap();
-    let a = adapt_curve(
-        &pts,
-        &AdaptOptions {
-            tol: 1e-3,
-            ..AdaptOptions::default()
-        },
-    )
-    .unwrap();
-    let space = DesignSpace::new(&a.encoding, &Paneling::with_nodes(60), margin, Hold::ChordLine).unwrap();
+    let space = common::naca_design_space("0012", 121, 60, margin);
     let batch = AeroBatch::new(
         space.map().clone(),
         alpha,

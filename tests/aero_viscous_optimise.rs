@@ -6,36 +6,21 @@
 //!
 //! Kept short for the default suite: 100 panel nodes, a handful of shapes a generation.
 
-use bezchain::adaptive::{adapt_curve, AdaptOptions};
+mod common;
+
 use bezchain::aero::batch::{flags, PENALTY_CONSTRAINT, PENALTY_UNCONVERGED};
 use bezchain::aero::{
-    AeroBatch, AeroProblem, Condition, Constraints, DesignSpace, ExtraConstraints, Goal, Hold, Method,
-    Objective, OperatingPoint, Optimisation, OptimiseOptions, Paneling, ViscousGoal, ViscousScoring,
+    AeroBatch, AeroProblem, Condition, Constraints, ExtraConstraints, Goal, Method, Objective,
+    OperatingPoint, Optimisation, OptimiseOptions, ViscousGoal, ViscousScoring,
 };
 use bezchain::eval::Backend;
-use bezchain::geometry::{Naca, NacaOptions};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
 
 /// NACA 4412 adapted at 1e-3, on 100 panel nodes, max-ld at `alpha`, Re 1e6, t/c ≥ `min_t`.
 fn problem(alpha: f64, min_t: f64) -> AeroProblem {
-    let pts = Naca::parse("4412")
-        .unwrap()
-        .contour(&NacaOptions {
-            points: 161,
-            ..NacaOptions::default()
-        })
-        .unwrap();
-    let a = adapt_curve(
-        &pts,
-        &AdaptOptions {
-            tol: 1e-3,
-            ..AdaptOptions::default()
-        },
-    )
-    .unwrap();
-    let space = DesignSpace::new(&a.encoding, &Paneling::with_nodes(100), 0.1, Hold::ChordLine).unwrap();
+    let space = common::naca_design_space("4412", 161, 100, 0.1);
     let constraints = Constraints {
         min_thickness: Some(min_t),
         cm_min: None,

@@ -66,3 +66,30 @@ pub fn figure_eight(dir: &std::path::Path) -> PathBuf {
     std::fs::write(&path, text).expect("write eight.dat");
     path
 }
+
+/// The NACA 4-digit aerofoil `code` (`points` along its contour), adapted at 1e-3 of the chord,
+/// as the design space of an optimisation on `nodes` panel nodes with each variable within
+/// ± `margin` chord of its start and the chord line held.
+pub fn naca_design_space(
+    code: &str,
+    points: usize,
+    nodes: usize,
+    margin: f64,
+) -> bezchain::aero::DesignSpace {
+    use bezchain::adaptive::{adapt_curve, AdaptOptions};
+    use bezchain::aero::{DesignSpace, Hold, Paneling};
+    use bezchain::geometry::{Naca, NacaOptions};
+    let pts = Naca::parse(code)
+        .unwrap()
+        .contour(&NacaOptions {
+            points,
+            ..NacaOptions::default()
+        })
+        .unwrap();
+    let options = AdaptOptions {
+        tol: 1e-3,
+        ..AdaptOptions::default()
+    };
+    let a = adapt_curve(&pts, &options).unwrap();
+    DesignSpace::new(&a.encoding, &Paneling::with_nodes(nodes), margin, Hold::ChordLine).unwrap()
+}
