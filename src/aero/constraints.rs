@@ -219,18 +219,12 @@ pub fn active(all: Vec<(String, f64, f64)>) -> Vec<Active> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Naca, NacaOptions};
+    use crate::geometry::test_contour;
 
     /// NACA 0012's thickness at stations, wedge angle and area against its thickness formula.
     #[test]
     fn naca0012_measures_match_its_formula() {
-        let pts = Naca::parse("0012")
-            .unwrap()
-            .contour(&NacaOptions {
-                points: 321,
-                ..NacaOptions::default()
-            })
-            .unwrap();
+        let pts = test_contour("0012", 321);
         let m = Measures::of(&pts);
         let yt = |x: f64| {
             0.6 * (0.2969 * x.sqrt() - 0.1260 * x - 0.3516 * x * x + 0.2843 * x.powi(3) - 0.1015 * x.powi(4))

@@ -279,17 +279,11 @@ fn smoothed(s: &[f64], raw: &[f64], k_le: usize, cvle: f64, te: f64, smooth: f64
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Naca, NacaOptions};
+    use crate::geometry::test_contour;
 
     #[test]
     fn nodes_cluster_at_the_leading_edge_as_xfoils_do() {
-        let pts = Naca::parse("4413")
-            .unwrap()
-            .contour(&NacaOptions {
-                points: 161,
-                ..NacaOptions::default()
-            })
-            .unwrap();
+        let pts = test_contour("4413", 161);
         let sp = SplineContour::new(&pts).unwrap();
         let t = panel_params(&sp, &Paneling::default()).unwrap();
         assert_eq!(t.len(), DEFAULT_NODES);
@@ -313,10 +307,7 @@ mod tests {
 
     #[test]
     fn a_clockwise_contour_gets_reversed_parameters() {
-        let pts = Naca::parse("0012")
-            .unwrap()
-            .contour(&NacaOptions::default())
-            .unwrap();
+        let pts = test_contour("0012", 82);
         let rev: Vec<DVec2> = pts.iter().rev().copied().collect();
         let t = panel_params(&SplineContour::new(&rev).unwrap(), &Paneling::with_nodes(40)).unwrap();
         assert!(t.windows(2).all(|w| w[1] < w[0]));

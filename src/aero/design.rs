@@ -306,17 +306,11 @@ impl Var {
 mod tests {
     use super::*;
     use crate::adaptive::{adapt_curve, AdaptOptions};
-    use crate::geometry::{Naca, NacaOptions};
+    use crate::geometry::test_contour;
 
     #[test]
     fn the_node_map_reproduces_the_chain_at_any_offsets() {
-        let pts = Naca::parse("0012")
-            .unwrap()
-            .contour(&NacaOptions {
-                points: 161,
-                ..NacaOptions::default()
-            })
-            .unwrap();
+        let pts = test_contour("0012", 161);
         let a = adapt_curve(
             &pts,
             &AdaptOptions {

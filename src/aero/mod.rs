@@ -57,7 +57,7 @@ pub use design::{DesignSpace, Hold};
 pub use input::{analyse_input, Aerofoil};
 pub use karman_trefftz::{KarmanTrefftz, TruthErrors};
 pub use objectives::Conditions;
-pub use objectives::{AeroObjective, OBJECTIVES};
+pub use objectives::{About, AeroObjective, Request, OBJECTIVES};
 pub use operating::{Condition, Goal, OperatingPoint, ViscousGoal};
 pub use optimise::{AeroProblem, Optimisation, OptimiseOptions, OptimiseResult, Reasons, ViscousScoring};
 pub use panel::{integrate, Chord, Coefficients, PanelSolution};

@@ -873,11 +873,7 @@ impl Generations for Optimisation<'_> {
         self.step().map(|_| ())
     }
 
-    fn stop_reason(&self) -> Option<EvoStop> {
-        self.stop()
-    }
-
-    fn has_history(&self) -> bool {
-        !self.history().is_empty()
+    fn evolution(&self) -> &Evolution<'_> {
+        &self.run
     }
 }

@@ -10,7 +10,7 @@ use super::constraints::{active, Active, ExtraConstraints, Measures};
 use super::contour::{panel_params, Paneling};
 use super::design::DesignSpace;
 use super::input::{samples, surface_report, Aerofoil, Warn};
-use super::objectives::{chord_line, constraint_handling, AeroObjective, Conditions, Target};
+use super::objectives::{chord_line, constraint_handling, AeroObjective, Conditions, Request, Target};
 use super::operating::Condition;
 use super::optimise::{per_second, Reasons};
 use super::optimise::{AeroProblem, OptimiseOptions, OptimiseResult, ViscousScoring};
@@ -156,7 +156,12 @@ impl Setup {
             re: self.re,
             ncrit: self.ncrit,
         };
-        let prepared = objective.prepare(argument, &paneling, &conditions, warn)?;
+        let prepared = objective.prepare(Request {
+            argument,
+            on: &paneling,
+            at: &conditions,
+            warn,
+        })?;
         // A viscous objective checks CM on the viscous CM, not the kernel's.
         let kernel_constraints = match prepared.viscous {
             Some(_) => Constraints {
@@ -639,7 +644,7 @@ mod tests {
     use crate::aero::objectives;
     use crate::aero::optimise::Optimisation;
     use crate::eval::Backend;
-    use crate::geometry::{write_selig, Naca, NacaOptions};
+    use crate::geometry::{test_contour, write_selig};
     use crate::optim::Method;
 
     /// From a coordinate file to the report: the start adapted, the problem described, a short
@@ -649,10 +654,7 @@ mod tests {
     fn a_study_runs_from_a_file_to_its_report() {
         let dir = tempfile::tempdir().unwrap();
         let start = dir.path().join("n0012.dat");
-        let pts = Naca::parse("0012")
-            .unwrap()
-            .contour(&NacaOptions::default())
-            .unwrap();
+        let pts = test_contour("0012", 82);
         write_selig(&start, "NACA 0012", &pts).unwrap();
         let setup = Setup {
             start: start.clone(),

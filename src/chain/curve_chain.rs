@@ -128,11 +128,7 @@ impl<P: Vector> CurveChain<P> {
             .map(|(_, &p)| p)
             .collect();
         let chain = CurveChain::new(c1, design)?;
-        if !crate::bezier::same_points(chain.ctrl(), &self.ctrl) {
-            return Err(Error::Numerical(
-                "the chain's joins are not C1 (internal inconsistency)".into(),
-            ));
-        }
+        super::check_regenerated(chain.ctrl(), &self.ctrl, "chain")?;
         Ok(chain)
     }
 }

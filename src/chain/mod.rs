@@ -16,3 +16,19 @@ pub use layout::{samples, ChainLayout, Continuity, SpanBasis, MAX_DEGREE, MAX_SU
 pub use map::ExtractionMap;
 pub use patch_grid::{GridLayout, PatchGrid};
 pub use shape::{Basis, CurveShape, GridShape, Jet, Shape};
+
+/// `Ok` when the control points a C1 form regenerated from its design points are the
+/// original's (`to_c1` of a `what`, chain or grid); they cannot differ beyond rounding.
+fn check_regenerated<P: crate::bezier::Vector>(
+    regenerated: &[P],
+    original: &[P],
+    what: &str,
+) -> crate::error::Result<()> {
+    if crate::bezier::same_points(regenerated, original) {
+        Ok(())
+    } else {
+        Err(crate::error::Error::Numerical(format!(
+            "the {what}'s joins are not C1 (internal inconsistency)"
+        )))
+    }
+}

@@ -158,11 +158,7 @@ impl<P: Vector> PatchGrid<P> {
             .map(|(r, c)| self.net[r * mv + c])
             .collect();
         let grid = PatchGrid::new(layout, design)?;
-        if !crate::bezier::same_points(grid.net(), &self.net) {
-            return Err(Error::Numerical(
-                "the grid's joins are not C1 (internal inconsistency)".into(),
-            ));
-        }
+        super::check_regenerated(grid.net(), &self.net, "grid")?;
         Ok(grid)
     }
 

@@ -252,21 +252,22 @@ impl BsplineSurface {
     #[must_use]
     pub fn u_boundary(&self, side: usize) -> BsplineCurve {
         let i = if side == 0 { 0 } else { self.count[0] - 1 };
-        BsplineCurve {
-            degree: self.degree[1],
-            knots: self.knots_v.clone(),
-            ctrl: (0..self.count[1]).map(|j| self.at(i, j)).collect(),
-        }
+        self.curve_along(1, |j| self.at(i, j))
     }
 
     /// The boundary curve at the start (`side` 0) or end (1) of v, running along u.
     #[must_use]
     pub fn v_boundary(&self, side: usize) -> BsplineCurve {
         let j = if side == 0 { 0 } else { self.count[1] - 1 };
+        self.curve_along(0, |i| self.at(i, j))
+    }
+
+    /// The curve running along u (`dir` 0) or v (1) whose `k`-th control point is `ctrl(k)`.
+    fn curve_along(&self, dir: usize, ctrl: impl Fn(usize) -> DVec3) -> BsplineCurve {
         BsplineCurve {
-            degree: self.degree[0],
-            knots: self.knots_u.clone(),
-            ctrl: (0..self.count[0]).map(|i| self.at(i, j)).collect(),
+            degree: self.degree[dir],
+            knots: [&self.knots_u, &self.knots_v][dir].clone(),
+            ctrl: (0..self.count[dir]).map(ctrl).collect(),
         }
     }
 }

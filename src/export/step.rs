@@ -159,20 +159,14 @@ fn emit(out: &mut String, id: usize, body: &str) {
 /// `name`, dated `timestamp`.
 pub fn step_text(shapes: &[CadShape], unit: CadUnit, name: &str, timestamp: &str) -> Result<String> {
     let shapes: Vec<CadShape> = shapes.iter().map(|s| s.in_unit(unit)).collect();
-    let curves: Vec<&BsplineCurve> = shapes
-        .iter()
-        .filter_map(|s| match s {
-            CadShape::Curve(c) => Some(c),
-            CadShape::Surface(_) => None,
-        })
-        .collect();
-    let surfaces: Vec<&BsplineSurface> = shapes
-        .iter()
-        .filter_map(|s| match s {
-            CadShape::Surface(s) => Some(s),
-            CadShape::Curve(_) => None,
-        })
-        .collect();
+    let mut curves: Vec<&BsplineCurve> = Vec::new();
+    let mut surfaces: Vec<&BsplineSurface> = Vec::new();
+    for shape in &shapes {
+        match shape {
+            CadShape::Curve(c) => curves.push(c),
+            CadShape::Surface(s) => surfaces.push(s),
+        }
+    }
     if curves.is_empty() == surfaces.is_empty() {
         return Err(Error::invalid(
             "a STEP file holds either curves or surfaces (and at least one)",

@@ -612,6 +612,13 @@ mod tests {
         }
     }
 
+    fn input(path: &str, points: usize) -> InputInfo {
+        InputInfo {
+            path: path.into(),
+            points,
+        }
+    }
+
     #[test]
     fn curve_report_round_trips_with_the_design_keys() {
         let layout = ChainLayout::uniform(3, 5, Continuity::C1).unwrap();
@@ -619,15 +626,7 @@ mod tests {
             .map(|i| DVec2::new(i as f64 / 11.0, (i as f64).sin() * 0.1))
             .collect();
         let chain = CurveChain::new(layout, design).unwrap();
-        let rep = CurveReport::new(
-            &chain,
-            offset(),
-            fit(),
-            InputInfo {
-                path: "data/naca4413.dat".into(),
-                points: 82,
-            },
-        );
+        let rep = CurveReport::new(&chain, offset(), fit(), input("data/naca4413.dat", 82));
         let text = serde_json::to_string_pretty(&rep).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         for key in [
@@ -672,15 +671,7 @@ mod tests {
             .map(|i| DVec3::new((i / 6) as f64, (i % 6) as f64, (i as f64).cos()))
             .collect();
         let grid = PatchGrid::new(g, design).unwrap();
-        let rep = SurfaceReport::new(
-            &grid,
-            offset(),
-            fit(),
-            InputInfo {
-                path: "cloud.csv".into(),
-                points: 984,
-            },
-        );
+        let rep = SurfaceReport::new(&grid, offset(), fit(), input("cloud.csv", 984));
         assert_eq!((rep.design_net.len(), rep.design_net[0].len()), (10, 6));
         assert_eq!((rep.control_net.len(), rep.control_net[0].len()), (13, 7));
         let v = serde_json::to_value(&rep).unwrap();

@@ -24,27 +24,25 @@ fn hermite_weights(xs: &[f64], x: f64) -> (usize, [f64; 4]) {
     )
 }
 
-/// The knot spacings `h` and secant slopes `d` of `ys` over `xs`; `None` with two knots, where
-/// every slope rule gives the straight line.
-fn secants(xs: &[f64], ys: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+/// The slopes of `ys` over `xs` at every knot by `rule`, which takes the knot spacings `h` and
+/// the secant slopes `d` of three knots or more; with two knots every rule gives the straight
+/// line.
+fn knot_slopes(xs: &[f64], ys: &[f64], rule: fn(&[f64], &[f64]) -> Vec<f64>) -> Vec<f64> {
     let n = xs.len();
     debug_assert!(n >= 2 && ys.len() == n, "one value per knot, at least two knots");
     if n == 2 {
-        return None;
+        return vec![(ys[1] - ys[0]) / (xs[1] - xs[0]); 2];
     }
     let h: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
     let d: Vec<f64> = (0..n - 1).map(|k| (ys[k + 1] - ys[k]) / h[k]).collect();
-    Some((h, d))
+    rule(&h, &d)
 }
 
-/// PCHIP slopes of `ys` over `xs` (SciPy's `PchipInterpolator` rules): zero at local extrema,
-/// a weighted harmonic mean of the neighbouring secants elsewhere, shape-preserving ends.
-/// With two knots the interpolant is the straight line.
-fn pchip_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
-    let Some((h, d)) = secants(xs, ys) else {
-        return vec![(ys[1] - ys[0]) / (xs[1] - xs[0]); 2];
-    };
-    let n = xs.len();
+/// PCHIP slopes from the spacings `h` and secants `d` (SciPy's `PchipInterpolator` rules):
+/// zero at local extrema, a weighted harmonic mean of the neighbouring secants elsewhere,
+/// shape-preserving ends.
+fn pchip_slopes(h: &[f64], d: &[f64]) -> Vec<f64> {
+    let n = h.len() + 1;
     let mut m = vec![0.0; n];
     for k in 1..n - 1 {
         if d[k - 1] * d[k] > 0.0 {
@@ -68,14 +66,11 @@ fn pchip_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
     m
 }
 
-/// Bessel slopes of `ys` over `xs`: the derivative of the parabola through each knot and its
-/// two neighbours (the end parabolas at the ends). Third-order accurate on smooth data, but
-/// free to overshoot; with two knots the interpolant is the straight line.
-fn bessel_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
-    let Some((h, d)) = secants(xs, ys) else {
-        return vec![(ys[1] - ys[0]) / (xs[1] - xs[0]); 2];
-    };
-    let n = xs.len();
+/// Bessel slopes from the spacings `h` and secants `d`: the derivative of the parabola through
+/// each knot and its two neighbours (the end parabolas at the ends). Third-order accurate on
+/// smooth data, but free to overshoot.
+fn bessel_slopes(h: &[f64], d: &[f64]) -> Vec<f64> {
+    let n = h.len() + 1;
     let mut m = vec![0.0; n];
     for k in 1..n - 1 {
         m[k] = (h[k] * d[k - 1] + h[k - 1] * d[k]) / (h[k - 1] + h[k]);
@@ -101,7 +96,7 @@ impl Pchip {
         Pchip {
             xs: xs.to_vec(),
             ys: ys.to_vec(),
-            ms: pchip_slopes(xs, ys),
+            ms: knot_slopes(xs, ys, pchip_slopes),
         }
     }
 
@@ -111,7 +106,7 @@ impl Pchip {
         Pchip {
             xs: xs.to_vec(),
             ys: ys.to_vec(),
-            ms: bessel_slopes(xs, ys),
+            ms: knot_slopes(xs, ys, bessel_slopes),
         }
     }
 
@@ -143,7 +138,7 @@ impl ShapePchip {
                 for (j, s) in shapes.iter().enumerate() {
                     col[j] = s[k][c];
                 }
-                for (j, m) in pchip_slopes(xs, &col).into_iter().enumerate() {
+                for (j, m) in knot_slopes(xs, &col, pchip_slopes).into_iter().enumerate() {
                     slopes[j][k][c] = m;
                 }
             }

@@ -28,6 +28,8 @@ pub use gaussian::Gaussian;
 pub(crate) use io::{from_json_value, parse_json, read_bytes, read_text};
 pub use io::{is_stdin, write_atomic, Destination, Staged, MAX_INPUT_BYTES, MAX_LINE_BYTES};
 pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};
+#[cfg(test)]
+pub(crate) use naca::test_contour;
 pub use naca::{Naca, NacaOptions, Spacing, MAX_NACA_POINTS};
 pub use points::{
     parse_cloud, parse_curve, parse_points, read_cloud, read_curve, read_points, write_cloud_csv,

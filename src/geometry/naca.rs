@@ -244,6 +244,18 @@ impl Naca {
     }
 }
 
+/// NACA `code`'s contour in `points` cosine-spaced points with an open trailing edge, for tests.
+#[cfg(test)]
+pub(crate) fn test_contour(code: &str, points: usize) -> Vec<DVec2> {
+    Naca::parse(code)
+        .unwrap()
+        .contour(&NacaOptions {
+            points,
+            ..NacaOptions::default()
+        })
+        .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -308,10 +320,7 @@ mod tests {
 
     #[test]
     fn contour_has_82_distinct_points_in_selig_order() {
-        let pts = Naca::parse("4413")
-            .unwrap()
-            .contour(&NacaOptions::default())
-            .unwrap();
+        let pts = test_contour("4413", 82);
         assert_eq!(pts.len(), 82);
         for w in pts.windows(2) {
             assert!((w[1] - w[0]).length() > 1e-6);

@@ -930,6 +930,12 @@ mod tests {
         Path::new("t.csv")
     }
 
+    /// Asserts that `err` is a parse error at line `line` whose message says `says`.
+    fn refused_at(err: &Error, line: usize, says: &str) {
+        assert!(matches!(err, Error::Parse { line: l, .. } if *l == line), "{err}");
+        assert!(err.to_string().contains(says), "{err}");
+    }
+
     #[test]
     fn csv_with_header_in_any_order() {
         let l = parse_cloud("# scan\nz;id;x;y\n3;7;1;2\n6;8;4;5 # tail\n", p()).unwrap();
@@ -990,8 +996,7 @@ mod tests {
     #[test]
     fn coordinates_whose_squares_overflow_are_refused_at_their_line() {
         let e = parse_curve("a\n1 0\n0.5 1e200\n0 0\n", p()).unwrap_err();
-        assert!(matches!(e, Error::Parse { line: 3, .. }), "{e}");
-        assert!(e.to_string().contains("overflow f64"), "{e}");
+        refused_at(&e, 3, "overflow f64");
         let e = parse_curve("1e-300 0\n0 1e-301\n0 0\n", p()).unwrap_err();
         assert!(e.to_string().contains("underflow"), "{e}");
     }
@@ -1105,8 +1110,7 @@ mod tests {
         ] {
             let err = parse_cloud(text, p()).unwrap_err();
             let line = if text.starts_with('#') { 2 } else { 1 };
-            assert!(matches!(err, Error::Parse { line: l, .. } if l == line), "{err}");
-            assert!(err.to_string().contains(missing), "{err}");
+            refused_at(&err, line, missing);
             assert!(err.to_string().starts_with("t.csv:"), "{err}");
         }
         // A name line with commas and blanks is still a name.
@@ -1118,8 +1122,7 @@ mod tests {
     #[test]
     fn bad_values_in_named_columns_name_the_column_and_line() {
         let err = parse_cloud("x,y,z,note\n0,0,0,a\n1,?,0,b\n", p()).unwrap_err();
-        assert!(matches!(err, Error::Parse { line: 3, .. }), "{err}");
-        assert!(err.to_string().contains("column 'y'"), "{err}");
+        refused_at(&err, 3, "column 'y'");
         let err = parse_cloud("x,y,z,note\n0,0,0\n", p()).unwrap_err();
         assert!(
             err.to_string().contains("3 fields, but the header names 4"),

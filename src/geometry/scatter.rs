@@ -382,6 +382,17 @@ mod tests {
             .unwrap()
     }
 
+    /// NACA `code` in the four spacings the scatter tests run on: 200 points cosine, uniform and
+    /// irregular (drawn with `seed`), and 122 points cosine.
+    fn spacings(code: &str, seed: u64) -> [(&'static str, Vec<DVec2>); 4] {
+        [
+            ("cosine", naca(code, 200, Spacing::Cosine)),
+            ("uniform", naca(code, 200, Spacing::Uniform)),
+            ("irregular", irregular(code, 200, seed)),
+            ("coarse", naca(code, 122, Spacing::Cosine)),
+        ]
+    }
+
     /// A contour whose stations are drawn irregularly: cosine spacing with every station's
     /// angle jittered by up to 40 % of a step.
     fn irregular(code: &str, points: usize, seed: u64) -> Vec<DVec2> {
@@ -445,12 +456,7 @@ mod tests {
     fn scatter_of_rounded_contours_is_the_rounding() {
         let mut rng = ChaCha8Rng::seed_from_u64(17);
         for code in ["0012", "4412", "23015"] {
-            for (name, pts) in [
-                ("cosine", naca(code, 200, Spacing::Cosine)),
-                ("uniform", naca(code, 200, Spacing::Uniform)),
-                ("irregular", irregular(code, 200, 11)),
-                ("coarse", naca(code, 122, Spacing::Cosine)),
-            ] {
+            for (name, pts) in spacings(code, 11) {
                 let mut mean = 0.0;
                 for _ in 0..4 {
                     let shift = DVec2::new(rng.random_range(0.0..1e-3), rng.random_range(0.0..1e-3));
@@ -473,12 +479,7 @@ mod tests {
     fn scatter_recovers_gaussian_noise() {
         let mut worst: f64 = 0.0;
         for code in ["0012", "4412", "23015"] {
-            for (name, pts) in [
-                ("cosine", naca(code, 200, Spacing::Cosine)),
-                ("uniform", naca(code, 200, Spacing::Uniform)),
-                ("irregular", irregular(code, 200, 5)),
-                ("coarse", naca(code, 122, Spacing::Cosine)),
-            ] {
+            for (name, pts) in spacings(code, 5) {
                 for sd in [1e-5, 1e-4, 1e-3] {
                     for seed in 0..4 {
                         let s = curve_scatter(&noisy(&pts, sd, seed));

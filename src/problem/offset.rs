@@ -199,27 +199,31 @@ pub fn shape_offsets<S: Shape<K>, const K: usize>(
     Ok((OffsetStats::from_dist_sq(Metric::Closest, &d2, points), feet))
 }
 
-/// The closest-point offset of every point from a chain, in the points' order (the same
-/// foot-point search as [`offset_stats`]).
-pub fn point_offsets<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<Vec<f64>> {
+/// [`shape_offsets`] of `points` from a chain, every segment sampled at 48 parameters.
+fn chain_offsets<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<(OffsetStats<P>, Vec<Foot<1>>)> {
     let opts = FootOptions {
         samples: 48,
         ..FootOptions::default()
     };
-    let shape = CurveShape::<P>::new(chain.layout().clone());
-    let (_, feet) = shape_offsets(&shape, chain.design(), points, &opts)?;
+    shape_offsets(
+        &CurveShape::<P>::new(chain.layout().clone()),
+        chain.design(),
+        points,
+        &opts,
+    )
+}
+
+/// The closest-point offset of every point from a chain, in the points' order (the same
+/// foot-point search as [`offset_stats`]).
+pub fn point_offsets<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<Vec<f64>> {
+    let (_, feet) = chain_offsets(chain, points)?;
     Ok(feet.iter().map(|f| f.dist_sq.sqrt()).collect())
 }
 
 /// Closest-point offsets of `points` from a chain (true foot points: every segment sampled at
 /// 48 parameters, then Newton's method, parameters clamped to `[0, 1]`).
 pub fn offset_stats<P: Vector>(chain: &CurveChain<P>, points: &[P]) -> Result<OffsetStats<P>> {
-    let opts = FootOptions {
-        samples: 48,
-        ..FootOptions::default()
-    };
-    let shape = CurveShape::<P>::new(chain.layout().clone());
-    Ok(shape_offsets(&shape, chain.design(), points, &opts)?.0)
+    Ok(chain_offsets(chain, points)?.0)
 }
 
 /// Closest-point offsets of `points` from a patch grid (every patch sampled on a 13 x 13

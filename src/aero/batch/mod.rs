@@ -471,10 +471,7 @@ mod tests {
     /// [`crate::team::share`], gives the same bits as one batch).
     #[test]
     fn every_build_of_the_kernels_gives_the_same_bits() {
-        let pts = crate::geometry::Naca::parse("4412")
-            .unwrap()
-            .contour(&crate::geometry::NacaOptions::default())
-            .unwrap();
+        let pts = crate::geometry::test_contour("4412", 82);
         let a = crate::aero::Analysis::of_points(&pts, &crate::aero::Paneling::with_nodes(48)).unwrap();
         let base = a.solution.nodes().to_vec();
         let k = a.solution.chord().le_node;
@@ -519,16 +516,10 @@ mod tests {
     }
 
     use crate::aero::{Analysis, Paneling};
-    use crate::geometry::{Naca, NacaOptions};
+    use crate::geometry::test_contour;
 
     fn naca(code: &str) -> Vec<DVec2> {
-        Naca::parse(code)
-            .unwrap()
-            .contour(&NacaOptions {
-                points: 161,
-                ..NacaOptions::default()
-            })
-            .unwrap()
+        test_contour(code, 161)
     }
 
     /// A map whose two variables move the upper and the lower surface up.

@@ -2,10 +2,8 @@
 //! drives every variable to its box (an inviscid solver rewards camber and a blunt base without
 //! limit), so it is refused without a constraint.
 
-use super::{AeroObjective, Conditions, Prepared, Warn};
+use super::{About, AeroObjective, Prepared, Request};
 use crate::aero::batch::Objective;
-use crate::aero::contour::Paneling;
-use crate::aero::design::Hold;
 use crate::error::Result;
 
 /// Maximise CL (the kernel scores `−CL`).
@@ -13,28 +11,11 @@ use crate::error::Result;
 pub struct MaxCl;
 
 impl AeroObjective for MaxCl {
-    fn name(&self) -> &'static str {
-        "max-cl"
+    fn about(&self) -> About {
+        About::new("max-cl", "−CL").needs_constraint()
     }
-    fn argument(&self) -> Option<&'static str> {
-        None
-    }
-    fn score(&self) -> &'static str {
-        "−CL"
-    }
-    /// Turning the shape would change the angle of attack: the chord line stays.
-    fn hold(&self) -> Hold {
-        Hold::ChordLine
-    }
-    fn needs_constraint(&self) -> bool {
-        true
-    }
-    fn prepare(&self, _: Option<&str>, _: &Paneling, at: &Conditions, _: Warn<'_>) -> Result<Prepared> {
-        at.inviscid(self.name())?;
-        Ok(Prepared {
-            objective: Objective::MaxCl,
-            target: None,
-            viscous: None,
-        })
+    fn prepare(&self, request: Request<'_>) -> Result<Prepared> {
+        request.at.inviscid(self.name())?;
+        Ok(Prepared::kernel(Objective::MaxCl))
     }
 }

@@ -26,7 +26,7 @@ use super::batch::Objective;
 use super::contour::Paneling;
 use super::design::Hold;
 pub use super::input::Warn;
-use super::operating::ViscousGoal;
+use super::operating::{Condition, Goal, OperatingPoint, ViscousGoal};
 use crate::error::{Error, Result};
 use crate::keyword::or_list;
 use glam::DVec2;
@@ -67,40 +67,121 @@ impl Conditions {
         self.re
             .ok_or_else(|| Error::invalid(format!("{name} is viscous: give the Reynolds number with --re")))
     }
+
+    /// The viscous objective `name` scoring `goal` at one operating point, `at` and `--re`.
+    pub fn one_point(&self, name: &str, goal: Goal, at: Condition) -> Result<Prepared> {
+        let point = OperatingPoint {
+            weight: 1.0,
+            at,
+            re: self.re(name)?,
+        };
+        Ok(Prepared::viscous(goal, vec![point], self.ncrit))
+    }
+}
+
+/// What an objective is, as the command line and the report say it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct About {
+    /// The word that names it, on the command line and in reports (`max-cl`).
+    pub name: &'static str,
+    /// What follows the word and a colon, as the usage says it (`TARGET (an aerofoil file or
+    /// curve report)`); `None` when nothing does.
+    pub argument: Option<&'static str>,
+    /// How it scores a valid shape that meets the constraints, as the report says it (`−CL`).
+    pub score: &'static str,
+    /// What the shape keeps of its start while it is optimised.
+    pub hold: Hold,
+    /// Whether the objective is refused without a constraint (one that, unconstrained, has no
+    /// optimum a designer would build).
+    pub needs_constraint: bool,
+}
+
+impl About {
+    /// The objective `name` scoring `score`: no argument, no constraint needed, and the chord
+    /// line held (turning the shape would change the angle of attack it is scored at).
+    #[must_use]
+    pub const fn new(name: &'static str, score: &'static str) -> About {
+        About {
+            name,
+            argument: None,
+            score,
+            hold: Hold::ChordLine,
+            needs_constraint: false,
+        }
+    }
+
+    /// The same, taking `argument` after its word and a colon.
+    #[must_use]
+    pub const fn argument(self, argument: &'static str) -> About {
+        About {
+            argument: Some(argument),
+            ..self
+        }
+    }
+
+    /// The same, holding `hold` instead of the chord line.
+    #[must_use]
+    pub const fn hold(self, hold: Hold) -> About {
+        About { hold, ..self }
+    }
+
+    /// The same, refused without a constraint.
+    #[must_use]
+    pub const fn needs_constraint(self) -> About {
+        About {
+            needs_constraint: true,
+            ..self
+        }
+    }
+}
+
+/// What [`AeroObjective::prepare`] is given.
+pub struct Request<'a> {
+    /// The text after the colon, for objectives that take an argument.
+    pub argument: Option<&'a str>,
+    /// The start's paneling.
+    pub on: &'a Paneling,
+    /// The operating conditions.
+    pub at: &'a Conditions,
+    /// Where the readers' warnings go.
+    pub warn: Warn<'a>,
 }
 
 /// An objective of `bezchain optimise`, named on the command line by its word and, for some,
-/// an argument after a colon (`inverse:TARGET`).
+/// an argument after a colon (`inverse:TARGET`). An implementation says what it is
+/// ([`About`]) and how it prepares the kernel; the rest follows from that.
 pub trait AeroObjective: Sync {
-    /// The word that names it, on the command line and in reports (`max-cl`).
-    fn name(&self) -> &'static str;
+    /// Its word, argument, score, hold and whether it needs a constraint.
+    fn about(&self) -> About;
 
-    /// What follows the word and a colon, as the usage says it (`TARGET (an aerofoil file or
-    /// curve report)`); `None` when nothing does.
-    fn argument(&self) -> Option<&'static str>;
+    /// The kernel's objective at the conditions `request.at` on the paneling `request.on`,
+    /// the viscous operating points and the target shape when the objective has them.
+    fn prepare(&self, request: Request<'_>) -> Result<Prepared>;
 
-    /// How it scores a valid shape that meets the constraints, as the report says it (`−CL`).
-    fn score(&self) -> &'static str;
-
-    /// What the shape keeps of its start while it is optimised.
-    fn hold(&self) -> Hold;
-
-    /// Whether the objective is refused without a constraint (one that, unconstrained, has no
-    /// optimum a designer would build). Default no.
-    fn needs_constraint(&self) -> bool {
-        false
+    /// [`About::name`].
+    fn name(&self) -> &'static str {
+        self.about().name
     }
 
-    /// The kernel's objective at the conditions `at` on the paneling `on`, the viscous
-    /// operating points and the target shape when the objective has them; `argument` is the
-    /// text after the colon, the reader's warnings go to `warn`.
-    fn prepare(
-        &self,
-        argument: Option<&str>,
-        on: &Paneling,
-        at: &Conditions,
-        warn: Warn<'_>,
-    ) -> Result<Prepared>;
+    /// [`About::argument`].
+    fn argument(&self) -> Option<&'static str> {
+        self.about().argument
+    }
+
+    /// [`About::score`].
+    fn score(&self) -> &'static str {
+        self.about().score
+    }
+
+    /// [`About::hold`].
+    fn hold(&self) -> Hold {
+        self.about().hold
+    }
+
+    /// [`About::needs_constraint`].
+    fn needs_constraint(&self) -> bool {
+        self.about().needs_constraint
+    }
 }
 
 /// What an objective hands the optimisation.
@@ -113,6 +194,28 @@ pub struct Prepared {
     /// The operating points, for viscous objectives (the kernel's objective is then
     /// [`Objective::None`]).
     pub viscous: Option<ViscousGoal>,
+}
+
+impl Prepared {
+    /// An objective the panel kernel scores.
+    #[must_use]
+    pub fn kernel(objective: Objective) -> Prepared {
+        Prepared {
+            objective,
+            target: None,
+            viscous: None,
+        }
+    }
+
+    /// A viscous objective scored on the CPU at `points`.
+    #[must_use]
+    pub fn viscous(goal: Goal, points: Vec<OperatingPoint>, ncrit: f64) -> Prepared {
+        Prepared {
+            objective: Objective::None,
+            target: None,
+            viscous: Some(ViscousGoal { goal, points, ncrit }),
+        }
+    }
 }
 
 /// A target shape: the file it came from, its points (the result's offsets are measured from

@@ -103,6 +103,50 @@ fn load_patch_lane(config: &Config, net: &[Lanes], patch: u32, lane: usize, cp: 
     }
 }
 
+/// Per-lane sums and maxima of squared offsets.
+struct Totals {
+    sum: Lanes,
+    worst: Lanes,
+}
+
+impl Totals {
+    /// Add one point's squared offsets, lane by lane.
+    #[inline(always)]
+    fn add(&mut self, e2: &Lanes) {
+        for l in 0..LANES {
+            self.sum[l] += e2[l];
+            self.worst[l] = self.worst[l].max(e2[l]);
+        }
+    }
+}
+
+/// The shader's walk over point group `group`: run by run of points on one patch, that patch
+/// loaded into `cp` for every lane, then `score(p, end, cp, held, totals)` adds the run's
+/// points `p..end` in order; the totals become the block's partials.
+#[inline(always)]
+fn over_runs(
+    b: &Bindings<'_>,
+    group: usize,
+    cp: &mut [Point],
+    partials: &mut [Partial; LANES],
+    mut score: impl FnMut(usize, usize, &mut [Point], &mut [u32; LANES], &mut Totals),
+) {
+    let (first, last) = group_range(b.config, group);
+    let mut totals = Totals {
+        sum: [0.0; LANES],
+        worst: [0.0; LANES],
+    };
+    let mut held = [NONE; LANES];
+    let mut p = first;
+    while p < last {
+        let end = run_end(b.targets, p, last);
+        load_patch(b.config, b.net, b.targets[p].patch_id, cp, &mut held);
+        score(p, end, cp, &mut held, &mut totals);
+        p = end;
+    }
+    store(&totals.sum, &totals.worst, partials);
+}
+
 /// `main` with `newton == 0` for point group `group`: `offset_sq_fixed` over every point,
 /// all lanes at once.
 #[inline(always)]
@@ -114,14 +158,7 @@ pub(crate) fn fixed<A: Arith, const DIM: usize>(
 ) {
     let config = b.config;
     let ncp = (config.degree_u as usize + 1) * (config.degree_v as usize + 1);
-    let (first, last) = group_range(config, group);
-    let mut sum = [0.0f32; LANES];
-    let mut worst = [0.0f32; LANES];
-    let mut held = [NONE; LANES];
-    let mut p = first;
-    while p < last {
-        let end = run_end(b.targets, p, last);
-        load_patch(config, b.net, b.targets[p].patch_id, cp, &mut held);
+    over_runs(b, group, cp, partials, |p, end, cp, _, totals| {
         for (t, w) in b.targets[p..end]
             .iter()
             .zip(b.weights[p * ncp..end * ncp].chunks_exact(ncp))
@@ -139,18 +176,15 @@ pub(crate) fn fixed<A: Arith, const DIM: usize>(
                 }
                 *sc = acc;
             }
-            for l in 0..LANES {
-                let mut e2 = 0.0f32;
+            let mut e2 = [0.0f32; LANES];
+            for (l, e) in e2.iter_mut().enumerate() {
                 for sc in &s {
-                    e2 = A::fma(sc[l], sc[l], e2);
+                    *e = A::fma(sc[l], sc[l], *e);
                 }
-                sum[l] += e2;
-                worst[l] = worst[l].max(e2);
             }
+            totals.add(&e2);
         }
-        p = end;
-    }
-    store(&sum, &worst, partials);
+    });
 }
 
 /// `main` with `newton >= 1` for point group `group`: `foot_point_sq` over every point.
@@ -162,24 +196,11 @@ pub(crate) fn newton<A: Arith, const DIM: usize>(
     work: &mut NewtonWork,
     partials: &mut [Partial; LANES],
 ) {
-    let (first, last) = group_range(b.config, group);
-    let mut sum = [0.0f32; LANES];
-    let mut worst = [0.0f32; LANES];
-    let mut held = [NONE; LANES];
-    let mut p = first;
-    while p < last {
-        let end = run_end(b.targets, p, last);
-        load_patch(b.config, b.net, b.targets[p].patch_id, cp, &mut held);
-        while p < end {
-            let e2 = foot_point_sq::<A, DIM>(b, p, cp, &mut held, work);
-            for l in 0..LANES {
-                sum[l] += e2[l];
-                worst[l] = worst[l].max(e2[l]);
-            }
-            p += 1;
+    over_runs(b, group, cp, partials, |p, end, cp, held, totals| {
+        for q in p..end {
+            totals.add(&foot_point_sq::<A, DIM>(b, q, cp, held, work));
         }
-    }
-    store(&sum, &worst, partials);
+    });
 }
 
 /// `offset_sq`: the squared length of `base` plus the held patch at per-lane (u, v).

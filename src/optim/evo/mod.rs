@@ -941,14 +941,21 @@ pub fn evolve(
     run.finish(stop)
 }
 
-/// A run that moves generation by generation: [`Evolution`], and the runs built on it.
+/// A run that moves generation by generation: [`Evolution`], and the runs built on it, which
+/// decide how a generation is taken and leave when to stop to the evolution inside.
 pub(crate) trait Generations {
     /// One generation.
     fn next_generation(&mut self) -> Result<()>;
+    /// The evolution the run steps.
+    fn evolution(&self) -> &Evolution<'_>;
     /// Why the run should stop now, if it should.
-    fn stop_reason(&self) -> Option<EvoStop>;
+    fn stop_reason(&self) -> Option<EvoStop> {
+        self.evolution().stop()
+    }
     /// Whether it has recorded a generation (a run resumed from a checkpoint has).
-    fn has_history(&self) -> bool;
+    fn has_history(&self) -> bool {
+        !self.evolution().history.is_empty()
+    }
 }
 
 impl Generations for Evolution<'_> {
@@ -956,12 +963,8 @@ impl Generations for Evolution<'_> {
         self.step().map(|_| ())
     }
 
-    fn stop_reason(&self) -> Option<EvoStop> {
-        self.stop()
-    }
-
-    fn has_history(&self) -> bool {
-        !self.history.is_empty()
+    fn evolution(&self) -> &Evolution<'_> {
+        self
     }
 }
 

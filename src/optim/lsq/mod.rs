@@ -573,6 +573,15 @@ mod tests {
     use crate::problem::CurveProblem;
     use glam::{DVec2, DVec3};
 
+    /// A cubic C1 chain of `segments` segments whose design point `i` is `(i step, wave(i))`.
+    fn wavy(segments: usize, step: f64, wave: impl Fn(f64) -> f64) -> (ChainLayout, CurveChain<DVec2>) {
+        let layout = ChainLayout::uniform(3, segments, Continuity::C1).unwrap();
+        let design: Vec<DVec2> = (0..layout.design_count())
+            .map(|i| DVec2::new(i as f64 * step, wave(i as f64)))
+            .collect();
+        (layout.clone(), CurveChain::new(layout, design).unwrap())
+    }
+
     /// The fit from the problem's own parameters.
     fn own<S: Shape<K>, const K: usize>(p: &FitProblem<'_, S, K>, opts: &LsqOptions) -> LsqFit<S::Point, K> {
         lsq(
@@ -587,11 +596,7 @@ mod tests {
 
     #[test]
     fn recovers_a_chain_from_points_sampled_off_its_chord_length_parameters() {
-        let layout = ChainLayout::uniform(3, 4, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..layout.design_count())
-            .map(|i| DVec2::new(i as f64 * 0.2, 0.3 * (1.1 * i as f64).sin()))
-            .collect();
-        let chain = CurveChain::new(layout.clone(), design).unwrap();
+        let (layout, chain) = wavy(4, 0.2, |x| 0.3 * (1.1 * x).sin());
         // Uneven sampling, so the chord-length start is off and the parameters must move.
         let pts: Vec<DVec2> = (0..120)
             .map(|i| chain.eval((i as f64 / 119.0).powf(1.4)))
@@ -609,11 +614,7 @@ mod tests {
 
     #[test]
     fn the_joint_step_beats_alternation_on_noisy_data() {
-        let layout = ChainLayout::uniform(3, 3, Continuity::C1).unwrap();
-        let design: Vec<DVec2> = (0..layout.design_count())
-            .map(|i| DVec2::new(i as f64 * 0.25, 0.4 * (0.9 * i as f64).cos()))
-            .collect();
-        let chain = CurveChain::new(layout.clone(), design).unwrap();
+        let (layout, chain) = wavy(3, 0.25, |x| 0.4 * (0.9 * x).cos());
         let pts: Vec<DVec2> = (0..90)
             .map(|i| {
                 let t = (i as f64 / 89.0).powf(0.7);

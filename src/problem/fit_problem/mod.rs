@@ -130,6 +130,19 @@ pub(crate) fn chunked_sum<T: Send>(
     parts.fold(first, merge)
 }
 
+/// `Ok` when the points are usable ([`check_points`]) and at least the `m` design points they
+/// are to determine.
+fn check_enough<P: Vector>(points: &[P], m: usize) -> Result<()> {
+    check_points(points)?;
+    if points.len() < m {
+        return Err(Error::invalid(format!(
+            "{} data points cannot determine {m} design points: at least {m} are needed",
+            points.len()
+        )));
+    }
+    Ok(())
+}
+
 impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
     /// A problem from a shape, data points, one parameter per point in `[0, 1]^K` (the
     /// corresponding parameters, also the start of a closest-point fit), a metric and the
@@ -141,14 +154,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
         metric: Metric,
         foot: FootOptions,
     ) -> Result<Self> {
-        check_points(points)?;
-        let m = shape.design_count();
-        if points.len() < m {
-            return Err(Error::invalid(format!(
-                "{} data points cannot determine {m} design points: at least {m} are needed",
-                points.len()
-            )));
-        }
+        check_enough(points, shape.design_count())?;
         if params.len() != points.len() {
             return Err(Error::invalid(format!(
                 "{} parameters given for {} data points",
@@ -815,14 +821,8 @@ impl<'a, P: Vector> FitProblem<'a, CurveShape<P>, 1> {
         foot: FootOptions,
         anchor_ends: bool,
     ) -> Result<Self> {
-        check_points(points)?;
         let m = layout.design_count();
-        if points.len() < m {
-            return Err(Error::invalid(format!(
-                "{} data points cannot determine {m} design points: at least {m} are needed",
-                points.len()
-            )));
-        }
+        check_enough(points, m)?;
         let params = chord_length_params(points)?.into_iter().map(|t| [t]).collect();
         let start = increment_start(points, m)?;
         let problem = Self::new(CurveShape::new(layout), points, params, metric, foot)?.with_start(start)?;
