@@ -1,7 +1,7 @@
 //! The processes a run is spread over (MPI ranks under `mpirun`, one process otherwise) and
 //! the one way work is shared among them: [`share_rows`], rows of a batch split into
 //! contiguous ranges, one per rank, whose per-row records are gathered and handed to every
-//! rank (docs/ARCHITECTURE.md §4.3).
+//! rank (docs/ARCHITECTURE.md §4.3); [`share_records`] the same for records of any size.
 //!
 //! The library holds no MPI code: the binary built with `--features mpi` registers its
 //! communicator as a [`Team`] ([`join`]); without one every call here is the one-process case.
@@ -244,13 +244,131 @@ pub fn share_rows<T: bytemuck::Pod>(
     input: &mut [T],
     mut run: impl FnMut(Range<usize>, &[T], &mut [u8]) -> Result<()>,
 ) -> Result<Vec<u8>> {
-    let Some(t) = active() else {
-        let mut out = vec![0u8; rows * record];
-        if rows > 0 {
-            run(0..rows, input, &mut out)?;
+    let mut run = |range: Range<usize>, input: &[T]| -> Result<Vec<u8>> {
+        let mut out = vec![0u8; range.len() * record];
+        // A share may be empty (CMA-ES's start: one row).
+        if !range.is_empty() {
+            run(range, input, &mut out)?;
         }
-        return Ok(out);
+        Ok(out)
     };
+    let Some(t) = active() else {
+        return run(0..rows, input);
+    };
+    let all = share_bytes(t, input, rows, run)?;
+    if all.len() != rows * record {
+        return Err(Error::Numerical(format!(
+            "the ranks returned {} bytes of records for {rows} rows of {record}",
+            all.len()
+        )));
+    }
+    Ok(all)
+}
+
+/// A row's result as it travels between ranks ([`share_records`]): [`Record::read`] gives back
+/// exactly, bit for bit, what [`Record::write`] was given.
+pub trait Record: Sized {
+    /// Append this record to `out`.
+    fn write(&self, out: &mut Writer);
+    /// The record `write` wrote, read from `from`.
+    fn read(from: &mut Reader<'_>) -> Result<Self>;
+}
+
+/// The bytes of [`Record`]s: slices of plain numbers, each after its length.
+#[derive(Default)]
+pub struct Writer(Vec<u8>);
+
+impl Writer {
+    /// Append `items`, after their count.
+    pub fn put<T: bytemuck::Pod>(&mut self, items: &[T]) -> &mut Self {
+        self.0.extend_from_slice(&(items.len() as u64).to_le_bytes());
+        self.0.extend_from_slice(bytemuck::cast_slice(items));
+        self
+    }
+
+    /// Append one number.
+    pub fn one<T: bytemuck::Pod>(&mut self, item: T) -> &mut Self {
+        self.put(&[item])
+    }
+}
+
+/// Reads what a [`Writer`] wrote, in the same order.
+pub struct Reader<'a>(&'a [u8]);
+
+impl Reader<'_> {
+    /// The next slice written with [`Writer::put`].
+    pub fn take<T: bytemuck::Pod>(&mut self) -> Result<Vec<T>> {
+        let short = || Error::Numerical("a record between ranks ended early".into());
+        let (len, rest) = self.0.split_first_chunk::<8>().ok_or_else(short)?;
+        let bytes = usize::try_from(u64::from_le_bytes(*len))
+            .ok()
+            .and_then(|n| n.checked_mul(std::mem::size_of::<T>()))
+            .filter(|&b| b <= rest.len())
+            .ok_or_else(short)?;
+        let (items, rest) = rest.split_at(bytes);
+        self.0 = rest;
+        Ok(bytemuck::pod_collect_to_vec(items))
+    }
+
+    /// The next number written with [`Writer::one`].
+    pub fn one<T: bytemuck::Pod>(&mut self) -> Result<T> {
+        match self.take::<T>()?[..] {
+            [x] => Ok(x),
+            _ => Err(Error::Numerical("a record between ranks is malformed".into())),
+        }
+    }
+}
+
+/// [`share_rows`] for results of any size: each rank's `run(range, input)` returns one
+/// [`Record`] a row of its share, and every rank gets every row's, in order (the ones run
+/// elsewhere written and read back, the same bits). Without a team it is `run(0..rows, input)`.
+/// The same rules of calling as [`share_rows`].
+pub fn share_records<T: bytemuck::Pod, R: Record>(
+    rows: usize,
+    input: &mut [T],
+    mut run: impl FnMut(Range<usize>, &[T]) -> Result<Vec<R>>,
+) -> Result<Vec<R>> {
+    let malformed = || Error::Numerical(format!("the ranks did not return {rows} records"));
+    let Some(t) = active() else {
+        let records = run(0..rows, input)?;
+        return if records.len() == rows {
+            Ok(records)
+        } else {
+            Err(malformed())
+        };
+    };
+    let all = share_bytes(t, input, rows, |range, input| {
+        let n = range.len();
+        let records = if n == 0 { Vec::new() } else { run(range, input)? };
+        if records.len() != n {
+            return Err(malformed());
+        }
+        let mut out = Writer::default();
+        for r in &records {
+            r.write(&mut out);
+        }
+        Ok(out.0)
+    })?;
+    let mut from = Reader(&all);
+    let records = (0..rows)
+        .map(|_| R::read(&mut from))
+        .collect::<Result<Vec<R>>>()?;
+    if from.0.is_empty() {
+        Ok(records)
+    } else {
+        Err(malformed())
+    }
+}
+
+/// The collective of [`share_rows`] and [`share_records`] on team `t`: rank 0's `input` is
+/// broadcast into every rank's, each rank runs `run` on its [`share`] of `rows`, and every
+/// rank gets the ranks' bytes concatenated in rank order (or the first failure).
+fn share_bytes<T: bytemuck::Pod>(
+    t: &Registered,
+    input: &mut [T],
+    rows: usize,
+    run: impl FnOnce(Range<usize>, &[T]) -> Result<Vec<u8>>,
+) -> Result<Vec<u8>> {
     agree(None).map_err(|f| f.to_error())?;
     let team = &*t.team;
     let mut bytes = bytemuck::cast_slice::<T, u8>(input).to_vec();
@@ -260,23 +378,10 @@ pub fn share_rows<T: bytemuck::Pod>(
     }
     bytemuck::cast_slice_mut::<T, u8>(input).copy_from_slice(&bytes);
     let range = share(rows, team.rank(), team.size());
-    let mut out = vec![0u8; range.len() * record];
-    // A share may be empty (CMA-ES's start: one row).
-    let ran = if range.is_empty() {
-        Ok(())
-    } else {
-        run(range, input, &mut out)
-    };
-    let ran = ran.and_then(|()| test_failure(team.rank()));
-    let mine = ran.map(|()| out).map_err(|e| Failure::of(&e));
-    let all = gather_verdict(team, encode(mine)).map_err(|f| f.to_error())?;
-    if all.len() != rows * record {
-        return Err(Error::Numerical(format!(
-            "the ranks returned {} bytes of records for {rows} rows of {record}",
-            all.len()
-        )));
-    }
-    Ok(all)
+    let mine = run(range, input)
+        .and_then(|out| test_failure(team.rank()).map(|()| out))
+        .map_err(|e| Failure::of(&e));
+    gather_verdict(team, encode(mine)).map_err(|f| f.to_error())
 }
 
 /// The failing rank of `tests/mpi.rs`: with `--features mpi`, the rank that
@@ -333,5 +438,40 @@ mod tests {
         })
         .unwrap();
         assert_eq!(out, vec![1, 2, 3]);
+    }
+
+    #[derive(Debug, PartialEq)]
+    struct Row(Vec<f64>, u32);
+
+    impl Record for Row {
+        fn write(&self, out: &mut Writer) {
+            out.put(&self.0).one(self.1);
+        }
+        fn read(from: &mut Reader<'_>) -> Result<Self> {
+            Ok(Row(from.take()?, from.one()?))
+        }
+    }
+
+    #[test]
+    fn records_round_trip_bit_for_bit() {
+        let rows = [Row(vec![f64::INFINITY, -0.0, 1e-300], 7), Row(Vec::new(), 0)];
+        let mut out = Writer::default();
+        rows.iter().for_each(|r| r.write(&mut out));
+        let mut from = Reader(&out.0[..]);
+        for r in &rows {
+            let back = Row::read(&mut from).unwrap();
+            assert_eq!(back.1, r.1);
+            assert!(back.0.iter().zip(&r.0).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        assert!(from.0.is_empty() && Row::read(&mut from).is_err());
+        // A cut record fails, never reads past its end.
+        assert!(Row::read(&mut Reader(&out.0[..12])).is_err());
+    }
+
+    #[test]
+    fn one_process_runs_every_record() {
+        let mut input = [3u32, 4];
+        let out = share_records(2, &mut input, |r, x| Ok(r.map(|i| Row(vec![], x[i])).collect())).unwrap();
+        assert_eq!(out, vec![Row(vec![], 3), Row(vec![], 4)]);
     }
 }

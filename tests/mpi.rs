@@ -1,6 +1,7 @@
 //! `--features mpi`: the binary under `mpirun` (docs/ARCHITECTURE.md §4.3). The same run on
 //! 1, 2 and 3 ranks gives the same bits (design points, history, the outputs' every number
-//! but the clocks'), a checkpoint written under MPI resumes, `eval` shares its rows, and a bad
+//! but the clocks'), a checkpoint written under MPI resumes, `eval` shares its rows and
+//! `adapt-surface` its families, and a bad
 //! input or a failing rank ends every rank with one `error:` line and a non-zero status, never
 //! a hang. Run with `cargo test --features mpi --test mpi`; needs `mpirun` (OpenMPI) on the
 //! path. The ranks are oversubscribed (3 on 2 cores), one thread each.
@@ -323,6 +324,64 @@ fn eval_gives_the_same_fitness_on_1_2_and_3_ranks() {
     }
 }
 
+#[test]
+fn adapt_surface_gives_the_same_surface_on_1_2_and_3_ranks() {
+    let d = scratch("mpi-adapt-surface");
+    let blade = common::crate_root().join("data/blade_paper_to_tip.json");
+    let blade = blade.to_str().unwrap();
+    ok(mpirun(
+        0,
+        &["blade", blade, "--points-per-section", "24", "-o", "b.csv"],
+        &d,
+    ));
+    // The cloud without the chord rule (30 families, bulk and greedy, spread over the ranks),
+    // and the blade definition itself (the chord rule's families, lofted and checked between
+    // its stations).
+    let runs: [&[&str]; 2] = [
+        &[
+            "b.csv",
+            "--tol",
+            "1e-3",
+            "--relative",
+            "--degrees-u",
+            "3-5",
+            "--degrees-v",
+            "2-3",
+            "--chord-rule",
+            "off",
+        ],
+        &[
+            blade,
+            "--points-per-section",
+            "24",
+            "--tol",
+            "2e-3",
+            "--relative",
+            "--degrees-u",
+            "3-4",
+            "--degrees-v",
+            "2",
+        ],
+    ];
+    for (k, run) in runs.iter().enumerate() {
+        let mut first: Option<Value> = None;
+        for ranks in [0, 1, 2, 3] {
+            let json = format!("s{k}-{ranks}.json");
+            let mut args = vec!["adapt-surface"];
+            args.extend_from_slice(run);
+            args.extend_from_slice(&["--json", &json]);
+            ok(mpirun(ranks, &args, &d));
+            // The surface (control net, encoding), its checks, every family's trace.
+            let got = report(&d.join(&json));
+            assert!(got["adapt"]["search"].as_array().is_some_and(|a| a.len() > 2));
+            match &first {
+                None => first = Some(got),
+                Some(f) => assert_eq!(f, &got, "{run:?}: report on {ranks} ranks"),
+            }
+        }
+    }
+}
+
 /// Exit status, and the `error:` lines of standard error (the launcher's own notes aside).
 fn errors(o: &Output) -> (Option<i32>, Vec<String>) {
     let err = String::from_utf8_lossy(&o.stderr);
@@ -404,36 +463,15 @@ fn a_bad_input_ends_every_rank_with_one_error_line() {
     }
 }
 
-#[test]
-fn a_failing_rank_ends_every_rank_with_one_error_line() {
-    let d = scratch("mpi-rank-fails");
-    aerofoils(&d);
-    // `BEZCHAIN_TEST_FAIL_RANK` makes one rank's evaluations fail (a test hook, read only in
-    // builds with the mpi feature): mid-run, inside the collective.
+/// `bezchain ARGS` on 3 ranks, rank 2 failing every shared batch (`BEZCHAIN_TEST_FAIL_RANK`, a
+/// test hook read only in builds with the mpi feature: mid-run, inside the collective): every
+/// rank ends, with one `error:` line naming rank 2 and a non-zero status.
+fn rank_2_fails(args: &[&str], dir: &Path) {
     let mut cmd = Command::new("mpirun");
     cmd.args(["--oversubscribe", "-n", "3", "-x", "BEZCHAIN_TEST_FAIL_RANK=2"])
-        .arg(bin());
-    cmd.args([
-        "optimise",
-        "n0012.dat",
-        "--objective",
-        "max-cl",
-        "--min-thickness",
-        "0.1",
-        "--method",
-        "ga",
-        "--population",
-        "12",
-        "--tol",
-        "1e-3",
-        "--panels",
-        "60",
-        "--generations",
-        "3",
-        "--backend",
-        "cpu",
-    ]);
-    cmd.current_dir(&d)
+        .arg(bin())
+        .args(args);
+    cmd.current_dir(dir)
         .env("BEZCHAIN_TEST_FAIL_RANK", "2")
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
@@ -444,7 +482,53 @@ fn a_failing_rank_ends_every_rank_with_one_error_line() {
     };
     assert!(start.elapsed() < TIMEOUT);
     let (code, lines) = errors(&o);
-    assert!(code.is_some_and(|c| c != 0), "{code:?}");
-    assert_eq!(lines.len(), 1, "{lines:?}");
-    assert!(lines[0].contains("rank 2"), "{lines:?}");
+    assert!(code.is_some_and(|c| c != 0), "{args:?}: {code:?}");
+    assert_eq!(lines.len(), 1, "{args:?}: {lines:?}");
+    assert!(lines[0].contains("rank 2"), "{args:?}: {lines:?}");
+}
+
+#[test]
+fn a_failing_rank_ends_every_rank_with_one_error_line() {
+    let d = scratch("mpi-rank-fails");
+    aerofoils(&d);
+    rank_2_fails(
+        &[
+            "optimise",
+            "n0012.dat",
+            "--objective",
+            "max-cl",
+            "--min-thickness",
+            "0.1",
+            "--method",
+            "ga",
+            "--population",
+            "12",
+            "--tol",
+            "1e-3",
+            "--panels",
+            "60",
+            "--generations",
+            "3",
+            "--backend",
+            "cpu",
+        ],
+        &d,
+    );
+    let blade = common::crate_root().join("data/blade_paper_to_tip.json");
+    rank_2_fails(
+        &[
+            "adapt-surface",
+            blade.to_str().unwrap(),
+            "--points-per-section",
+            "24",
+            "--tol",
+            "2e-3",
+            "--relative",
+            "--degrees-u",
+            "3",
+            "--degrees-v",
+            "2",
+        ],
+        &d,
+    );
 }

@@ -29,7 +29,7 @@
 //! column's frame ([`mod@super::blade`]); [`ChordRule`] says when it is searched.
 //!
 //! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
-//! data-driven positions) run in parallel. Each starts with one patch and grows the direction
+//! data-driven positions) run in parallel, and under MPI spread over the ranks. Each starts with one patch and grows the direction
 //! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
 //! point, at the squared-error-weighted mean of its points' `u`; a v split in the span holding
 //! the worst section, at the weighted mean of its sections' `v`. Once the tolerance holds, it
@@ -55,7 +55,7 @@ use data::Data;
 pub use definition::{adapt_blade, AdaptedBlade, MAX_ROUNDS};
 pub use encoding::{SurfaceCount, SurfaceEncoding};
 use fitter::{closest_offsets, norm_of, Fitter};
-use search::{encode, store, Cand, Family, Growth, Search};
+use search::{encode, store, Cand, Family, Growth, Search, Searched};
 pub use span::{
     BetweenSections, DataScatter, SpanFairness, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE, SCATTER_FACTOR,
 };
@@ -73,6 +73,7 @@ pub const FOLD_SAMPLES: usize = 16;
 const BULK_START: usize = 8;
 use crate::geometry::{Cloud, Grid};
 use crate::problem::OffsetStats;
+use crate::team;
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -301,12 +302,12 @@ pub fn adapt_surface_with(
         }
     };
     let mut data = data_of(chord)?;
-    let (mut results, mut fits) = run_families(&data, opts, limit_scalars, progress);
+    let (mut results, mut fits) = run_families(&data, opts, limit_scalars, progress)?;
     let mut trace: Vec<SurfaceFamilyTrace> = results.iter().map(|r| r.3.clone()).collect();
     let none_met = |r: &[FamilyResult]| r.iter().all(|r| r.1.is_none());
     if data.blade.is_some() && opts.chord_rule == ChordRule::Auto && none_met(&results) {
         let plain = data_of(false)?;
-        let (more, f) = run_families(&plain, opts, limit_scalars, progress);
+        let (more, f) = run_families(&plain, opts, limit_scalars, progress)?;
         fits += f;
         trace.extend(more.iter().map(|r| r.3.clone()));
         let closest = |r: &[FamilyResult]| {
@@ -475,14 +476,17 @@ pub fn adapt_surface_with(
 /// One family's result: its winner, its closest layout, its trace.
 type FamilyResult = (Family, Option<Cand>, Option<Cand>, SurfaceFamilyTrace);
 
-/// Every family of the search on `data`, in parallel, and the fits run; `progress` is told
-/// of each family as it ends.
+/// Every family of the search on `data`, in parallel and spread over the ranks of the run
+/// ([`team::share_records`]: a family's search depends on nothing but the family and the
+/// bound, so every rank gets the same results as one process alone), and the fits run;
+/// `progress` is told of each family as it ends (of the other ranks' families, once their
+/// results arrive).
 fn run_families(
     data: &Data<'_>,
     opts: &SurfaceAdaptOptions,
     limit_scalars: usize,
     progress: &(dyn Fn(&SurfaceProgress<'_>) + Sync),
-) -> (Vec<FamilyResult>, usize) {
+) -> Result<(Vec<FamilyResult>, usize)> {
     let pass = if data.blade.is_some() {
         "chord rule"
     } else {
@@ -491,7 +495,6 @@ fn run_families(
     let search = Search {
         data,
         opts,
-        fits: AtomicUsize::new(0),
         limit_u: data.per / 2,
         limit_scalars,
     };
@@ -552,41 +555,57 @@ fn run_families(
     // trailing-edge families' count (448 then) without meeting it.
     // Each result with its family's place in `families`, which orders the trace.
     let done = AtomicUsize::new(0);
-    let run = |bulk: bool, bound: usize| -> Vec<(usize, FamilyResult)> {
-        let picked: Vec<(usize, Family)> = families
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|(_, f)| f.bulk() == bulk)
-            .collect();
-        picked
-            .par_iter()
-            .map(|&(k, f)| {
-                let started = Instant::now();
-                let (w, c, mut t) = search.run(f, bound);
-                t.seconds = started.elapsed().as_secs_f64();
-                progress(&SurfaceProgress {
-                    pass,
-                    done: done.fetch_add(1, Ordering::Relaxed) + 1,
-                    total: families.len(),
-                    family: &t,
-                });
-                (k, (f, w, c, t))
-            })
-            .collect()
+    let tell = |t: &SurfaceFamilyTrace| {
+        progress(&SurfaceProgress {
+            pass,
+            done: done.fetch_add(1, Ordering::Relaxed) + 1,
+            total: families.len(),
+            family: t,
+        });
     };
-    let mut results = run(true, usize::MAX);
+    let run = |bulk: bool, bound: usize| -> Result<Vec<(usize, FamilyResult)>> {
+        let mut picked: Vec<u64> = (0..families.len())
+            .filter(|&k| families[k].bulk() == bulk)
+            .map(|k| k as u64)
+            .collect();
+        // The rows of `picked` this rank searches.
+        let mut here = 0..0;
+        let searched = team::share_records(picked.len(), &mut picked, |rows, picked| {
+            here = rows.clone();
+            Ok(picked[rows]
+                .par_iter()
+                .map(|&k| {
+                    let started = Instant::now();
+                    let (w, c, mut t) = search.run(families[k as usize], bound);
+                    t.seconds = started.elapsed().as_secs_f64();
+                    tell(&t);
+                    Searched(w, c, t)
+                })
+                .collect())
+        })?;
+        Ok(picked
+            .iter()
+            .zip(searched)
+            .enumerate()
+            .map(|(row, (&k, Searched(w, c, t)))| {
+                if !here.contains(&row) {
+                    tell(&t);
+                }
+                let k = k as usize;
+                (k, (families[k], w, c, t))
+            })
+            .collect())
+    };
+    let mut results = run(true, usize::MAX)?;
     let bound = results
         .iter()
         .filter_map(|(_, r)| r.1.as_ref().map(|w| w.scalars))
         .min()
         .unwrap_or(usize::MAX);
-    results.extend(run(false, bound));
+    results.extend(run(false, bound)?);
     results.sort_by_key(|(k, _)| *k);
-    (
-        results.into_iter().map(|(_, r)| r).collect(),
-        search.fits.load(Ordering::Relaxed),
-    )
+    let fits = results.iter().map(|(_, r)| r.3.fits).sum();
+    Ok((results.into_iter().map(|(_, r)| r).collect(), fits))
 }
 
 /// Refit the winner's layout on every other point of each section (both ends kept) and

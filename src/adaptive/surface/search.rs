@@ -10,8 +10,9 @@ use super::fitter::{fold_at, norm_of, span_maxima, Fitted, Fitter};
 use super::span;
 use super::{sampled_offsets, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
 use crate::chain::{ChainLayout, PatchGrid};
+use crate::error::{Error, Result};
+use crate::team::{Reader, Record, Writer};
 use glam::DVec3;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// One family of the search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,7 +87,6 @@ pub(super) struct Cand {
 pub(super) struct Search<'d, 'a> {
     pub(super) data: &'d Data<'a>,
     pub(super) opts: &'d SurfaceAdaptOptions,
-    pub(super) fits: AtomicUsize,
     pub(super) limit_u: usize,
     pub(super) limit_scalars: usize,
 }
@@ -137,7 +137,6 @@ impl<'d, 'a> Search<'d, 'a> {
         if scalars > self.limit_scalars {
             return None;
         }
-        self.fits.fetch_add(1, Ordering::Relaxed);
         *count += 1;
         let ends: Option<Vec<(usize, f64)>> = fam.bulk().then(|| {
             (0..self.data.sections)
@@ -409,6 +408,7 @@ impl<'d, 'a> Search<'d, 'a> {
             Some(c) => c,
             None => {
                 trace.outcome = "the first layout could not be fitted".into();
+                trace.fits = nfits;
                 return (None, None, trace);
             }
         };
@@ -619,6 +619,88 @@ impl<'d, 'a> Search<'d, 'a> {
         trace.best_measure = closest.as_ref().map_or(f64::INFINITY, |c| c.fit.measure);
         trace.fits = nfits;
         (winner, closest, trace)
+    }
+}
+
+/// A family's search as [`Search::run`] ends it: its winner, its closest layout, its trace; a
+/// [`Record`] so that a family searched on another rank arrives as the same bits.
+pub(super) struct Searched(
+    pub(super) Option<Cand>,
+    pub(super) Option<Cand>,
+    pub(super) SurfaceFamilyTrace,
+);
+
+impl Cand {
+    fn write(c: Option<&Self>, out: &mut Writer) {
+        let Some(c) = c else {
+            out.one(0u8);
+            return;
+        };
+        let design: Vec<[f64; 3]> = c.fit.design.iter().map(|p| p.to_array()).collect();
+        out.one(1u8)
+            .put(&c.bu)
+            .put(&c.bv)
+            .put(&design)
+            .put(&c.fit.u)
+            .put(&c.fit.err)
+            .one(c.fit.measure)
+            .one(c.scalars as u64)
+            .put(&c.coords);
+    }
+
+    fn read(from: &mut Reader<'_>) -> Result<Option<Self>> {
+        if from.one::<u8>()? == 0 {
+            return Ok(None);
+        }
+        Ok(Some(Cand {
+            bu: from.take()?,
+            bv: from.take()?,
+            fit: Fitted {
+                design: from
+                    .take::<[f64; 3]>()?
+                    .into_iter()
+                    .map(DVec3::from_array)
+                    .collect(),
+                u: from.take()?,
+                err: from.take()?,
+                measure: from.one()?,
+            },
+            scalars: from.one::<u64>()? as usize,
+            coords: from.take()?,
+        }))
+    }
+}
+
+impl Record for Searched {
+    fn write(&self, out: &mut Writer) {
+        Cand::write(self.0.as_ref(), out);
+        Cand::write(self.1.as_ref(), out);
+        let t = &self.2;
+        out.put(t.family.as_bytes())
+            .one(t.fits as u64)
+            .put(&t.best_scalars.map(|n| n as u64).into_iter().collect::<Vec<_>>())
+            .one(t.best_measure)
+            .put(t.outcome.as_bytes())
+            .one(t.seconds);
+    }
+
+    fn read(from: &mut Reader<'_>) -> Result<Self> {
+        let text = |from: &mut Reader<'_>| {
+            String::from_utf8(from.take()?)
+                .map_err(|_| Error::Numerical("a family's trace is not text".into()))
+        };
+        Ok(Searched(
+            Cand::read(from)?,
+            Cand::read(from)?,
+            SurfaceFamilyTrace {
+                family: text(from)?,
+                fits: from.one::<u64>()? as usize,
+                best_scalars: from.take::<u64>()?.first().map(|&n| n as usize),
+                best_measure: from.one()?,
+                outcome: text(from)?,
+                seconds: from.one()?,
+            },
+        ))
     }
 }
 
