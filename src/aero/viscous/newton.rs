@@ -415,7 +415,7 @@ impl<'a> System<'a> {
             // The unit's rows of [X z] before B's diagonal block is divided out: C and r less
             // the done stations' B entries times their solved rows.
             let mut a = [[0.0; 6]; 6];
-            for (ui, &i) in unit.iter().enumerate() {
+            for &i in unit {
                 for e in 0..3 {
                     z[3 * i + e] = r[3 * i + e];
                 }
@@ -423,6 +423,10 @@ impl<'a> System<'a> {
                     for e in 0..3 {
                         x[(3 * i + e) * nt + j] += p[e][3];
                     }
+                }
+            }
+            for (ui, &i) in unit.iter().enumerate() {
+                for &(j, ref p) in &jac[i] {
                     if let Some(uj) = unit.iter().position(|&v| v == j) {
                         for e in 0..3 {
                             for q in 0..3 {
@@ -453,43 +457,51 @@ impl<'a> System<'a> {
                     // Otherwise only its uₑ enters (the stagnation point): in C, not B.
                 }
             }
-            // Gauss–Jordan with partial pivoting on the unit's block, applied to its rows.
+            // B's diagonal block divided out by its LU factors, each column of [X z] taking the
+            // operations (and so the round-off) of nalgebra's dense LU solve.
             let k = 3 * len;
-            let row = |ui: usize| 3 * unit[ui / 3] + ui % 3;
-            for c in 0..k {
-                let p = (c..k).max_by(|&u, &v| a[u][c].abs().total_cmp(&a[v][c].abs()))?;
-                if a[p][c] == 0.0 || !a[p][c].is_finite() {
-                    return None;
-                }
-                if p != c {
-                    a.swap(p, c);
-                    z.swap(row(p), row(c));
-                    for col in lo..hi {
-                        x.swap(row(p) * nt + col, row(c) * nt + col);
+            let lu = DMatrix::from_fn(k, k, |i, j| a[i][j]).lu();
+            if !lu.is_invertible() {
+                return None;
+            }
+            let (l, u) = (lu.l(), lu.u());
+            let mut order = DVector::from_fn(k, |i, _| i as f64);
+            lu.p().permute_rows(&mut order);
+            let rows: Vec<usize> = (0..k).map(|ui| 3 * unit[ui / 3] + ui % 3).collect();
+            let w = hi - lo + 1;
+            let mut buf = vec![0.0; k * w];
+            for (r, b) in buf.chunks_mut(w).enumerate() {
+                let src = rows[order[r] as usize];
+                b[0] = z[src];
+                b[1..].copy_from_slice(&x[src * nt + lo..src * nt + hi]);
+            }
+            for i in 0..k {
+                let (head, tail) = buf.split_at_mut((i + 1) * w);
+                let bi = &head[i * w..];
+                for (r, br) in tail.chunks_mut(w).enumerate() {
+                    let f = l[(i + 1 + r, i)];
+                    for (y, c) in br.iter_mut().zip(bi) {
+                        *y -= c * f;
                     }
                 }
-                let inv = 1.0 / a[c][c];
-                for q in 0..k {
-                    a[c][q] *= inv;
+            }
+            for i in (0..k).rev() {
+                let (head, tail) = buf.split_at_mut(i * w);
+                let bi = &mut tail[..w];
+                for v in bi.iter_mut() {
+                    *v /= u[(i, i)];
                 }
-                z[row(c)] *= inv;
-                for v in &mut x[row(c) * nt + lo..row(c) * nt + hi] {
-                    *v *= inv;
-                }
-                for o in (0..k).filter(|&o| o != c) {
-                    let f = a[o][c];
-                    if f == 0.0 {
-                        continue;
-                    }
-                    for q in 0..k {
-                        a[o][q] -= f * a[c][q];
-                    }
-                    z[row(o)] -= f * z[row(c)];
-                    let (src, dst) = rows2(&mut x, nt, row(c), row(o));
-                    for (d, s) in dst[lo..hi].iter_mut().zip(&src[lo..hi]) {
-                        *d -= f * s;
+                for (r, br) in head.chunks_mut(w).enumerate() {
+                    let f = u[(r, i)];
+                    for (y, c) in br.iter_mut().zip(bi.iter()) {
+                        *y -= c * f;
                     }
                 }
+            }
+            for (r, b) in buf.chunks(w).enumerate() {
+                let dst = rows[r];
+                z[dst] = b[0];
+                x[dst * nt + lo..dst * nt + hi].copy_from_slice(&b[1..]);
             }
             for &i in unit {
                 span[i] = (lo, hi);
@@ -522,8 +534,11 @@ impl<'a> System<'a> {
             let (lo, hi) = span[i];
             for e in 0..3 {
                 let xr = &x[(3 * i + e) * nt + lo..(3 * i + e) * nt + hi];
-                let dot: f64 = xr.iter().zip(&du.as_slice()[lo..hi]).map(|(a, b)| a * b).sum();
-                out[i][e] = -z[3 * i + e] - dot;
+                let mut v = -z[3 * i + e];
+                for (a, b) in xr.iter().zip(&du.as_slice()[lo..hi]) {
+                    v -= a * b;
+                }
+                out[i][e] = v;
             }
             out[i][3] = du[i];
         }
