@@ -130,16 +130,7 @@ impl Viscous {
         if nodes.len() < crate::aero::panel::MIN_NODES || nodes.iter().any(|p| !p.is_finite()) {
             return Err(Error::invalid("the viscous analysis needs finite panel nodes"));
         }
-        if let Some((i, j)) = crate::aero::panel::crossing(nodes) {
-            return Err(Error::invalid(format!(
-                "the contour crosses itself (panel nodes {i}–{} and {j}–{}, near ({:.4}, {:.4})): \
-                 a boundary layer cannot run along it",
-                i + 1,
-                j + 1,
-                nodes[i].x,
-                nodes[i].y
-            )));
-        }
+        crate::aero::panel::check_simple(nodes)?;
         Ok(Viscous {
             body: Body::new(nodes)?,
         })
