@@ -1067,11 +1067,12 @@ fn norm(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
-/// Forward-difference partials of a 3-vector function in the first `k` state components.
-fn fd3(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; 3]; 3] {
+/// Forward-difference partials of a 3-vector function in the first `k` state components
+/// (columns `k..N` stay zero).
+fn fd<const N: usize>(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; N]; 3] {
     let base = f(u);
-    let mut a = [[0.0; 3]; 3];
-    for q in 0..k.min(3) {
+    let mut a = [[0.0; N]; 3];
+    for q in 0..k.min(N) {
         let mut v = *u;
         let h = if q == 2 {
             1e-7 * v[q].abs().max(1e-3)
@@ -1087,24 +1088,14 @@ fn fd3(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; 3]; 3] {
     a
 }
 
-/// The same in all four components (3 × 4).
+/// [`fd`] in the first `k` of three components.
+fn fd3(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; 3]; 3] {
+    fd(f, u, k)
+}
+
+/// [`fd`] in all four components (3 × 4).
 fn fd34(f: &dyn Fn(&State) -> [f64; 3], u: &State) -> [[f64; 4]; 3] {
-    let base = f(u);
-    let mut a = [[0.0; 4]; 3];
-    for q in 0..4 {
-        let mut v = *u;
-        let h = if q == 2 {
-            1e-7 * v[q].abs().max(1e-3)
-        } else {
-            1e-7 * v[q].abs().max(1e-12)
-        };
-        v[q] += h;
-        let r = f(&v);
-        for e in 0..3 {
-            a[e][q] = (r[e] - base[e]) / h;
-        }
-    }
-    a
+    fd(f, u, 4)
 }
 
 fn solve_small(a: &[[f64; 3]; 3], r: &[f64; 3]) -> Option<[f64; 3]> {
