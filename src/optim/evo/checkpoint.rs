@@ -75,9 +75,13 @@ impl Writer {
     fn len(&mut self, n: usize) {
         self.u64(n as u64);
     }
-    fn f64s(&mut self, xs: &[f64]) {
+    /// A length, then every item as `put` writes it.
+    fn list<T>(&mut self, xs: &[T], mut put: impl FnMut(&mut Self, &T)) {
         self.len(xs.len());
-        xs.iter().for_each(|&x| self.f64(x));
+        xs.iter().for_each(|x| put(self, x));
+    }
+    fn f64s(&mut self, xs: &[f64]) {
+        self.list(xs, |w, &x| w.f64(x));
     }
     fn f32s(&mut self, xs: &[f32]) {
         self.len(xs.len());
@@ -125,9 +129,17 @@ impl<'a> Reader<'a> {
         }
         Ok(n as usize)
     }
+    /// A length, then that many items of at least `size` bytes each, as `get` reads them.
+    fn list<T>(
+        &mut self,
+        size: usize,
+        mut get: impl FnMut(&mut Self) -> std::result::Result<T, String>,
+    ) -> std::result::Result<Vec<T>, String> {
+        let n = self.len(size)?;
+        (0..n).map(|_| get(self)).collect()
+    }
     fn f64s(&mut self) -> std::result::Result<Vec<f64>, String> {
-        let n = self.len(8)?;
-        (0..n).map(|_| self.f64()).collect()
+        self.list(8, Self::f64)
     }
     fn f32s(&mut self) -> std::result::Result<Vec<f32>, String> {
         let n = self.len(4)?;
@@ -165,26 +177,23 @@ impl Checkpoint {
         w.f64(self.seconds);
         w.f64(self.eval_seconds);
         w.u64(self.point_evals);
-        w.len(self.params.len());
-        for p in &self.params {
+        w.list(&self.params, |w, p| {
             w.f64(p[0]);
             w.f64(p[1]);
-        }
+        });
         w.f32s(&self.best);
         w.score(&self.best_score);
         w.f64(self.stall_reference);
         w.u64(self.stall_since);
-        w.len(self.history.len());
-        for h in &self.history {
+        w.list(&self.history, |w, h| {
             w.u64(h.generation);
             w.f64(h.best);
             w.f64(h.mean);
             w.u64(h.evaluations);
             w.f64(h.seconds);
-        }
+        });
         w.f32s(&self.population);
-        w.len(self.scores.len());
-        self.scores.iter().for_each(|s| w.score(s));
+        w.list(&self.scores, Writer::score);
         match &self.cmaes {
             None => w.0.push(0),
             Some(c) => {
@@ -248,31 +257,22 @@ impl Checkpoint {
         let seconds = r.f64()?;
         let eval_seconds = r.f64()?;
         let point_evals = r.u64()?;
-        let n = r.len(16)?;
-        let params = (0..n)
-            .map(|_| Ok([r.f64()?, r.f64()?]))
-            .collect::<std::result::Result<Vec<_>, String>>()?;
+        let params = r.list(16, |r| Ok([r.f64()?, r.f64()?]))?;
         let best = r.f32s()?;
         let best_score = r.score()?;
         let stall_reference = r.f64()?;
         let stall_since = r.u64()?;
-        let n = r.len(40)?;
-        let history = (0..n)
-            .map(|_| {
-                Ok(Progress {
-                    generation: r.u64()?,
-                    best: r.f64()?,
-                    mean: r.f64()?,
-                    evaluations: r.u64()?,
-                    seconds: r.f64()?,
-                })
+        let history = r.list(40, |r| {
+            Ok(Progress {
+                generation: r.u64()?,
+                best: r.f64()?,
+                mean: r.f64()?,
+                evaluations: r.u64()?,
+                seconds: r.f64()?,
             })
-            .collect::<std::result::Result<Vec<_>, String>>()?;
+        })?;
         let population = r.f32s()?;
-        let n = r.len(16)?;
-        let scores = (0..n)
-            .map(|_| r.score())
-            .collect::<std::result::Result<Vec<_>, String>>()?;
+        let scores = r.list(16, Reader::score)?;
         let cmaes = match r.take(1)?[0] {
             0 => None,
             1 => Some(CmaesState {
