@@ -444,21 +444,33 @@ mod tests {
         }
     }
 
+    /// Every `block[0] x block[1]` block of a `rows x cols` grid of nodes (row-major), its
+    /// nodes row-major.
+    fn block_cliques(rows: usize, cols: usize, block: [usize; 2]) -> Vec<Vec<u32>> {
+        let id = |a: usize, b: usize| (a * cols + b) as u32;
+        let mut cliques = Vec::new();
+        for i in 0..=rows - block[0] {
+            for j in 0..=cols - block[1] {
+                cliques.push(
+                    (i..i + block[0])
+                        .flat_map(|a| (j..j + block[1]).map(move |b| id(a, b)))
+                        .collect(),
+                );
+            }
+        }
+        cliques
+    }
+
     #[test]
     fn a_plan_takes_the_narrowest_of_its_candidate_orders() {
         // A 26 x 23 net (row-major) of degrees 4 x 3: every two points of a 5 x 4 block linked.
         let (nu, nv) = (26u32, 23u32);
         let mut edges = Vec::new();
-        for i in 0..nu - 4 {
-            for j in 0..nv - 3 {
-                let block: Vec<u32> = (i..i + 5)
-                    .flat_map(|a| (j..j + 4).map(move |b| a * nv + b))
-                    .collect();
-                for &a in &block {
-                    for &b in &block {
-                        if a > b {
-                            edges.push([a, b]);
-                        }
+        for block in block_cliques(nu as usize, nv as usize, [5, 4]) {
+            for &a in &block {
+                for &b in &block {
+                    if a > b {
+                        edges.push([a, b]);
                     }
                 }
             }
@@ -476,13 +488,7 @@ mod tests {
         // A 5 x 30 grid of nodes (row-major, 30 per row) linked in 2 x 2 cliques: bandwidth 31
         // in the natural order, about 5 to 6 after reordering.
         let (rows, cols) = (5usize, 30usize);
-        let mut cliques = Vec::new();
-        for i in 0..rows - 1 {
-            for j in 0..cols - 1 {
-                let id = |a: usize, b: usize| (a * cols + b) as u32;
-                cliques.push(vec![id(i, j), id(i, j + 1), id(i + 1, j), id(i + 1, j + 1)]);
-            }
-        }
+        let cliques = block_cliques(rows, cols, [2, 2]);
         let order = rcm_order(rows * cols, cliques.iter().map(|c| c.as_slice()));
         let mut pos = vec![0usize; rows * cols];
         for (k, &node) in order.iter().enumerate() {
