@@ -335,6 +335,7 @@ mod tests {
     use crate::chain::Continuity;
     use glam::DVec3;
     use proptest::prelude::*;
+    use std::ops::Range;
 
     #[test]
     fn the_papers_blade_net() {
@@ -348,17 +349,25 @@ mod tests {
 
     proptest! {
         #[test]
-        fn c1_across_every_border(
-            du in 2usize..5, dv in 2usize..5, pu in 1usize..4, pv in 1usize..4,
-            seed in prop::collection::vec(-1.0f64..1.0, 400),
-            cu in 0.2f64..0.8, cv in 0.2f64..0.8,
-        ) {
-            let grid = random_grid([du, dv], [pu, pv], [Continuity::C1, Continuity::C1], [cu, cv], &seed);
+        fn c1_across_every_border((deg, patches, seed, warp) in grid_cases(2..5, 1..4, 400)) {
+            let grid = random_grid(deg, patches, [Continuity::C1, Continuity::C1], warp, &seed);
             prop_assert!(grid.continuity_error() < 1e-9, "jump {}", grid.continuity_error());
             // And the surface itself: the cross-border derivative from both sides agrees.
             let (p0, _, _) = grid.partials(0.37, 0.61);
             prop_assert!((p0 - grid.eval(0.37, 0.61)).length() < 1e-14);
         }
+    }
+
+    /// Degrees and patch counts along u and v drawn from `deg` and `patches`, `seeds` values for
+    /// the design points, and the warps of the breaks along u and v.
+    fn grid_cases(
+        deg: Range<usize>,
+        patches: Range<usize>,
+        seeds: usize,
+    ) -> impl Strategy<Value = ([usize; 2], [usize; 2], Vec<f64>, [f64; 2])> {
+        use prop::array::uniform2;
+        let seed = prop::collection::vec(-1.0f64..1.0, seeds);
+        (uniform2(deg), uniform2(patches), seed, uniform2(0.2f64..0.8))
     }
 
     fn random_grid(
@@ -392,22 +401,20 @@ mod tests {
     proptest! {
         #[test]
         fn c2_across_every_border_and_mixed_continuity(
-            du in 3usize..6, dv in 3usize..6, pu in 1usize..5, pv in 1usize..5,
-            seed in prop::collection::vec(-1.0f64..1.0, 600),
-            cu in 0.2f64..0.8, cv in 0.2f64..0.8,
+            (deg, [pu, pv], seed, warp) in grid_cases(3..6, 1..5, 600),
         ) {
-            let both = random_grid([du, dv], [pu, pv], [Continuity::C2, Continuity::C2], [cu, cv], &seed);
+            let both = random_grid(deg, [pu, pv], [Continuity::C2, Continuity::C2], warp, &seed);
             prop_assert!(both.derivative_jump(1) < 1e-9, "C1 jump {}", both.derivative_jump(1));
             prop_assert!(both.derivative_jump(2) < 1e-8, "C2 jump {}", both.derivative_jump(2));
             // C1 along u, C2 along v: first derivatives continuous everywhere; the v borders
             // alone are C2 (measured on a grid with no u borders).
-            let mixed = random_grid([du, dv], [1, pv], [Continuity::C1, Continuity::C2], [cu, cv], &seed);
+            let mixed = random_grid(deg, [1, pv], [Continuity::C1, Continuity::C2], warp, &seed);
             prop_assert!(mixed.derivative_jump(2) < 1e-8);
-            let mixed = random_grid([du, dv], [pu, pv], [Continuity::C1, Continuity::C2], [cu, cv], &seed);
+            let mixed = random_grid(deg, [pu, pv], [Continuity::C1, Continuity::C2], warp, &seed);
             prop_assert!(mixed.derivative_jump(1) < 1e-9);
             // C0 joins share points only: with random design points the tangents jump.
             if pu > 1 {
-                let c0 = random_grid([du, dv], [pu, 1], [Continuity::C0, Continuity::C1], [cu, cv], &seed);
+                let c0 = random_grid(deg, [pu, 1], [Continuity::C0, Continuity::C1], warp, &seed);
                 prop_assert!(c0.derivative_jump(1) > 1e-6);
             }
         }
