@@ -65,15 +65,16 @@ fn raise<A: Arith>(level: &mut [f32; NB], j: usize, t: f32, s: f32) {
     level[j] = saved;
 }
 
-/// `Basis`: Bernstein values with first and second derivatives at one parameter.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Basis {
+/// `Basis`: Bernstein values with first and second derivatives at one parameter (`T = f32`)
+/// or at one parameter per lane (`T = Lanes`, [`LaneBasis`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Basis<T = f32> {
     /// Values.
-    pub b: [f32; NB],
+    pub b: [T; NB],
     /// First derivatives.
-    pub d1: [f32; NB],
+    pub d1: [T; NB],
     /// Second derivatives.
-    pub d2: [f32; NB],
+    pub d2: [T; NB],
 }
 
 /// `basis`: the degree-n basis at t with its derivatives.
@@ -140,15 +141,7 @@ fn raise_lanes<A: Arith>(level: &mut [Lanes; NB], j: usize, t: &Lanes, s: &Lanes
 }
 
 /// `Basis` per lane.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct LaneBasis {
-    /// Values.
-    pub b: [Lanes; NB],
-    /// First derivatives.
-    pub d1: [Lanes; NB],
-    /// Second derivatives.
-    pub d2: [Lanes; NB],
-}
+pub(crate) type LaneBasis = Basis<Lanes>;
 
 /// The function-scope arrays of `basis` (`lvl`, `low1`, `low2`), kept by the caller so that
 /// a call neither clears nor copies them whole: only the entries `0..=n` a degree-n basis
