@@ -208,22 +208,23 @@ impl EvoArgs {
     }
 }
 
+/// `flag`'s count `n` checked: at least `least`, at most `most` (else `suggestion`).
+fn count_arg(flag: &str, n: i64, [least, most]: [usize; 2], suggestion: &str) -> Result<usize> {
+    if n < least as i64 {
+        return Err(usage(format!("{flag} must be at least {least}, not {n}")));
+    }
+    super::bounded(flag, n as u64, most as u64, suggestion)?;
+    Ok(n as usize)
+}
+
 /// `--population` checked: at least 4, at most [`MAX_POPULATION`] (else `suggestion`).
 pub fn population_arg(p: i64, suggestion: &str) -> Result<usize> {
-    if p < 4 {
-        return Err(usage(format!("--population must be at least 4, not {p}")));
-    }
-    super::bounded("--population", p as u64, MAX_POPULATION as u64, suggestion)?;
-    Ok(p as usize)
+    count_arg("--population", p, [4, MAX_POPULATION], suggestion)
 }
 
 /// `--generations` checked: at least 1, at most [`MAX_GENERATIONS`] (else `suggestion`).
 pub fn generations_arg(g: i64, suggestion: &str) -> Result<usize> {
-    if g < 1 {
-        return Err(usage(format!("--generations must be at least 1, not {g}")));
-    }
-    super::bounded("--generations", g as u64, MAX_GENERATIONS as u64, suggestion)?;
-    Ok(g as usize)
+    count_arg("--generations", g, [1, MAX_GENERATIONS], suggestion)
 }
 
 /// Progress display, history file and checkpoints of a run: an evolutionary fit, or an
