@@ -10,7 +10,7 @@ use bezchain::bench::population::{run as run_bench, BenchOptions};
 use bezchain::eval::{Backend, Simd};
 use bezchain::export::Schema;
 use bezchain::optim::evo::{MAX_POPULATION, MAX_POPULATION_VALUES};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Which kernel `bench` times.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -88,23 +88,23 @@ pub fn run(args: Args) -> Result<()> {
             "the default is 1024",
         )?;
         bounded("--runs", args.runs as u64, 1000, "the default is 7")?;
-        let mut outs = Outputs::new();
-        let out = outs.add("--json", &args.json)?;
-        if !(8..=bezchain::aero::batch::MAX_GPU_NODES).contains(&args.panels) {
-            return Err(super::usage(format!(
-                "--panels must be between 8 and {}",
-                bezchain::aero::batch::MAX_GPU_NODES
-            )));
-        }
-        let report = bezchain::bench::aero::run(&bezchain::bench::aero::AeroBenchOptions {
-            population: args.population,
-            nodes: args.panels,
-            backend: args.backend,
-            runs: args.runs,
-            ..Default::default()
-        })?;
-        outs.put_json(out, Schema::Bench, &report)?;
-        return outs.commit();
+        return put_report(&args.json, || {
+            if !(8..=bezchain::aero::batch::MAX_GPU_NODES).contains(&args.panels) {
+                return Err(super::usage(format!(
+                    "--panels must be between 8 and {}",
+                    bezchain::aero::batch::MAX_GPU_NODES
+                )));
+            }
+            Ok(bezchain::bench::aero::run(
+                &bezchain::bench::aero::AeroBenchOptions {
+                    population: args.population,
+                    nodes: args.panels,
+                    backend: args.backend,
+                    runs: args.runs,
+                    ..Default::default()
+                },
+            )?)
+        });
     }
     if args.kernel == Kernel::Viscous {
         // 1024 is the other kernels' default; this one's is 256 shapes.
@@ -117,15 +117,15 @@ pub fn run(args: Args) -> Result<()> {
         if !(bezchain::aero::panel::MIN_NODES..=1000).contains(&args.panels) {
             return Err(super::usage("--panels must be between 8 and 1000"));
         }
-        let mut outs = Outputs::new();
-        let out = outs.add("--json", &args.json)?;
-        let report = bezchain::bench::viscous::run(&bezchain::bench::viscous::ViscousBenchOptions {
-            population,
-            nodes: args.panels,
-            ..Default::default()
-        })?;
-        outs.put_json(out, Schema::Bench, &report)?;
-        return outs.commit();
+        return put_report(&args.json, || {
+            Ok(bezchain::bench::viscous::run(
+                &bezchain::bench::viscous::ViscousBenchOptions {
+                    population,
+                    nodes: args.panels,
+                    ..Default::default()
+                },
+            )?)
+        });
     }
     if let Some(p) = args.peak {
         if !(p > 0.0 && p.is_finite()) {
@@ -164,8 +164,6 @@ pub fn run(args: Args) -> Result<()> {
              here); ask for fewer individuals or patches"
         ),
     )?;
-    let mut outs = Outputs::new();
-    let out = outs.add("--json", &args.json)?;
     let opts = BenchOptions {
         population: args.population,
         points: args.points,
@@ -178,7 +176,14 @@ pub fn run(args: Args) -> Result<()> {
         measure_peak: !args.no_peak_measure,
         ..BenchOptions::default()
     };
-    let report = run_bench(&opts)?;
+    put_report(&args.json, || Ok(run_bench(&opts)?))
+}
+
+/// Check the `--json` output, run `bench` and write its report there.
+fn put_report<R: serde::Serialize>(json: &Path, bench: impl FnOnce() -> Result<R>) -> Result<()> {
+    let mut outs = Outputs::new();
+    let out = outs.add("--json", json)?;
+    let report = bench()?;
     outs.put_json(out, Schema::Bench, &report)?;
     outs.commit()
 }
