@@ -241,19 +241,7 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     if let (true, Some((opts, r))) = (plots.wanted(), results.last()) {
-        let offsets = bezchain::problem::shape_offsets(
-            &bezchain::chain::CurveShape::new(r.chain.layout().clone()),
-            r.chain.design(),
-            points,
-            &bezchain::closest::FootOptions {
-                samples: 48,
-                ..Default::default()
-            },
-        )?
-        .1
-        .iter()
-        .map(|f| f.dist_sq.sqrt())
-        .collect::<Vec<f64>>();
+        let offsets = bezchain::problem::point_offsets(&r.chain, points)?;
         let plot = CurvePlot {
             title: format!(
                 "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
