@@ -179,13 +179,13 @@ pub fn span_ratio<P: Vector>(chain: &CurveChain<P>, points: &[P], params: &[f64]
     ratio
 }
 
-/// Closest-point offsets of `points` from any shape, with the foot points.
-pub fn shape_offsets<S: Shape<K>, const K: usize>(
+/// `Ok` when `points` pass [`check_points`] and `design` has the design points of `shape`'s
+/// layout: what every offset measure of a shape asks of its inputs.
+fn check_shape_inputs<S: Shape<K>, const K: usize>(
     shape: &S,
     design: &[S::Point],
     points: &[S::Point],
-    opts: &FootOptions,
-) -> Result<(OffsetStats<S::Point>, Vec<Foot<K>>)> {
+) -> Result<()> {
     check_points(points)?;
     if design.len() != shape.design_count() {
         return Err(Error::invalid(format!(
@@ -194,6 +194,17 @@ pub fn shape_offsets<S: Shape<K>, const K: usize>(
             shape.design_count()
         )));
     }
+    Ok(())
+}
+
+/// Closest-point offsets of `points` from any shape, with the foot points.
+pub fn shape_offsets<S: Shape<K>, const K: usize>(
+    shape: &S,
+    design: &[S::Point],
+    points: &[S::Point],
+    opts: &FootOptions,
+) -> Result<(OffsetStats<S::Point>, Vec<Foot<K>>)> {
+    check_shape_inputs(shape, design, points)?;
     let feet = crate::closest::feet(shape, design, points, None, opts);
     let d2: Vec<f64> = feet.iter().map(|f| f.dist_sq).collect();
     Ok((OffsetStats::from_dist_sq(Metric::Closest, &d2, points), feet))
@@ -244,7 +255,7 @@ pub fn corresponding_offsets<S: Shape<K>, const K: usize>(
     points: &[S::Point],
     params: &[[f64; K]],
 ) -> Result<OffsetStats<S::Point>> {
-    check_points(points)?;
+    check_shape_inputs(shape, design, points)?;
     if params.len() != points.len() {
         return Err(Error::invalid(format!(
             "{} parameters given for {} data points",
