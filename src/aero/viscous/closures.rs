@@ -47,6 +47,8 @@ impl Kind {
     };
 }
 
+use super::dual::D;
+
 /// The fluid: the chord Reynolds number (`ν = 1 / Re` in unit-chord, unit-speed variables).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fluid {
@@ -56,34 +58,38 @@ pub struct Fluid {
     pub ncrit: f64,
 }
 
+/// A station's state as dual numbers (see [`super::dual`]): the closures below give their
+/// values and, for `N > 0`, their partials in the same evaluation.
+pub type Du<const N: usize> = [D<N>; 4];
+
 /// `H = δ* / θ`.
 #[inline]
-pub fn h(u: &[f64; 4]) -> f64 {
+pub fn h<const N: usize>(u: &Du<N>) -> D<N> {
     u[1] / u[0]
 }
 
 /// The kinematic shape parameter, limited below (1.05 on the wall, 1.00005 in the wake) as
 /// XFOIL limits it inside the closures.
 #[inline]
-pub fn hk_limited(u: &[f64; 4], k: Kind) -> f64 {
-    h(u).max(if k.wake { 1.00005 } else { 1.05 })
+pub fn hk_limited<const N: usize>(u: &Du<N>, k: Kind) -> D<N> {
+    h(u).fmax(if k.wake { 1.00005 } else { 1.05 })
 }
 
 /// `Re_θ = Re uₑ θ`.
 #[inline]
-pub fn ret(u: &[f64; 4], f: &Fluid) -> f64 {
+pub fn ret<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
     f.re * u[3] * u[0]
 }
 
 /// The kinetic-energy shape parameter `H* = θ* / θ`.
-pub fn hs(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+pub fn hs<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
     let hk = hk_limited(u, k);
     if k.turb {
         let (hsmin, dhsinf) = (1.5, 0.015);
         let rt = ret(u, f);
-        let ho = if rt > 400.0 { 3.0 + 400.0 / rt } else { 4.0 };
-        let reb = rt.max(200.0);
-        if hk < ho {
+        let ho = if rt.v > 400.0 { 3.0 + 400.0 / rt } else { D::c(4.0) };
+        let reb = rt.fmax(200.0);
+        if hk.v < ho.v {
             let hr = (ho - hk) / (ho - 1.0);
             hsmin + 4.0 / reb + (2.0 - hsmin - 4.0 / reb) * hr * hr * 1.5 / (hk + 0.5)
         } else {
@@ -94,7 +100,7 @@ pub fn hs(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
         }
     } else {
         let a = hk - 4.35;
-        if hk < 4.35 {
+        if hk.v < 4.35 {
             (0.0111 * a * a - 0.0278 * a * a * a) / (hk + 1.0) + 1.528 - 0.0002 * (a * hk) * (a * hk)
         } else {
             0.015 * a * a / hk + 1.528
@@ -104,15 +110,15 @@ pub fn hs(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
 
 /// The skin-friction coefficient `Cf` (zero in the wake); turbulent: never below the laminar
 /// value (which only happens at unreasonably small `Re_θ`), as XFOIL's `BLVAR` takes it.
-pub fn cf(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+pub fn cf<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
     cf_of(hk_limited(u, k), ret(u, f), k)
 }
 
 /// [`cf`] from the kinematic shape parameter and `Re_θ` (the interval's midpoint value takes
 /// the ends' means of the two, XFOIL's `BLMID`).
-pub fn cf_of(hk: f64, rt: f64, k: Kind) -> f64 {
+pub fn cf_of<const N: usize>(hk: D<N>, rt: D<N>, k: Kind) -> D<N> {
     if k.wake {
-        0.0
+        D::c(0.0)
     } else if k.turb {
         cf_turbulent(hk, rt).max(cf_laminar(hk, rt))
     } else {
@@ -121,20 +127,20 @@ pub fn cf_of(hk: f64, rt: f64, k: Kind) -> f64 {
 }
 
 /// Swafford's turbulent skin friction at Mach 0 (XFOIL's `CFT`).
-fn cf_turbulent(hk: f64, rt: f64) -> f64 {
+fn cf_turbulent<const N: usize>(hk: D<N>, rt: D<N>) -> D<N> {
     let mut aa = -1.33 * hk;
-    if aa < -17.0 {
+    if aa.v < -17.0 {
         aa = -20.0 + 3.0 * ((aa + 17.0) / 3.0).exp();
     }
-    let bb = rt.ln().max(3.0) / std::f64::consts::LN_10;
+    let bb = rt.ln().fmax(3.0) / std::f64::consts::LN_10;
     let cc = -1.74 - 0.31 * hk;
     let dd = (4.0 - hk / 0.875).tanh();
-    0.3 * aa.exp() * bb.powf(cc) + 1.1e-4 * (dd - 1.0)
+    0.3 * aa.exp() * bb.pow(cc) + 1.1e-4 * (dd - 1.0)
 }
 
 /// The laminar skin friction (XFOIL's `CFL`).
-fn cf_laminar(hk: f64, rt: f64) -> f64 {
-    let num = if hk < 5.5 {
+fn cf_laminar<const N: usize>(hk: D<N>, rt: D<N>) -> D<N> {
+    let num = if hk.v < 5.5 {
         0.0727 * (5.5 - hk).powi(3) / (hk + 1.0) - 0.07
     } else {
         0.015 * (1.0 - 1.0 / (hk - 4.5)).powi(2) - 0.07
@@ -143,25 +149,25 @@ fn cf_laminar(hk: f64, rt: f64) -> f64 {
 }
 
 /// The normalised slip velocity `Us`.
-pub fn us(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+pub fn us<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
     let hsv = hs(u, k, f);
     let hk = hk_limited(u, k);
     let v = 0.5 * hsv * (1.0 - (hk - 1.0) / (GB * h(u)));
-    if !k.wake && v > 0.95 {
-        0.98
+    if !k.wake && v.v > 0.95 {
+        D::c(0.98)
     } else {
-        v.min(0.99995)
+        v.fmin(0.99995)
     }
 }
 
 /// `√Cτ_eq`, the equilibrium shear stress.
-pub fn cteq(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+pub fn cteq<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
     let cc = 0.5 / (GA * GA * GB);
     let hk = hk_limited(u, k);
     let hkc = if k.wake {
         hk - 1.0
     } else {
-        (hk - 1.0 - GC / ret(u, f)).max(0.01)
+        (hk - 1.0 - GC / ret(u, f)).fmax(0.01)
     };
     let num = cc * hs(u, k, f) * (hk - 1.0) * hkc * hkc;
     let den = (1.0 - us(u, k, f)) * h(u) * hk * hk;
@@ -169,20 +175,20 @@ pub fn cteq(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
 }
 
 /// `√Cτ` just after transition.
-pub fn cttr(u: &[f64; 4], f: &Fluid) -> f64 {
+pub fn cttr<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
     let hk = hk_limited(u, Kind::TURBULENT);
     CTAU_C * (-CTAU_E / (hk - 1.0)).exp() * cteq(u, Kind::TURBULENT, f)
 }
 
 /// The boundary-layer thickness `δ` of the shear-lag equation.
-pub fn de(u: &[f64; 4], k: Kind) -> f64 {
+pub fn de<const N: usize>(u: &Du<N>, k: Kind) -> D<N> {
     let hk = hk_limited(u, k);
     (u[0] * (3.15 + 1.72 / (hk - 1.0)) + u[1]).min(12.0 * u[0])
 }
 
-fn cdi_lam(u: &[f64; 4], f: &Fluid) -> f64 {
+fn cdi_lam<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
     let hk = h(u);
-    let num = if hk < 4.0 {
+    let num = if hk.v < 4.0 {
         0.00205 * (4.0 - hk).powf(5.5) + 0.207
     } else {
         let a = hk - 4.0;
@@ -192,14 +198,14 @@ fn cdi_lam(u: &[f64; 4], f: &Fluid) -> f64 {
 }
 
 /// The dissipation function `2 CD / H*`.
-pub fn cdi(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+pub fn cdi<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
     if !k.turb {
         return cdi_lam(u, f);
     }
     let hsv = hs(u, k, f);
     let usv = us(u, k, f);
     let rt = ret(u, f);
-    let mut d = 0.0;
+    let mut d = D::c(0.0);
     let lam = if k.wake {
         let hk = hk_limited(u, k);
         let hs_lam = hs(u, Kind::LAMINAR, f);
@@ -209,11 +215,11 @@ pub fn cdi(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
         let lr = rt.ln();
         let hmin = 1.0 + 2.1 / lr;
         let fac = 0.5 + 0.5 * ((hk - 1.0) / (hmin - 1.0)).tanh();
-        d += cf_turbulent(hk.max(1.05), rt) * usv / hsv * fac;
+        d = d + cf_turbulent(hk.fmax(1.05), rt) * usv / hsv * fac;
         cdi_lam(u, f)
     };
-    d += u[2] * u[2] * (0.995 - usv) * 2.0 / hsv;
-    d += 0.15 * (0.995 - usv).powi(2) * 2.0 / (hsv * rt);
+    d = d + u[2] * u[2] * (0.995 - usv) * 2.0 / hsv;
+    d = d + 0.15 * (0.995 - usv).powi(2) * 2.0 / (hsv * rt);
     d = d.max(lam);
     if k.wake {
         2.0 * d
@@ -223,29 +229,29 @@ pub fn cdi(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
 }
 
 /// The equilibrium `(1/uₑ) duₑ/dξ` of the shear-lag equation, from averaged quantities.
-pub fn uq(ds: f64, cf: f64, hk: f64, rt: f64, k: Kind) -> f64 {
+pub fn uq<const N: usize>(ds: D<N>, cf: D<N>, hk: D<N>, rt: D<N>, k: Kind) -> D<N> {
     let (a, c) = if k.wake { (GA * DLR, 0.0) } else { (GA, GC) };
-    let hk = hk.max(if k.wake { 1.00005 } else { 1.05 });
-    let hkc = (hk - 1.0 - c / rt).max(0.01);
+    let hk = hk.fmax(if k.wake { 1.00005 } else { 1.05 });
+    let hkc = (hk - 1.0 - c / rt).fmax(0.01);
     (0.5 * cf - (hkc / (a * hk)).powi(2)) / (GB * ds)
 }
 
 /// The envelope amplification rate `dN/dξ` of one station (XFOIL's `DAMPL`).
-pub fn damp(u: &[f64; 4], f: &Fluid) -> f64 {
-    let hk = h(u).max(1.05);
+pub fn damp<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
+    let hk = h(u).fmax(1.05);
     let th = u[0];
     let hmi = 1.0 / (hk - 1.0);
     let aa = 2.492 * hmi.powf(0.43);
     let bb = (14.0 * hmi - 9.24).tanh();
     let grcrit = aa + 0.7 * (bb + 1.0);
-    let gr = ret(u, f).max(1e-30).log10();
+    let gr = ret(u, f).fmax(1e-30).log10();
     let dgr = 0.08;
-    if gr < grcrit - dgr {
-        return 0.0;
+    if gr.v < grcrit.v - dgr {
+        return D::c(0.0);
     }
     let rn = (gr - (grcrit - dgr)) / (2.0 * dgr);
-    let rf = if rn >= 1.0 {
-        1.0
+    let rf = if rn.v >= 1.0 {
+        D::c(1.0)
     } else {
         3.0 * rn * rn - 2.0 * rn * rn * rn
     };
@@ -257,17 +263,41 @@ pub fn damp(u: &[f64; 4], f: &Fluid) -> f64 {
 
 /// The amplification rate over an interval (XFOIL 6.99's `AXSET`): the root mean square of the
 /// ends' rates plus a small term that keeps `dN/dξ > 0` near `Ncrit`.
-pub fn damp_interval(u1: &[f64; 4], u2: &[f64; 4], f: &Fluid) -> f64 {
+pub fn damp_interval<const N: usize>(u1: &Du<N>, u2: &Du<N>, f: &Fluid) -> D<N> {
     let (a1, a2) = (damp(u1, f), damp(u2, f));
-    let axa = (0.5 * (a1 * a1 + a2 * a2)).sqrt();
-    let arg = (20.0 * (f.ncrit - 0.5 * (u1[2] + u2[2]))).min(20.0);
-    let exn = if arg <= 0.0 { 1.0 } else { (-arg).exp() };
+    let ms = 0.5 * (a1 * a1 + a2 * a2);
+    // Both rates zero (below the critical Re_θ): so are their partials, not √0's.
+    let axa = if ms.v > 0.0 { ms.sqrt() } else { D::c(0.0) };
+    let arg = (20.0 * (f.ncrit - 0.5 * (u1[2] + u2[2]))).fmin(20.0);
+    let exn = if arg.v <= 0.0 { D::c(1.0) } else { (-arg).exp() };
     axa + exn * 0.002 / (u1[0] + u2[0])
+}
+
+/// Plain (`f64`) forms of the closures the solver reads outside the equations.
+pub mod plain {
+    use super::{Fluid, Kind};
+    use crate::aero::viscous::dual::lift;
+
+    /// [`super::h`].
+    pub fn h(u: &[f64; 4]) -> f64 {
+        u[1] / u[0]
+    }
+
+    /// [`super::cf`].
+    pub fn cf(u: &[f64; 4], k: Kind, f: &Fluid) -> f64 {
+        super::cf(&lift(u), k, f).v
+    }
+
+    /// [`super::cttr`].
+    pub fn cttr(u: &[f64; 4], f: &Fluid) -> f64 {
+        super::cttr(&lift(u), f).v
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aero::viscous::dual::lift;
 
     const F: Fluid = Fluid { re: 1e6, ncrit: 9.0 };
 
@@ -275,22 +305,22 @@ mod tests {
     #[test]
     fn laminar_closures_near_blasius() {
         let th = 1e-3;
-        let u = [th, 2.59 * th, 0.0, 1.0];
-        let rt = ret(&u, &F);
-        assert!((hs(&u, Kind::LAMINAR, &F) - 1.573).abs() < 0.01);
-        assert!((cf(&u, Kind::LAMINAR, &F) * rt - 0.441).abs() < 0.02);
-        assert!((cdi(&u, Kind::LAMINAR, &F) * rt - 0.22).abs() < 0.01);
+        let u = lift(&[th, 2.59 * th, 0.0, 1.0]);
+        let rt = ret(&u, &F).v;
+        assert!((hs(&u, Kind::LAMINAR, &F).v - 1.573).abs() < 0.01);
+        assert!((cf(&u, Kind::LAMINAR, &F).v * rt - 0.441).abs() < 0.02);
+        assert!((cdi(&u, Kind::LAMINAR, &F).v * rt - 0.22).abs() < 0.01);
     }
 
     /// A flat-plate turbulent layer at Re_θ = 5000: Cf about 0.0027, H* about 1.75.
     #[test]
     fn turbulent_closures_are_plausible() {
         let th = 5e-3;
-        let u = [th, 1.4 * th, 0.03, 1.0];
-        let c = cf(&u, Kind::TURBULENT, &F);
+        let u = lift(&[th, 1.4 * th, 0.03, 1.0]);
+        let c = cf(&u, Kind::TURBULENT, &F).v;
         assert!(c > 0.002 && c < 0.0035, "{c}");
-        let hsv = hs(&u, Kind::TURBULENT, &F);
+        let hsv = hs(&u, Kind::TURBULENT, &F).v;
         assert!(hsv > 1.6 && hsv < 1.9, "{hsv}");
-        assert!(cteq(&u, Kind::TURBULENT, &F) > 0.0);
+        assert!(cteq(&u, Kind::TURBULENT, &F).v > 0.0);
     }
 }

@@ -3,22 +3,23 @@
 //! logarithmic differences; the similarity station at the stagnation point; the interval that
 //! holds the transition point; the junction of the two surfaces into the wake.
 
-use super::closures::{self as c, Fluid, Kind};
+use super::closures::{self as c, Du, Fluid, Kind};
+use super::dual::{lift, D};
 
 /// A station's state `[θ, δ*, s, uₑ]` (see [`super::closures`]).
 pub type State = [f64; 4];
 
 /// The upwinding weight of the second station (½: trapezoidal, 1: backward Euler), large
 /// where `Hk` changes fast.
-fn upwind_weight(u1: &State, u2: &State, k: Kind) -> f64 {
+fn upwind_weight<const N: usize>(u1: &Du<N>, u2: &Du<N>, k: Kind) -> D<N> {
     let (hk1, hk2) = (c::h(u1), c::h(u2));
     let huc = if k.wake { 1.0 } else { 5.0 } / (hk2 * hk2);
     let la = ((hk2 - 1.0) / (hk1 - 1.0)).abs().ln();
-    let hls = (la * la).min(15.0);
+    let hls = (la * la).fmin(15.0);
     1.0 - 0.5 * (-hls * huc).exp()
 }
 
-fn mix(w: f64, a: f64, b: f64) -> f64 {
+fn mix<const N: usize>(w: D<N>, a: D<N>, b: D<N>) -> D<N> {
     (1.0 - w) * a + w * b
 }
 
@@ -34,16 +35,26 @@ pub fn interval(
     u2: &State,
     wgap: [f64; 2],
 ) -> [f64; 3] {
+    let r = interval_d(fl, k, simi, x.map(D::<0>::c), &lift(u1), &lift(u2), wgap);
+    r.map(|v| v.v)
+}
+
+/// [`interval`] in dual numbers: the residuals and their partials in whatever variables `x`
+/// and the two states carry (the chain rule through every closure).
+pub fn interval_d<const N: usize>(
+    fl: &Fluid,
+    k: Kind,
+    simi: bool,
+    x: [D<N>; 2],
+    u1: &Du<N>,
+    u2: &Du<N>,
+    wgap: [f64; 2],
+) -> [D<N>; 3] {
     let mut u1 = *u1;
     let mut u2 = *u2;
-    u1[1] -= wgap[0];
-    u2[1] -= wgap[1];
-    let um = [
-        0.5 * (u1[0] + u2[0]),
-        0.5 * (u1[1] + u2[1]),
-        0.5 * (u1[2] + u2[2]),
-        0.5 * (u1[3] + u2[3]),
-    ];
+    u1[1] = u1[1] - wgap[0];
+    u2[1] = u2[1] - wgap[1];
+    let um0 = 0.5 * (u1[0] + u2[0]);
     let (mut thlog, mut uelog, mut xlog, mut dx) = (
         (u2[0] / u1[0]).ln(),
         (u2[3] / u1[3]).ln(),
@@ -53,10 +64,10 @@ pub fn interval(
     let (hs1, hs2) = (c::hs(&u1, k, fl), c::hs(&u2, k, fl));
     let mut hslog = (hs2 / hs1).ln();
     if simi {
-        thlog = 0.0;
-        hslog = 0.0;
-        uelog = 1.0;
-        xlog = 1.0;
+        thlog = D::c(0.0);
+        hslog = D::c(0.0);
+        uelog = D::c(1.0);
+        xlog = D::c(1.0);
         dx = 0.5 * (x[0] + x[1]);
     }
     let upw = upwind_weight(&u1, &u2, k);
@@ -83,12 +94,12 @@ pub fn interval(
         u2[2] - u1[2] - c::damp_interval(&u1, &u2, fl) * dx
     };
 
-    let cfxt = |u: &State, x: f64| c::cf(u, k, fl) * x / u[0];
+    let cfxt = |u: &Du<N>, x: D<N>| c::cf(u, k, fl) * x / u[0];
     let (cfxt1, cfxt2) = (cfxt(&u1, x[0]), cfxt(&u2, x[1]));
     // The midpoint's Cf from the ends' mean Hk and Re_θ (XFOIL's BLMID).
     let hka = 0.5 * (c::hk_limited(&u1, k) + c::hk_limited(&u2, k));
     let rta = 0.5 * (c::ret(&u1, fl) + c::ret(&u2, fl));
-    let cfxtm = c::cf_of(hka, rta, k) * 0.5 * (x[0] + x[1]) / um[0];
+    let cfxtm = c::cf_of(hka, rta, k) * 0.5 * (x[0] + x[1]) / um0;
     let cfxt_mom = 0.25 * cfxt1 + 0.5 * cfxtm + 0.25 * cfxt2;
     let mom = thlog + (2.0 + hav + hw) * uelog - 0.5 * xlog * cfxt_mom;
 
@@ -115,7 +126,7 @@ pub fn transition_point(fl: &Fluid, x: [f64; 2], u1: &State, u2: &State) -> Opti
         ut[2] = fl.ncrit;
         ut
     };
-    let r = |xt: f64| fl.ncrit - u1[2] - (xt - x[0]) * c::damp_interval(u1, &at(xt), fl);
+    let r = |xt: f64| fl.ncrit - u1[2] - (xt - x[0]) * c::damp_interval(&lift(u1), &lift(&at(xt)), fl).v;
     // The residual falls as xt grows (the factor grows); bracket, then secant-bisect.
     let (mut lo, mut hi) = (x[0], x[1]);
     let (mut rlo, rhi) = (r(lo), r(hi));
@@ -166,7 +177,7 @@ pub fn transition(fl: &Fluid, x: [f64; 2], xt: f64, u1: &State, u2: &State) -> [
     let mut utl = ut;
     utl[2] = fl.ncrit;
     let mut utt = ut;
-    utt[2] = c::cttr(&ut, fl);
+    utt[2] = c::plain::cttr(&ut, fl);
     let rl = interval(fl, Kind::LAMINAR, false, [x[0], xt], u1, &utl, [0.0; 2]);
     let rt = interval(fl, Kind::TURBULENT, false, [xt, x[1]], &utt, u2, [0.0; 2]);
     // The third equation is the turbulent part's shear lag alone (XFOIL's TRDIF): the laminar
@@ -200,7 +211,7 @@ pub fn similarity(fl: &Fluid, ust: &State) -> [f64; 3] {
 /// The wake's first state from the two trailing-edge states: `θ` and `δ*` add (plus the gap),
 /// `√Cτ` θ-weighted (a laminar edge takes its post-transition value).
 pub fn wake_start(fl: &Fluid, upper: (&State, bool), lower: (&State, bool), gap: f64) -> [f64; 3] {
-    let ct = |(u, turb): (&State, bool)| if turb { u[2] } else { c::cttr(u, fl) };
+    let ct = |(u, turb): (&State, bool)| if turb { u[2] } else { c::plain::cttr(u, fl) };
     let (uu, ul) = (upper.0, lower.0);
     let th = uu[0] + ul[0];
     [

@@ -12,6 +12,7 @@
 
 pub mod closures;
 pub mod coupling;
+pub mod dual;
 pub mod equations;
 pub mod newton;
 pub mod polar;

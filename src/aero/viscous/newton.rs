@@ -9,11 +9,14 @@
 //! upstream), `C` their partials in `uₑ` (a few per row), `E = −D diag(uₑ)` and
 //! `F = I − D diag(δ*)` dense. `B` is eliminated by block forward substitution and the dense
 //! Schur complement in `uₑ` (stations × stations) is factored; a full dense factorisation is the
-//! fallback when a block of `B` is singular. Partials of the equations come from forward
-//! differences of the station functions (relative step 1e-7).
+//! fallback when a block of `B` is singular. Partials of the interval equations (laminar,
+//! turbulent, wake: all rows but a few) are exact, by dual numbers through the closures
+//! ([`super::dual`]); the similarity, transition and wake-start rows take forward differences of
+//! the station functions (relative step 1e-7).
 
-use super::closures::{self as c, Fluid, Kind};
+use super::closures::{self as c, Du, Fluid, Kind};
 use super::coupling::{ue_of_mass, Body, Wake};
+use super::dual::{lift, D};
 use super::equations::{self as eq, State};
 use nalgebra::{DMatrix, DVector};
 
@@ -331,8 +334,90 @@ impl<'a> System<'a> {
         r
     }
 
-    /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
+    /// The exact partials of row block `i` when it is a plain interval (one kind at both
+    /// ends, or the wake), by dual numbers through the closures and the equations: per
+    /// dependency (in [`System::deps`]'s order), ∂R/∂(θ, δ*, s, uₑ). The stagnation nodes' `uₑ`
+    /// enter through ξ; where one of them is a station of the row, both ways add up.
+    fn partials_exact(&self, i: usize) -> Option<Partials> {
+        let Row::Interval(p) = self.rows[i] else {
+            return None;
+        };
+        if i < self.n && self.turb[p] != self.turb[i] {
+            return None;
+        }
+        const N: usize = 10;
+        let var = |j: usize, off: usize| -> Du<N> {
+            let u = self.u[j];
+            [
+                D::var(u[0], off),
+                D::var(u[1], off + 1),
+                D::var(u[2], off + 2),
+                D::var(u[3], off + 3),
+            ]
+        };
+        let (u1, u2) = (var(p, 0), var(i, 4));
+        let [a, b] = self.istag;
+        let slot = |j: usize, extra: usize| {
+            if j == p {
+                3
+            } else if j == i {
+                7
+            } else {
+                extra
+            }
+        };
+        let ua = D::<N>::var(self.u[a][3], slot(a, 8));
+        let ub = D::<N>::var(self.u[b][3], slot(b, 9));
+        let (sa, sb) = (self.body.s[a], self.body.s[b]);
+        let sst = (ub * sa + ua * sb) / (ua + ub);
+        let xi = |j: usize| -> D<N> {
+            if j < self.n {
+                (self.body.s[j] - sst).abs()
+            } else {
+                self.body.s[self.n - 1] - sst + self.wake.s[j - self.n]
+            }
+        };
+        let x = [xi(p), xi(i)];
+        let r = if i >= self.n {
+            let g = [self.wgap[p - self.n], self.wgap[i - self.n]];
+            eq::interval_d(&self.fl, Kind::WAKE, false, x, &u1, &u2, g)
+        } else {
+            eq::interval_d(&self.fl, self.kind(i), false, x, &u1, &u2, [0.0; 2])
+        };
+        let block = |off: usize| {
+            let mut m = [[0.0; 4]; 3];
+            for e in 0..3 {
+                for q in 0..4 {
+                    m[e][q] = r[e].d[off + q];
+                }
+            }
+            m
+        };
+        let mut out: Partials = vec![(p, block(0)), (i, block(4))];
+        for (j, k) in [(a, 8), (b, 9)] {
+            if j != p && j != i {
+                let mut m = [[0.0; 4]; 3];
+                for e in 0..3 {
+                    m[e][3] = r[e].d[k];
+                }
+                out.push((j, m));
+            }
+        }
+        Some(out)
+    }
+
+    /// Partials of row block `i`: exact where [`System::partials_exact`] gives them, else
+    /// forward differences (the similarity, transition and wake-start rows): per dependency,
+    /// ∂R/∂(θ, δ*, s, uₑ).
     fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
+        if let Some(p) = self.partials_exact(i) {
+            return p;
+        }
+        self.partials_fd(i, base)
+    }
+
+    /// Forward-difference partials of row block `i`: per dependency, ∂R/∂(θ, δ*, s, uₑ).
+    fn partials_fd(&mut self, i: usize, base: &[f64; 3]) -> Partials {
         let deps = self.deps(i);
         // The stations the row holds come first; the stagnation nodes added after them enter
         // through ξ alone, which reads their uₑ: their other partials are zero.
@@ -618,7 +703,7 @@ impl<'a> System<'a> {
                 self.u[i][q] += omega * du[i][q];
             }
             let hmin = if i >= self.n { 1.00005 } else { 1.02 };
-            let hk = c::h(&self.u[i]);
+            let hk = c::plain::h(&self.u[i]);
             if hk < hmin {
                 self.u[i][1] += 2.0 * (hmin - hk) * self.u[i][1];
             }
@@ -682,7 +767,7 @@ impl<'a> System<'a> {
                 let r = |v: f64| {
                     let mut w = u2;
                     w[2] = v;
-                    w[2] - u1[2] - c::damp_interval(&u1, &w, &self.fl) * dx
+                    w[2] - u1[2] - c::damp_interval(&lift(&u1), &lift(&w), &self.fl).v * dx
                 };
                 let r0 = r(u2[2]);
                 if r0.abs() < 1e-12 {
@@ -723,7 +808,7 @@ impl<'a> System<'a> {
                 continue;
             }
             if ilam < ilam0 {
-                let sa0 = c::cttr(&self.u[l[ilam + 1]], &self.fl);
+                let sa0 = c::plain::cttr(&self.u[l[ilam + 1]], &self.fl);
                 let sa1 = if ilam0 + 1 < l.len() {
                     self.u[l[ilam0 + 1]][2]
                 } else {
@@ -812,7 +897,7 @@ impl<'a> System<'a> {
                 let mut u2 = u1;
                 u2[3] = ue[k];
                 if tran {
-                    u2[2] = c::cttr(&u2, &self.fl);
+                    u2[2] = c::plain::cttr(&u2, &self.fl);
                 }
                 self.turb[b] = tran || kind.turb;
                 let forced = (self.forced_s[s.min(1)] - sst).abs();
@@ -848,7 +933,7 @@ impl<'a> System<'a> {
                         }
                     } else {
                         let a4 = fd34(&res, &u2);
-                        let hk = c::h(&u2);
+                        let hk = c::plain::h(&u2);
                         let rr = [r[0], r[1], r[2], hk - hktgt];
                         match solve4(&a4, &[1.0 / u2[0] * -hk, 1.0 / u2[0], 0.0, 0.0], &rr) {
                             Some(d) => [-d[0], -d[1], -d[2], -d[3]],
@@ -872,10 +957,10 @@ impl<'a> System<'a> {
                     if turb_now {
                         ui[2] = ui[2].clamp(1e-7, 0.3);
                     }
-                    let hk = c::h(&ui);
+                    let hk = c::plain::h(&ui);
                     if direct && (hk > hmax || it > 12) {
                         direct = false;
-                        let hk0 = c::h(&u1);
+                        let hk0 = c::plain::h(&u1);
                         let hkr = (x[1] - x[0]) / u1[0];
                         hktgt = if kind.wake {
                             let mut h2 = hk0;
@@ -980,7 +1065,7 @@ impl<'a> System<'a> {
         let cp: Vec<f64> = (0..n).map(|i| 1.0 - self.u[i][3] * self.u[i][3]).collect();
         let (cl, cm) = crate::aero::panel::integrate(&self.body.nodes, &cp, alpha, &self.body.chord);
         let last = self.u[self.u.len() - 1];
-        let cd = 2.0 * last[0] * last[3].powf((5.0 + c::h(&last)) / 2.0);
+        let cd = 2.0 * last[0] * last[3].powf((5.0 + c::plain::h(&last)) / 2.0);
         let (sn, cs) = alpha.to_radians().sin_cos();
         let sst = self.sstag(&self.u);
         let xstag = {
@@ -993,7 +1078,7 @@ impl<'a> System<'a> {
         for s in 0..2 {
             let (mut cf1, mut ue1, mut x1) = (0.0, 0.0, xstag);
             for &i in &self.surf[s] {
-                let cf2 = c::cf(&self.u[i], self.kind(i), &self.fl);
+                let cf2 = c::plain::cf(&self.u[i], self.kind(i), &self.fl);
                 if self.turb[i] && cf2 < 0.0 {
                     separated = true;
                 }
@@ -1109,4 +1194,69 @@ fn solve4(a: &[[f64; 4]; 3], last: &[f64; 4], r: &[f64; 4]) -> Option<[f64; 4]> 
     let m = nalgebra::Matrix4::from_fn(|i, j| if i < 3 { a[i][j] } else { last[j] });
     let x = m.lu().solve(&nalgebra::Vector4::new(r[0], r[1], r[2], r[3]))?;
     x.iter().all(|v| v.is_finite()).then(|| [x[0], x[1], x[2], x[3]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aero::input::Aerofoil;
+    use crate::aero::Paneling;
+    use std::path::Path;
+
+    fn body(file: &str) -> Body {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+        let (_, a) = Aerofoil::analyse(&path, &Paneling::default(), "", &mut |_, _| {}).unwrap();
+        Body::new(a.solution.nodes()).unwrap()
+    }
+
+    /// Every row block whose partials come from dual numbers (laminar, turbulent and wake
+    /// intervals) agrees with central differences of its residuals, at the marched start and
+    /// at the converged solution.
+    #[test]
+    fn exact_partials_match_central_differences() {
+        let b = body("data/naca4413.dat");
+        let fl = Fluid { re: 1e6, ncrit: 9.0 };
+        let mut sys = System::new(&b, 3.0, fl, [1.0; 2], None).unwrap();
+        let mut kinds = [0usize; 3];
+        for pass in 0..2 {
+            if pass == 1 {
+                assert!(sys.solve(80).converged);
+            }
+            let nt = sys.u.len();
+            for i in 0..nt {
+                let Some(exact) = sys.partials_exact(i) else {
+                    continue;
+                };
+                kinds[if i >= sys.n { 2 } else { usize::from(sys.turb[i]) }] += 1;
+                let scale: f64 = exact
+                    .iter()
+                    .flat_map(|(_, m)| m.iter().flatten())
+                    .fold(0.0, |a, v| a.max(v.abs()));
+                let mut u = sys.u.clone();
+                for (j, m) in &exact {
+                    for q in 0..4 {
+                        let v = u[*j][q];
+                        let h = 1e-6 * if q == 2 { v.abs().max(1e-3) } else { v.abs() };
+                        u[*j][q] = v + h;
+                        let rp = sys.block(i, &u);
+                        u[*j][q] = v - h;
+                        let rm = sys.block(i, &u);
+                        u[*j][q] = v;
+                        for e in 0..3 {
+                            let cd = (rp[e] - rm[e]) / (2.0 * h);
+                            // Relative 2e-5, and an absolute floor at the differences' own
+                            // round-off (a wake row's ξ through the stagnation point).
+                            let tol = 2e-5 * cd.abs() + 1e-8 * scale;
+                            assert!(
+                                (m[e][q] - cd).abs() <= tol,
+                                "row {i} eq {e} station {j} var {q}: exact {} central {cd}",
+                                m[e][q]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(kinds.iter().all(|&k| k > 10), "{kinds:?}");
+    }
 }
