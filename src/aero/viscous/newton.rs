@@ -1019,6 +1019,7 @@ impl<'a> System<'a> {
     }
 
     fn newton(&mut self, max_iter: usize, hold_above: f64) -> Outcome {
+        let mut hist = Vec::with_capacity(max_iter);
         for it in 0..max_iter {
             let r = self.residual();
             let rn = norm(&r);
@@ -1031,6 +1032,13 @@ impl<'a> System<'a> {
             if rn < TOL {
                 return Outcome {
                     converged: true,
+                    iterations: it,
+                };
+            }
+            hist.push(rn);
+            if stalled(&hist) {
+                return Outcome {
+                    converged: false,
                     iterations: it,
                 };
             }
@@ -1146,6 +1154,23 @@ fn rows2(x: &mut [f64], nt: usize, src: usize, dst: usize) -> (&[f64], &mut [f64
         let (a, b) = x.split_at_mut(src * nt);
         (&b[..nt], &mut a[dst * nt..(dst + 1) * nt])
     }
+}
+
+/// Newton iterations over which an unchanging residual norm means a stall.
+const STALL_WINDOW: usize = 10;
+
+/// Whether the last [`STALL_WINDOW`] residual norms agree within 0.1 %: the step is limited to
+/// nothing, or the iterate cycles, and more iterations will not converge (a point's iterations
+/// on the benchmark's population sat there for up to 70 iterations; no converging solve had
+/// such a window).
+fn stalled(hist: &[f64]) -> bool {
+    let Some(w) = hist.len().checked_sub(STALL_WINDOW).map(|k| &hist[k..]) else {
+        return false;
+    };
+    let (lo, hi) = w
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &v| (a.min(v), b.max(v)));
+    hi - lo <= 1e-3 * lo
 }
 
 fn norm(r: &[f64]) -> f64 {
