@@ -33,6 +33,7 @@ pub struct Body {
 }
 
 /// The wake streamline and every station's edge speed response at one angle.
+#[derive(Clone)]
 pub struct Wake {
     /// Wake nodes, the first just behind the trailing-edge midpoint.
     pub points: Vec<DVec2>,

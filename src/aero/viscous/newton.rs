@@ -32,6 +32,7 @@ enum Row {
 }
 
 /// The coupled system of one body at one angle.
+#[derive(Clone)]
 pub struct System<'a> {
     body: &'a Body,
     wake: Wake,
@@ -55,6 +56,9 @@ pub struct System<'a> {
     /// Station lists: upper surface from the stagnation point, lower, wake.
     surf: [Vec<usize>; 3],
     rows: Vec<Row>,
+    /// Exact partials where [`System::partials_exact`] gives them (the default); `false`:
+    /// forward differences everywhere, as a last try for a point the exact Newton loses.
+    pub exact: bool,
 }
 
 /// A row block's partials: per station it depends on, ∂R/∂(θ, δ*, s, uₑ) of its three equations.
@@ -106,6 +110,7 @@ impl<'a> System<'a> {
             turb: vec![false; n + nw],
             surf: [Vec::new(), Vec::new(), Vec::new()],
             rows: Vec::new(),
+            exact: true,
             istag: [j - 1, j],
             sgn,
             n,
@@ -410,8 +415,10 @@ impl<'a> System<'a> {
     /// forward differences (the similarity, transition and wake-start rows): per dependency,
     /// ∂R/∂(θ, δ*, s, uₑ).
     fn partials(&mut self, i: usize, base: &[f64; 3]) -> Partials {
-        if let Some(p) = self.partials_exact(i) {
-            return p;
+        if self.exact {
+            if let Some(p) = self.partials_exact(i) {
+                return p;
+            }
         }
         self.partials_fd(i, base)
     }
