@@ -32,7 +32,7 @@
 
 use crate::error::{Error, Result};
 use glam::DVec2;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Dyn, LU};
 use std::f64::consts::PI;
 
 /// `1 / 4π`.
@@ -371,6 +371,58 @@ pub(crate) fn sharp_control(local: &[DVec2], te: &TrailingEdge) -> Option<(DVec2
     Some((tip - BISECTOR_OFFSET * ds * te.bisector, te.bisector.perp()))
 }
 
+/// A contour's panel system in unit-chord coordinates centred on the mid-chord, factored and
+/// solved for the two reference flows: what the inviscid analysis and the viscous coupling both
+/// start from.
+pub(crate) struct UnitSystem {
+    /// The chord of the nodes as given.
+    pub chord: Chord,
+    /// The nodes in unit-chord coordinates.
+    pub local: Vec<DVec2>,
+    pub te: TrailingEdge,
+    /// The factored system, for further right-hand sides.
+    pub lu: LU<f64, Dyn, Dyn>,
+    /// Node speeds (per unit free stream) at α = 0° and 90°.
+    pub gamma: [Vec<f64>; 2],
+}
+
+impl UnitSystem {
+    /// Scale `nodes` (counterclockwise from the upper trailing edge, any units) to unit chord,
+    /// build and factor the system, and solve it for α = 0° and 90°.
+    pub(crate) fn solve(nodes: &[DVec2]) -> Result<UnitSystem> {
+        let chord = Chord::of(nodes);
+        if !(chord.length > 0.0) {
+            return Err(Error::invalid("the contour has no chord (all nodes coincide)"));
+        }
+        if let Some(k) = (0..nodes.len() - 1).find(|&k| nodes[k] == nodes[k + 1]) {
+            return Err(Error::invalid(format!(
+                "panel nodes {k} and {} coincide (a zero-length panel)",
+                k + 1
+            )));
+        }
+        let centre = 0.5 * (chord.le + chord.te);
+        let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
+        let te = TrailingEdge::of(&local, 1.0);
+        let (a, b) = system(&local, &te);
+        let lu = a.lu();
+        let x = lu
+            .solve(&b)
+            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
+        if x.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical("the panel solution is not finite".into()));
+        }
+        let column = |c: usize| -> Vec<f64> { (0..local.len()).map(|i| x[(i, c)]).collect() };
+        let gamma = [column(0), column(1)];
+        Ok(UnitSystem {
+            chord,
+            local,
+            te,
+            lu,
+            gamma,
+        })
+    }
+}
+
 impl PanelSolution {
     /// Solve the panel method on `nodes` (counterclockwise, first and last at the trailing
     /// edge, at least [`MIN_NODES`]).
@@ -384,35 +436,13 @@ impl PanelSolution {
         if nodes.iter().any(|p| !p.is_finite()) {
             return Err(Error::invalid("panel nodes must be finite"));
         }
-        let chord = Chord::of(nodes);
-        if !(chord.length > 0.0) {
-            return Err(Error::invalid("the contour has no chord (all nodes coincide)"));
-        }
-        if let Some(k) = (0..m - 1).find(|&k| nodes[k] == nodes[k + 1]) {
-            return Err(Error::invalid(format!(
-                "panel nodes {k} and {} coincide (a zero-length panel)",
-                k + 1
-            )));
-        }
-        // Unit chord, centred on the mid-chord.
-        let centre = 0.5 * (chord.le + chord.te);
-        let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
-        let te = TrailingEdge::of(&local, 1.0);
-        let (a, b) = system(&local, &te);
-        let lu = a.lu();
-        let x = lu
-            .solve(&b)
-            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
-        if x.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Numerical("the panel solution is not finite".into()));
-        }
-        let column = |c: usize| -> Vec<f64> { (0..m).map(|i| x[(i, c)]).collect() };
+        let unit = UnitSystem::solve(nodes)?;
         Ok(PanelSolution {
             nodes: nodes.to_vec(),
-            chord,
-            sharp: te.sharp,
-            gamma0: column(0),
-            gamma90: column(1),
+            chord: unit.chord,
+            sharp: unit.te.sharp,
+            gamma0: unit.gamma[0].clone(),
+            gamma90: unit.gamma[1].clone(),
         })
     }
 

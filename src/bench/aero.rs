@@ -6,7 +6,7 @@ use crate::adaptive::{adapt_curve, AdaptOptions};
 use crate::aero::batch::{build_aero_evaluator, AeroBatch, AeroResult, Constraints, Objective};
 use crate::aero::contour::Paneling;
 use crate::aero::design::DesignSpace;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::eval::{Backend, GpuOptions};
 use crate::geometry::{Naca, NacaOptions};
 use rand::{Rng, SeedableRng};
@@ -75,13 +75,7 @@ pub struct AeroBenchReport {
 
 /// Run the benchmark.
 pub fn run(options: &AeroBenchOptions) -> Result<AeroBenchReport> {
-    if options.population == 0 || options.population > 1 << 22 {
-        return Err(Error::invalid(format!(
-            "the population must be between 1 and {}, not {}",
-            1 << 22,
-            options.population
-        )));
-    }
+    super::check_population(options.population, 1 << 22)?;
     let clock = Instant::now();
     let pts = Naca::parse("4412")?.contour(&NacaOptions {
         points: 161,

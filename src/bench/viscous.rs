@@ -5,7 +5,7 @@
 use crate::aero::contour::Paneling;
 use crate::aero::viscous::{polars, Viscous, ViscousOptions};
 use crate::aero::Analysis;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::{Naca, NacaOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -108,13 +108,7 @@ pub fn shapes(population: usize, seed: u64) -> Result<Vec<Vec<glam::DVec2>>> {
 
 /// Run the benchmark.
 pub fn run(options: &ViscousBenchOptions) -> Result<ViscousBenchReport> {
-    if options.population == 0 || options.population > 1 << 16 {
-        return Err(Error::invalid(format!(
-            "the population must be between 1 and {}, not {}",
-            1 << 16,
-            options.population
-        )));
-    }
+    super::check_population(options.population, 1 << 16)?;
     let opts = ViscousOptions {
         re: options.re,
         ..ViscousOptions::default()

@@ -6,7 +6,7 @@
 //! source cell around each wake node (from the midpoints to its neighbours), so that no wake
 //! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
 
-use crate::aero::panel::{influence, panel_terms, sharp_control, system, Chord, TrailingEdge, HOPI};
+use crate::aero::panel::{influence, panel_terms, sharp_control, Chord, TrailingEdge, UnitSystem, HOPI};
 use crate::error::{Error, Result};
 use glam::DVec2;
 use nalgebra::{DMatrix, Dyn, LU};
@@ -81,24 +81,15 @@ impl Body {
     /// Factor the panel system of `nodes` (counterclockwise from the upper trailing edge, any
     /// units).
     pub fn new(nodes: &[DVec2]) -> Result<Body> {
-        let chord = Chord::of(nodes);
-        if !(chord.length > 0.0) {
-            return Err(Error::invalid("the contour has no chord"));
-        }
-        let centre = 0.5 * (chord.le + chord.te);
-        let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
+        let UnitSystem {
+            local,
+            te,
+            lu,
+            gamma: gamma_ref,
+            ..
+        } = UnitSystem::solve(nodes)?;
         let chord = Chord::of(&local);
-        let te = TrailingEdge::of(&local, 1.0);
-        let (a, rhs) = system(&local, &te);
-        let lu = a.lu();
-        let x = lu
-            .solve(&rhs)
-            .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
         let n = local.len();
-        let gamma_ref = [
-            (0..n).map(|i| x[(i, 0)]).collect(),
-            (0..n).map(|i| x[(i, 1)]).collect(),
-        ];
         let mut s = vec![0.0; n];
         for i in 1..n {
             s[i] = s[i - 1] + (local[i] - local[i - 1]).length();

@@ -229,12 +229,7 @@ impl Viscous {
         // The same tries again with forward-difference partials: a different path to the same
         // solution, which finds some points near the stall that the exact Newton loses (S1223
         // at 7°; 5 more of the benchmark's 352 points on 32 shapes, at no loss of points/s).
-        let (q, w2) = self.point_retry_with(alpha, opts, warm, false);
-        if q.converged {
-            (q, w2)
-        } else {
-            (p, None)
-        }
+        rescued_or(p, self.point_retry_with(alpha, opts, warm, false))
     }
 
     /// The tries of [`Viscous::point_retry`] with exact partials or (`exact: false`)
@@ -271,12 +266,7 @@ impl Viscous {
                 }
             }
         }
-        let (q, w2) = self.point_with(alpha, opts, None, exact);
-        if q.converged {
-            (q, w2)
-        } else {
-            (p, None)
-        }
+        rescued_or(p, self.point_with(alpha, opts, None, exact))
     }
 
     /// The polar at `alphas` (degrees, any order; returned in the same order): continuation
@@ -317,6 +307,15 @@ impl Viscous {
 /// Polars of many bodies at the same angles, in parallel over the bodies.
 pub fn polars(bodies: &[Viscous], alphas: &[f64], opts: &ViscousOptions) -> Vec<Vec<ViscousPoint>> {
     bodies.par_iter().map(|b| b.polar(alphas, opts)).collect()
+}
+
+/// A retry's result where it converged, else the first try's point with no warm start.
+fn rescued_or(first: ViscousPoint, retry: (ViscousPoint, Option<Warm>)) -> (ViscousPoint, Option<Warm>) {
+    if retry.0.converged {
+        retry
+    } else {
+        (first, None)
+    }
 }
 
 #[cfg(test)]
