@@ -230,66 +230,108 @@ fn dist2(a: DVec3, b: DVec3) -> f64 {
 /// so that the checker confirms what the report claims.
 #[must_use]
 pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
-    let l = grid.layout();
-    let (du, dv) = (l.u.degree(), l.v.degree());
-    let (pu, pv) = l.patches();
-    let patches: Vec<CheckPatch> = (0..pu)
-        .flat_map(|i| (0..pv).map(move |j| (i, j)))
-        .map(|(i, j)| {
-            let p = grid.patch(i, j);
-            let ctrl = (0..=du)
-                .flat_map(|a| (0..=dv).map(move |b| (a, b)))
-                .map(|(a, b)| p.at(a, b))
-                .collect();
-            CheckPatch { du, dv, ctrl }
-        })
-        .collect();
-    let samples: Vec<(usize, f64, f64, DVec3)> = patches
-        .iter()
-        .enumerate()
-        .flat_map(|(k, p)| {
-            (0..=6).flat_map(move |a| {
-                (0..=6).map(move |b| {
-                    let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
-                    (k, u, v, p.eval(u, v))
-                })
-            })
-        })
-        .collect();
-    let slab = Slab::new(&samples.iter().map(|s| s.3).collect::<Vec<_>>());
+    let search = Sampled::new(grid);
     points
         .par_iter()
-        .map(|&q| {
-            let four = slab.four(q);
-            let (kept, four) = (four.kept, four.c);
-            let mut best = four[0].0;
-            for &(_, i) in &four[..kept] {
-                let (k, u0, v0, _) = samples[i];
-                let p = &patches[k];
-                let (mut u, mut v) = (u0, v0);
-                for _ in 0..25 {
-                    let (s, su, sv) = p.partials(u, v);
-                    let r = s - q;
-                    let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
-                    let (b1, b2) = (-r.dot(su), -r.dot(sv));
-                    let det = a11 * a22 - a12 * a12;
-                    if det.abs() < 1e-300 {
-                        break;
-                    }
-                    let du_ = (b1 * a22 - b2 * a12) / det;
-                    let dv_ = (a11 * b2 - a12 * b1) / det;
-                    let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
-                    if (un - u).abs() + (vn - v).abs() < 1e-14 {
-                        break;
-                    }
-                    u = un;
-                    v = vn;
-                }
-                best = best.min(dist2(p.eval(u, v), q));
-            }
-            best.sqrt()
-        })
+        .map(|&q| search.offset(q, None).sqrt())
         .collect()
+}
+
+/// Whether every point's offset by the checker's search ([`sampled_offsets`]) is within
+/// `tol` (a NaN offset passes, as the max of [`sampled_offsets`] by `f64::max` skips it):
+/// the same answer as comparing their max with `tol`, for less work. A point's offset is the
+/// least over its four seeds, so once one seed's refinement ends within `tol` the others
+/// cannot take the point out of it and are not refined; the scan stops at the first point
+/// beyond it.
+#[must_use]
+pub fn sampled_within(grid: &PatchGrid<DVec3>, points: &[DVec3], tol: f64) -> bool {
+    let search = Sampled::new(grid);
+    points
+        .par_iter()
+        .all(|&q| !(search.offset(q, Some(tol)).sqrt() > tol))
+}
+
+/// The checker's search prepared on one grid: its patches, their samples and the slab of
+/// those.
+struct Sampled {
+    patches: Vec<CheckPatch>,
+    samples: Vec<(usize, f64, f64, DVec3)>,
+    slab: Slab,
+}
+
+impl Sampled {
+    fn new(grid: &PatchGrid<DVec3>) -> Self {
+        let l = grid.layout();
+        let (du, dv) = (l.u.degree(), l.v.degree());
+        let (pu, pv) = l.patches();
+        let patches: Vec<CheckPatch> = (0..pu)
+            .flat_map(|i| (0..pv).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let p = grid.patch(i, j);
+                let ctrl = (0..=du)
+                    .flat_map(|a| (0..=dv).map(move |b| (a, b)))
+                    .map(|(a, b)| p.at(a, b))
+                    .collect();
+                CheckPatch { du, dv, ctrl }
+            })
+            .collect();
+        let samples: Vec<(usize, f64, f64, DVec3)> = patches
+            .iter()
+            .enumerate()
+            .flat_map(|(k, p)| {
+                (0..=6).flat_map(move |a| {
+                    (0..=6).map(move |b| {
+                        let (u, v) = (a as f64 / 6.0, b as f64 / 6.0);
+                        (k, u, v, p.eval(u, v))
+                    })
+                })
+            })
+            .collect();
+        let slab = Slab::new(&samples.iter().map(|s| s.3).collect::<Vec<_>>());
+        Sampled {
+            patches,
+            samples,
+            slab,
+        }
+    }
+
+    /// The squared offset of `q`: the nearest of its four seeds' refinements. With `within`,
+    /// it stops refining seeds once the offset so far is at most that (the result is then
+    /// only known to be within it).
+    fn offset(&self, q: DVec3, within: Option<f64>) -> f64 {
+        let four = self.slab.four(q);
+        let (kept, four) = (four.kept, four.c);
+        let mut best = four[0].0;
+        let done = |best: f64| within.is_some_and(|tol| best.sqrt() <= tol);
+        for &(_, i) in &four[..kept] {
+            if done(best) {
+                break;
+            }
+            let (k, u0, v0, _) = self.samples[i];
+            let p = &self.patches[k];
+            let (mut u, mut v) = (u0, v0);
+            for _ in 0..25 {
+                let (s, su, sv) = p.partials(u, v);
+                let r = s - q;
+                let (a11, a12, a22) = (su.dot(su), su.dot(sv), sv.dot(sv));
+                let (b1, b2) = (-r.dot(su), -r.dot(sv));
+                let det = a11 * a22 - a12 * a12;
+                if det.abs() < 1e-300 {
+                    break;
+                }
+                let du_ = (b1 * a22 - b2 * a12) / det;
+                let dv_ = (a11 * b2 - a12 * b1) / det;
+                let (un, vn) = ((u + du_).clamp(0.0, 1.0), (v + dv_).clamp(0.0, 1.0));
+                if (un - u).abs() + (vn - v).abs() < 1e-14 {
+                    break;
+                }
+                u = un;
+                v = vn;
+            }
+            best = best.min(dist2(p.eval(u, v), q));
+        }
+        best
+    }
 }
 
 /// The fold check of a patch grid: how far the unit normal turns between neighbouring
@@ -379,6 +421,37 @@ mod tests {
             })
             .collect();
         PatchGrid::new(layout, design).unwrap()
+    }
+
+    #[test]
+    fn sampled_within_answers_as_the_max_of_the_sampled_offsets() {
+        let g = grid(0.8);
+        let pts: Vec<DVec3> = (0..300)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new(
+                    0.5 + 0.6 * (t * 0.37).sin(),
+                    0.5 + 0.6 * (t * 0.23).cos(),
+                    0.3 * (t * 0.71).sin(),
+                )
+            })
+            .collect();
+        let d = sampled_offsets(&g, &pts);
+        let max = d.iter().copied().fold(0.0, f64::max);
+        let mut sorted = d.clone();
+        sorted.sort_by(f64::total_cmp);
+        for tol in [
+            0.0,
+            sorted[0],
+            sorted[150],
+            sorted[298],
+            max,
+            max * (1.0 + 1e-12),
+            2.0 * max,
+        ] {
+            assert_eq!(sampled_within(&g, &pts, tol), max <= tol, "tol {tol}, max {max}");
+        }
+        assert!(sampled_within(&g, &[], 0.0));
     }
 
     #[test]
