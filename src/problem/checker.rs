@@ -215,6 +215,123 @@ impl Slab {
     }
 }
 
+/// Samples in a leaf of [`Tree`] at most.
+const LEAF: usize = 12;
+
+/// A k-d tree of the samples for the nearest-sample scan: the same four as [`Slab`] (and a
+/// scan of all), from fewer distances. A child is skipped only when the squared gap from
+/// the point to its splitting plane exceeds the fourth best distance²: every sample behind
+/// the plane is at least that far along its axis (the rounded differences keep their order),
+/// and a sum of non-negative squares never rounds below one of them, so nothing skipped
+/// could be among the four, whatever order the others are offered in.
+struct Tree {
+    nodes: Vec<Node>,
+    pos: Vec<DVec3>,
+    index: Vec<usize>,
+}
+
+enum Node {
+    Leaf(usize, usize),
+    Split {
+        axis: usize,
+        at: f64,
+        left: usize,
+        right: usize,
+    },
+}
+
+impl Tree {
+    /// The tree of `samples`, `None` when one of them is not finite (the slab scan then).
+    fn new(samples: &[DVec3]) -> Option<Self> {
+        if !samples.iter().all(|s| s.is_finite()) {
+            return None;
+        }
+        let mut tree = Tree {
+            nodes: Vec::new(),
+            pos: samples.to_vec(),
+            index: (0..samples.len()).collect(),
+        };
+        tree.build(0, samples.len());
+        Some(tree)
+    }
+
+    fn build(&mut self, lo: usize, hi: usize) -> usize {
+        let me = self.nodes.len();
+        self.nodes.push(Node::Leaf(lo, hi));
+        if hi - lo <= LEAF {
+            return me;
+        }
+        let (a, b) = self.pos[lo..hi].iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(a, b), p| (a.min(*p), b.max(*p)),
+        );
+        let ext = b - a;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let mid = lo + (hi - lo) / 2;
+        let mut both: Vec<(DVec3, usize)> = (lo..hi).map(|k| (self.pos[k], self.index[k])).collect();
+        both.select_nth_unstable_by(mid - lo, |p, q| {
+            p.0[axis].total_cmp(&q.0[axis]).then(p.1.cmp(&q.1))
+        });
+        for (k, (p, i)) in (lo..hi).zip(both) {
+            self.pos[k] = p;
+            self.index[k] = i;
+        }
+        let at = self.pos[mid][axis];
+        let left = self.build(lo, mid);
+        let right = self.build(mid, hi);
+        self.nodes[me] = Node::Split {
+            axis,
+            at,
+            left,
+            right,
+        };
+        me
+    }
+
+    /// The four nearest samples to `q` (`dist2`'s arithmetic, ties by sample index).
+    fn four(&self, q: DVec3) -> Four {
+        let mut four = Four::default();
+        self.visit(0, q, &mut four);
+        four
+    }
+
+    fn visit(&self, node: usize, q: DVec3, four: &mut Four) {
+        match self.nodes[node] {
+            Node::Leaf(lo, hi) => {
+                for k in lo..hi {
+                    four.offer(dist2(self.pos[k], q), self.index[k]);
+                }
+            }
+            Node::Split {
+                axis,
+                at,
+                left,
+                right,
+            } => {
+                // Left of the plane every sample is at most `at` along the axis, right of it
+                // at least.
+                let (near, far) = if q[axis] < at {
+                    (left, right)
+                } else {
+                    (right, left)
+                };
+                self.visit(near, q, four);
+                let t = at - q[axis];
+                if four.bound().is_some_and(|d4| t * t > d4) {
+                    return;
+                }
+                self.visit(far, q, four);
+            }
+        }
+    }
+}
+
 fn dist2(a: DVec3, b: DVec3) -> f64 {
     let d = a - b;
     d.x * d.x + d.y * d.y + d.z * d.z
@@ -256,7 +373,13 @@ pub fn sampled_within(grid: &PatchGrid<DVec3>, points: &[DVec3], tol: f64) -> bo
 struct Sampled {
     patches: Vec<CheckPatch>,
     samples: Vec<(usize, f64, f64, DVec3)>,
-    slab: Slab,
+    near: Near,
+}
+
+/// The nearest-sample scan: the k-d tree, or the slab where a sample is not finite.
+enum Near {
+    Tree(Tree),
+    Slab(Slab),
 }
 
 impl Sampled {
@@ -287,11 +410,15 @@ impl Sampled {
                 })
             })
             .collect();
-        let slab = Slab::new(&samples.iter().map(|s| s.3).collect::<Vec<_>>());
+        let pos: Vec<DVec3> = samples.iter().map(|s| s.3).collect();
+        let near = match Tree::new(&pos) {
+            Some(t) => Near::Tree(t),
+            None => Near::Slab(Slab::new(&pos)),
+        };
         Sampled {
             patches,
             samples,
-            slab,
+            near,
         }
     }
 
@@ -299,7 +426,11 @@ impl Sampled {
     /// it stops refining seeds once the offset so far is at most that (the result is then
     /// only known to be within it).
     fn offset(&self, q: DVec3, within: Option<f64>) -> f64 {
-        let four = self.slab.four(q);
+        let four = match &self.near {
+            Near::Tree(t) if q.is_finite() => t.four(q),
+            Near::Tree(_) => Slab::new(&self.samples.iter().map(|s| s.3).collect::<Vec<_>>()).four(q),
+            Near::Slab(s) => s.four(q),
+        };
         let (kept, four) = (four.kept, four.c);
         let mut best = four[0].0;
         let done = |best: f64| within.is_some_and(|tol| best.sqrt() <= tol);
@@ -452,6 +583,41 @@ mod tests {
             assert_eq!(sampled_within(&g, &pts, tol), max <= tol, "tol {tol}, max {max}");
         }
         assert!(sampled_within(&g, &[], 0.0));
+    }
+
+    #[test]
+    fn the_tree_finds_the_four_a_scan_of_all_finds() {
+        // The slab test's lattice (exact ties, repeated samples) and a jittered cloud, with
+        // points among, between and far beyond the samples.
+        let lattice: Vec<DVec3> = (0..600)
+            .map(|i| {
+                let k = i % 450;
+                DVec3::new((k % 5) as f64 * 0.5, ((k / 5) % 3) as f64, (k / 15) as f64 * 2.0)
+            })
+            .collect();
+        let cloud: Vec<DVec3> = (0..2000)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new((t * 0.731).sin() * 3.0, (t * 0.193).cos(), t * 0.01)
+            })
+            .collect();
+        for samples in [lattice, cloud] {
+            let tree = Tree::new(&samples).unwrap();
+            for j in 0..300 {
+                let t = j as f64;
+                let q = DVec3::new((t * 0.37).sin() * 2.0, (t * 0.11).cos() * 2.0, t * 0.35 - 5.0);
+                let mut all: Vec<(f64, usize)> = samples
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (dist2(*s, q), i))
+                    .collect();
+                all.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let four = tree.four(q);
+                assert_eq!(four.kept, 4);
+                assert_eq!(four.c.to_vec(), all[..4].to_vec(), "point {j}");
+            }
+        }
+        assert!(Tree::new(&[DVec3::new(f64::NAN, 0.0, 0.0)]).is_none());
     }
 
     #[test]
