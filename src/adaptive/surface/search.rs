@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::problem::checker::sampled_within;
 use crate::team::{Reader, Record, Writer};
 use glam::DVec3;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// One family of the search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,6 +98,55 @@ pub(super) fn is_uniform(b: &[f64]) -> bool {
     b.iter()
         .enumerate()
         .all(|(k, &x)| (x - k as f64 / s).abs() <= 1e-12)
+}
+
+/// The first of `n` tries, in order, that `f` keeps (`f(j)`: the fits it ran and what it
+/// kept), and the fits of the tries up to it (of all when none is kept): what running them
+/// one after another until one is kept gives, bit for bit, whatever the threads do. Each try
+/// after the first is offered to idle threads ([`rayon::join`]) and starts only while no
+/// earlier try is known kept, so a thread left alone runs exactly the tries in order, and an
+/// idle one runs ahead on the next (its work lost when an earlier try is kept).
+pub(super) fn first_in_order<T: Send>(
+    n: usize,
+    f: &(dyn Fn(usize) -> (usize, Option<T>) + Sync),
+) -> (usize, Option<(usize, T)>) {
+    type Slot<T> = Option<(usize, Option<T>)>;
+    fn chain<T: Send>(
+        j: usize,
+        slots: &mut [Slot<T>],
+        first: &AtomicUsize,
+        f: &(dyn Fn(usize) -> (usize, Option<T>) + Sync),
+    ) {
+        let Some((here, rest)) = slots.split_first_mut() else {
+            return;
+        };
+        rayon::join(
+            || {
+                if first.load(Ordering::Acquire) < j {
+                    return;
+                }
+                let r = f(j);
+                if r.1.is_some() {
+                    first.fetch_min(j, Ordering::AcqRel);
+                }
+                *here = Some(r);
+            },
+            || chain(j + 1, rest, first, f),
+        );
+    }
+    let first = AtomicUsize::new(usize::MAX);
+    let mut slots: Vec<Slot<T>> = (0..n).map(|_| None).collect();
+    chain(0, &mut slots, &first, f);
+    let mut fits = 0;
+    // A slot is empty only after a kept try.
+    for (j, slot) in slots.into_iter().enumerate() {
+        let Some((k, kept)) = slot else { break };
+        fits += k;
+        if let Some(t) = kept {
+            return (fits, Some((j, t)));
+        }
+    }
+    (fits, None)
 }
 
 impl<'d, 'a> Search<'d, 'a> {
@@ -530,7 +580,9 @@ impl<'d, 'a> Search<'d, 'a> {
     /// when the layout has fewer stored scalars and still meets the tolerance ([`Search::met`]).
     /// In break order instead the sweep kept 1,238, 1,192 and 448 stored scalars on the IEA
     /// 3.4 MW AeroDyn and windIO v1 clouds and the IEA 15 MW cloud at 1e-3; this order keeps
-    /// 1,194, 1,051 and 471 (`benches/peers/README.md`).
+    /// 1,194, 1,051 and 471 (`benches/peers/README.md`). The tries between two kept removals
+    /// run in their order on this thread, and ahead of it on idle ones ([`first_in_order`]):
+    /// the same result as one after another.
     pub(super) fn sweep_bulk(&self, fam: &Family, mut w: Cand, nfits: &mut usize) -> Cand {
         for along_v in [false, true] {
             let breaks = |c: &Cand| if along_v { c.bv.clone() } else { c.bu.clone() };
@@ -552,25 +604,48 @@ impl<'d, 'a> Search<'d, 'a> {
                     }),
                 );
                 // Every untried break is still a break of `w` (removals only drop the one
-                // tried): its index `k` in `b`, scored by the spans on either side.
-                let scored = untried.iter().enumerate().filter_map(|(i, x)| {
-                    let k = b.iter().position(|y| y == x)?;
-                    Some((i, k, span_max[k - 1].max(span_max[k])))
-                });
-                let Some((i, k, _)) = scored.min_by(|a, c| a.2.total_cmp(&c.2)) else {
+                // tried): its index `k` in `b`, scored by the spans on either side. While
+                // removals fail `w` stays, and so do the scores: the tries run in this order
+                // (ties in `untried`'s, as `min_by` picks the first least) until one is kept.
+                let mut order: Vec<(usize, usize, f64)> = untried
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, x)| {
+                        let k = b.iter().position(|y| y == x)?;
+                        Some((i, k, span_max[k - 1].max(span_max[k])))
+                    })
+                    .collect();
+                order.sort_by(|a, c| a.2.total_cmp(&c.2));
+                if order.is_empty() {
                     break;
-                };
-                untried.remove(i);
-                let (mut bu, mut bv) = (w.bu.clone(), w.bv.clone());
-                if along_v {
-                    bv.remove(k);
-                } else {
-                    bu.remove(k);
                 }
-                if let Some(c) = self.fit(nfits, fam, &bu, &bv, &w.fit.u) {
-                    if c.scalars < w.scalars && self.met(fam, &c) {
-                        w = c;
+                let (fits, kept) = first_in_order(order.len(), &|j| {
+                    let k = order[j].1;
+                    let (mut bu, mut bv) = (w.bu.clone(), w.bv.clone());
+                    if along_v {
+                        bv.remove(k);
+                    } else {
+                        bu.remove(k);
                     }
+                    let mut n = 0;
+                    let c = self
+                        .fit(&mut n, fam, &bu, &bv, &w.fit.u)
+                        .filter(|c| c.scalars < w.scalars && self.met(fam, c));
+                    (n, c)
+                });
+                *nfits += fits;
+                let tried = kept.as_ref().map_or(order.len(), |(j, _)| j + 1);
+                let gone: Vec<usize> = order[..tried].iter().map(|o| o.0).collect();
+                untried = untried
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| !gone.contains(i))
+                    .map(|(_, x)| *x)
+                    .collect();
+                match kept {
+                    Some((_, c)) => w = c,
+                    // Every untried break with a place in `w` was tried and none kept.
+                    None => break,
                 }
             }
         }
@@ -595,7 +670,6 @@ impl<'d, 'a> Search<'d, 'a> {
             }
             // Reduction: drop every break that can go while the tolerance holds.
             loop {
-                let mut improved = false;
                 let tries: Vec<(Vec<f64>, Vec<f64>)> = (1..w.bu.len() - 1)
                     .map(|k| {
                         let mut b = w.bu.clone();
@@ -609,17 +683,19 @@ impl<'d, 'a> Search<'d, 'a> {
                     }))
                     .filter(|_| fam.split)
                     .collect();
-                for (bu, bv) in tries {
-                    if let Some(c) = self.fit(&mut nfits, &fam, &bu, &bv, &w.fit.u) {
-                        if c.scalars < w.scalars && self.met(&fam, &c) {
-                            w = c;
-                            improved = true;
-                            break;
-                        }
-                    }
-                }
-                if !improved {
-                    break;
+                // The first removal in order that holds ([`first_in_order`]).
+                let (fits, kept) = first_in_order(tries.len(), &|j| {
+                    let (bu, bv) = &tries[j];
+                    let mut n = 0;
+                    let c = self
+                        .fit(&mut n, &fam, bu, bv, &w.fit.u)
+                        .filter(|c| c.scalars < w.scalars && self.met(&fam, c));
+                    (n, c)
+                });
+                nfits += fits;
+                match kept {
+                    Some((_, c)) => w = c,
+                    None => break,
                 }
             }
             trace.outcome = "met".into();
