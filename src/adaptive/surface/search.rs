@@ -543,10 +543,22 @@ impl<'d, 'a> Search<'d, 'a> {
                     }
                 }
             }
-            let grow_u = self.fit(&mut nfits, &fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
-            let grow_v = self
-                .split_v(&fam, &cur)
-                .and_then(|bv| self.fit(&mut nfits, &fam, &cur.bu, &bv, &cur.fit.u));
+            // Both growths are fitted whatever they give: side by side when a thread is idle.
+            let ((nu, grow_u), (nv, grow_v)) = rayon::join(
+                || {
+                    let mut n = 0;
+                    let c = self.fit(&mut n, &fam, &self.split_u(&fam, &cur), &cur.bv, &cur.fit.u);
+                    (n, c)
+                },
+                || {
+                    let mut n = 0;
+                    let c = self
+                        .split_v(&fam, &cur)
+                        .and_then(|bv| self.fit(&mut n, &fam, &cur.bu, &bv, &cur.fit.u));
+                    (n, c)
+                },
+            );
+            nfits += nu + nv;
             // Accuracy bought per stored scalar added.
             let gain = |c: &Cand| {
                 (cur.fit.measure / c.fit.measure).ln() / (c.scalars.saturating_sub(cur.scalars).max(1)) as f64
