@@ -153,18 +153,7 @@ struct Slab {
 
 impl Slab {
     fn new(samples: &[DVec3]) -> Self {
-        let (lo, hi) = samples.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
-        let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        let axis = longest_axis(samples);
         let mut index: Vec<usize> = (0..samples.len()).collect();
         index.sort_by(|&a, &b| samples[a][axis].total_cmp(&samples[b][axis]).then(a.cmp(&b)));
         Slab {
@@ -261,18 +250,7 @@ impl Tree {
         if hi - lo <= LEAF {
             return me;
         }
-        let (a, b) = self.pos[lo..hi].iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(a, b), p| (a.min(*p), b.max(*p)),
-        );
-        let ext = b - a;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        let axis = longest_axis(&self.pos[lo..hi]);
         let mid = lo + (hi - lo) / 2;
         let mut both: Vec<(DVec3, usize)> = (lo..hi).map(|k| (self.pos[k], self.index[k])).collect();
         both.select_nth_unstable_by(mid - lo, |p, q| {
@@ -532,6 +510,22 @@ pub fn fold_check(grid: &PatchGrid<DVec3>, per_patch: usize) -> FoldCheck {
     }
 }
 
+/// The axis (0, 1, 2) along which `points` extend the most; the first of equals.
+fn longest_axis(points: &[DVec3]) -> usize {
+    let (lo, hi) = points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let ext = hi - lo;
+    if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -585,36 +579,52 @@ mod tests {
         assert!(sampled_within(&g, &[], 0.0));
     }
 
-    #[test]
-    fn the_tree_finds_the_four_a_scan_of_all_finds() {
-        // The slab test's lattice (exact ties, repeated samples) and a jittered cloud, with
-        // points among, between and far beyond the samples.
-        let lattice: Vec<DVec3> = (0..600)
+    /// Samples on a coarse lattice (many exact ties, repeated samples as on shared patch
+    /// edges) stretched along z.
+    fn lattice() -> Vec<DVec3> {
+        (0..600)
             .map(|i| {
                 let k = i % 450;
                 DVec3::new((k % 5) as f64 * 0.5, ((k / 5) % 3) as f64, (k / 15) as f64 * 2.0)
             })
+            .collect()
+    }
+
+    /// The `j`-th query point: among, between and beyond the lattice's samples.
+    fn query(j: usize) -> DVec3 {
+        let t = j as f64;
+        DVec3::new((t * 0.37).sin() * 2.0, (t * 0.11).cos() * 2.0, t * 0.35 - 5.0)
+    }
+
+    /// The four nearest of `samples` to `q` by a scan of all: Python's stable sort by
+    /// distance, ties in sampling order.
+    fn four_by_scan(samples: &[DVec3], q: DVec3) -> Vec<(f64, usize)> {
+        let mut all: Vec<(f64, usize)> = samples
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (dist2(*s, q), i))
             .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0));
+        all.truncate(4);
+        all
+    }
+
+    #[test]
+    fn the_tree_finds_the_four_a_scan_of_all_finds() {
+        // The lattice and a jittered cloud.
         let cloud: Vec<DVec3> = (0..2000)
             .map(|i| {
                 let t = i as f64;
                 DVec3::new((t * 0.731).sin() * 3.0, (t * 0.193).cos(), t * 0.01)
             })
             .collect();
-        for samples in [lattice, cloud] {
+        for samples in [lattice(), cloud] {
             let tree = Tree::new(&samples).unwrap();
             for j in 0..300 {
-                let t = j as f64;
-                let q = DVec3::new((t * 0.37).sin() * 2.0, (t * 0.11).cos() * 2.0, t * 0.35 - 5.0);
-                let mut all: Vec<(f64, usize)> = samples
-                    .iter()
-                    .enumerate()
-                    .map(|(i, s)| (dist2(*s, q), i))
-                    .collect();
-                all.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let q = query(j);
                 let four = tree.four(q);
                 assert_eq!(four.kept, 4);
-                assert_eq!(four.c.to_vec(), all[..4].to_vec(), "point {j}");
+                assert_eq!(four.c.to_vec(), four_by_scan(&samples, q), "point {j}");
             }
         }
         assert!(Tree::new(&[DVec3::new(f64::NAN, 0.0, 0.0)]).is_none());
@@ -622,29 +632,14 @@ mod tests {
 
     #[test]
     fn the_slab_scan_finds_the_four_a_scan_of_all_finds() {
-        // Samples on a coarse lattice (many exact ties, repeated samples as on shared patch
-        // edges) stretched along z, and points among and beyond them.
-        let samples: Vec<DVec3> = (0..600)
-            .map(|i| {
-                let k = i % 450;
-                DVec3::new((k % 5) as f64 * 0.5, ((k / 5) % 3) as f64, (k / 15) as f64 * 2.0)
-            })
-            .collect();
+        let samples = lattice();
         let slab = Slab::new(&samples);
         assert_eq!(slab.axis, 2);
         for j in 0..200 {
-            let t = j as f64;
-            let q = DVec3::new((t * 0.37).sin() * 2.0, (t * 0.11).cos() * 2.0, t * 0.35 - 5.0);
-            let mut all: Vec<(f64, usize)> = samples
-                .iter()
-                .enumerate()
-                .map(|(i, s)| (dist2(*s, q), i))
-                .collect();
-            // Python's stable sort by distance: ties in sampling order.
-            all.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let q = query(j);
             let four = slab.four(q);
             assert_eq!(four.kept, 4);
-            assert_eq!(four.c.to_vec(), all[..4].to_vec(), "point {j}");
+            assert_eq!(four.c.to_vec(), four_by_scan(&samples, q), "point {j}");
         }
     }
 
