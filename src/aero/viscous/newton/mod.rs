@@ -223,13 +223,24 @@ impl<'a> System<'a> {
 
     /// The stagnation point's arc length from the edge speeds of its two nodes.
     fn sstag(&self, u: &[State]) -> f64 {
-        let (a, b) = (u[self.istag[0]][3], u[self.istag[1]][3]);
+        let [a, b] = self.istag.map(|j| D::<0>::c(u[j][3]));
+        self.sstag_of(a, b).v
+    }
+
+    /// [`System::sstag`] from the two nodes' edge speeds `ua`, `ub` as dual numbers (the
+    /// exact partials carry them).
+    fn sstag_of<const N: usize>(&self, ua: D<N>, ub: D<N>) -> D<N> {
         let (sa, sb) = (self.body.s[self.istag[0]], self.body.s[self.istag[1]]);
-        (b * sa + a * sb) / (a + b)
+        (ub * sa + ua * sb) / (ua + ub)
     }
 
     /// ξ of station `i`: distance from the stagnation point (the wake continues the lower side).
     fn xi(&self, i: usize, sst: f64) -> f64 {
+        self.xi_of(i, D::<0>::c(sst)).v
+    }
+
+    /// [`System::xi`] from a stagnation arc length `sst` as a dual number.
+    fn xi_of<const N: usize>(&self, i: usize, sst: D<N>) -> D<N> {
         if i < self.n {
             (self.body.s[i] - sst).abs()
         } else {
@@ -375,16 +386,8 @@ impl<'a> System<'a> {
         };
         let ua = D::<N>::var(self.u[a][3], slot(a, 8));
         let ub = D::<N>::var(self.u[b][3], slot(b, 9));
-        let (sa, sb) = (self.body.s[a], self.body.s[b]);
-        let sst = (ub * sa + ua * sb) / (ua + ub);
-        let xi = |j: usize| -> D<N> {
-            if j < self.n {
-                (self.body.s[j] - sst).abs()
-            } else {
-                self.body.s[self.n - 1] - sst + self.wake.s[j - self.n]
-            }
-        };
-        let x = [xi(p), xi(i)];
+        let sst = self.sstag_of(ua, ub);
+        let x = [self.xi_of(p, sst), self.xi_of(i, sst)];
         let r = if i >= self.n {
             let g = [self.wgap[p - self.n], self.wgap[i - self.n]];
             eq::interval_d(&self.fl, Kind::WAKE, false, x, &u1, &u2, g)
@@ -441,11 +444,7 @@ impl<'a> System<'a> {
             let mut p = [[0.0; 4]; 3];
             for q in if k < own { 0 } else { 3 }..4 {
                 let v = u[j][q];
-                let h = if q == 2 {
-                    1e-7 * v.abs().max(1e-3)
-                } else {
-                    1e-7 * v.abs().max(1e-12)
-                };
+                let h = fd_step(v, q);
                 u[j][q] = v + h;
                 let r = self.block(i, &u);
                 u[j][q] = v;
@@ -584,7 +583,7 @@ impl<'a> System<'a> {
                 if r0.abs() < 1e-12 {
                     break;
                 }
-                let h = 1e-7 * u2[2].abs().max(1e-3);
+                let h = fd_step(u2[2], 2);
                 let dr = (r(u2[2] + h) - r0) / h;
                 let mut d = -r0 / dr;
                 let dmax = 0.5 * (1.01 - it as f64 / 20.0);
@@ -976,6 +975,16 @@ fn norm(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
+/// The forward-difference step in state component `q` at value `v`: relative 1e-7, with a
+/// floor (1e-3 for the amplification or shear-stress variable, which can be zero).
+fn fd_step(v: f64, q: usize) -> f64 {
+    if q == 2 {
+        1e-7 * v.abs().max(1e-3)
+    } else {
+        1e-7 * v.abs().max(1e-12)
+    }
+}
+
 /// Forward-difference partials of a 3-vector function in the first `k` state components
 /// (columns `k..N` stay zero).
 fn fd<const N: usize>(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[f64; N]; 3] {
@@ -983,11 +992,7 @@ fn fd<const N: usize>(f: &dyn Fn(&State) -> [f64; 3], u: &State, k: usize) -> [[
     let mut a = [[0.0; N]; 3];
     for q in 0..k.min(N) {
         let mut v = *u;
-        let h = if q == 2 {
-            1e-7 * v[q].abs().max(1e-3)
-        } else {
-            1e-7 * v[q].abs().max(1e-12)
-        };
+        let h = fd_step(v[q], q);
         v[q] += h;
         let r = f(&v);
         for e in 0..3 {
