@@ -19,6 +19,7 @@ use crate::chain::samples;
 use crate::chain::{PatchGrid, MAX_DEGREE};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// The coarse search passes when its rms and max are within this factor of the exact ones.
 pub const AGREEMENT: f64 = 1.001;
@@ -346,18 +347,14 @@ pub fn sampled_within(grid: &PatchGrid<DVec3>, points: &[DVec3], tol: f64) -> bo
         .all(|&q| !(search.offset(q, Some(tol)).sqrt() > tol))
 }
 
-/// The checker's search prepared on one grid: its patches, their samples and the slab of
-/// those.
+/// The checker's search prepared on one grid: its patches, their samples and the k-d tree
+/// of those (`None` where a sample is not finite), with the slab scan built on first need
+/// (no tree, or a point that is not finite).
 struct Sampled {
     patches: Vec<CheckPatch>,
     samples: Vec<(usize, f64, f64, DVec3)>,
-    near: Near,
-}
-
-/// The nearest-sample scan: the k-d tree, or the slab where a sample is not finite.
-enum Near {
-    Tree(Tree),
-    Slab(Slab),
+    tree: Option<Tree>,
+    slab: OnceLock<Slab>,
 }
 
 impl Sampled {
@@ -388,15 +385,12 @@ impl Sampled {
                 })
             })
             .collect();
-        let pos: Vec<DVec3> = samples.iter().map(|s| s.3).collect();
-        let near = match Tree::new(&pos) {
-            Some(t) => Near::Tree(t),
-            None => Near::Slab(Slab::new(&pos)),
-        };
+        let tree = Tree::new(&samples.iter().map(|s| s.3).collect::<Vec<_>>());
         Sampled {
             patches,
             samples,
-            near,
+            tree,
+            slab: OnceLock::new(),
         }
     }
 
@@ -404,10 +398,12 @@ impl Sampled {
     /// it stops refining seeds once the offset so far is at most that (the result is then
     /// only known to be within it).
     fn offset(&self, q: DVec3, within: Option<f64>) -> f64 {
-        let four = match &self.near {
-            Near::Tree(t) if q.is_finite() => t.four(q),
-            Near::Tree(_) => Slab::new(&self.samples.iter().map(|s| s.3).collect::<Vec<_>>()).four(q),
-            Near::Slab(s) => s.four(q),
+        let four = match &self.tree {
+            Some(t) if q.is_finite() => t.four(q),
+            _ => self
+                .slab
+                .get_or_init(|| Slab::new(&self.samples.iter().map(|s| s.3).collect::<Vec<_>>()))
+                .four(q),
         };
         let (kept, four) = (four.kept, four.c);
         let mut best = four[0].0;
