@@ -122,7 +122,8 @@ impl Totals {
 
 /// The shader's walk over point group `group`: run by run of points on one patch, that patch
 /// loaded into `cp` for every lane, then `score(p, end, cp, held, totals)` adds the run's
-/// points `p..end` in order; the totals become the block's partials.
+/// points `p..end` in order; the totals become the block's partials. Callers mark `score`
+/// `#[inline(always)]` (see `fixed`).
 #[inline(always)]
 fn over_runs(
     b: &Bindings<'_>,
@@ -158,33 +159,42 @@ pub(crate) fn fixed<A: Arith, const DIM: usize>(
 ) {
     let config = b.config;
     let ncp = (config.degree_u as usize + 1) * (config.degree_v as usize + 1);
-    over_runs(b, group, cp, partials, |p, end, cp, _, totals| {
-        for (t, w) in b.targets[p..end]
-            .iter()
-            .zip(b.weights[p * ncp..end * ncp].chunks_exact(ncp))
-        {
-            let r0 = [t.rx, t.ry, t.rz];
-            // Coordinates one after the other: one accumulator in registers; each still adds
-            // its terms in the shader's order.
-            let mut s = [[0.0f32; LANES]; DIM];
-            for (c, sc) in s.iter_mut().enumerate() {
-                let mut acc = [r0[c]; LANES];
-                for (&wk, q) in w.iter().zip(&cp[..ncp]) {
-                    for l in 0..LANES {
-                        acc[l] = A::fma(wk, q[c][l], acc[l]);
+    // The closures are inlined too: a closure compiled on its own would not take the
+    // caller's target features, and `A::fma` would become a call into libm's `fmaf`.
+    over_runs(
+        b,
+        group,
+        cp,
+        partials,
+        #[inline(always)]
+        |p, end, cp, _, totals| {
+            for (t, w) in b.targets[p..end]
+                .iter()
+                .zip(b.weights[p * ncp..end * ncp].chunks_exact(ncp))
+            {
+                let r0 = [t.rx, t.ry, t.rz];
+                // Coordinates one after the other: one accumulator in registers; each still adds
+                // its terms in the shader's order.
+                let mut s = [[0.0f32; LANES]; DIM];
+                for (c, sc) in s.iter_mut().enumerate() {
+                    let mut acc = [r0[c]; LANES];
+                    for (&wk, q) in w.iter().zip(&cp[..ncp]) {
+                        for l in 0..LANES {
+                            acc[l] = A::fma(wk, q[c][l], acc[l]);
+                        }
+                    }
+                    *sc = acc;
+                }
+                let mut e2 = [0.0f32; LANES];
+                for (l, e) in e2.iter_mut().enumerate() {
+                    for sc in &s {
+                        *e = A::fma(sc[l], sc[l], *e);
                     }
                 }
-                *sc = acc;
+                totals.add(&e2);
             }
-            let mut e2 = [0.0f32; LANES];
-            for (l, e) in e2.iter_mut().enumerate() {
-                for sc in &s {
-                    *e = A::fma(sc[l], sc[l], *e);
-                }
-            }
-            totals.add(&e2);
-        }
-    });
+        },
+    );
 }
 
 /// `main` with `newton >= 1` for point group `group`: `foot_point_sq` over every point.
@@ -196,11 +206,18 @@ pub(crate) fn newton<A: Arith, const DIM: usize>(
     work: &mut NewtonWork,
     partials: &mut [Partial; LANES],
 ) {
-    over_runs(b, group, cp, partials, |p, end, cp, held, totals| {
-        for q in p..end {
-            totals.add(&foot_point_sq::<A, DIM>(b, q, cp, held, work));
-        }
-    });
+    over_runs(
+        b,
+        group,
+        cp,
+        partials,
+        #[inline(always)]
+        |p, end, cp, held, totals| {
+            for q in p..end {
+                totals.add(&foot_point_sq::<A, DIM>(b, q, cp, held, work));
+            }
+        },
+    );
 }
 
 /// `offset_sq`: the squared length of `base` plus the held patch at per-lane (u, v).
