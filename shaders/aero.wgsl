@@ -74,6 +74,10 @@ const PI: f32 = 3.14159265;
 const SHARP_GAP: f32 = 1e-4;
 const BISECTOR_OFFSET: f32 = 0.1;
 const FOLD_TOLERANCE: f32 = 1e-3;
+// Surfaces that swap by less than this (per chord) do not cross: f32 cannot tell a closed
+// trailing edge, whose upper and lower nodes meet, from one crossed by rounding (an H200
+// put a closed NACA 4415 edge 1e-11 on the wrong side where lavapipe put it on neither).
+const CROSS_TOLERANCE: f32 = 1e-6;
 const TINY: f32 = 1e-20;
 
 const OBJECTIVE_NONE: u32 = 0u;
@@ -645,7 +649,7 @@ fn phase_finish() {
             let yl = yl0 + (xu - xl0) / (xl1 - xl0) * (yl1 - yl0);
             let t = yu - yl;
             thick = max(thick, t);
-            if t < 0.0 {
+            if t < -CROSS_TOLERANCE {
                 flags = flags | FLAG_CROSSING;
                 violation = max(violation, -t);
             }
@@ -655,7 +659,7 @@ fn phase_finish() {
     let pu = node(0u) - le;
     let pl = node(n - 1u) - le;
     let te_cross = ((cdir.x * pl.y - cdir.y * pl.x) - (cdir.x * pu.y - cdir.y * pu.x)) / chord;
-    if te_cross > 0.0 {
+    if te_cross > CROSS_TOLERANCE {
         flags = flags | FLAG_CROSSING;
         violation = max(violation, te_cross);
     }

@@ -27,6 +27,10 @@ const PI: f32 = std::f32::consts::PI;
 const SHARP_GAP: f32 = 1e-4;
 const BISECTOR_OFFSET: f32 = 0.1;
 const FOLD_TOLERANCE: f32 = 1e-3;
+/// Surfaces that swap by less than this (per chord) do not cross: f32 cannot tell a closed
+/// trailing edge, whose upper and lower nodes meet, from one crossed by rounding (an H200
+/// put a closed NACA 4415 edge 1e-11 on the wrong side where lavapipe put it on neither).
+const CROSS_TOLERANCE: f32 = 1e-6;
 const TINY: f32 = 1e-20;
 
 const OBJECTIVE_MAX_CL: u32 = 1;
@@ -882,14 +886,14 @@ fn finish_lane(
             let yl = yl0 + (xu - xl0) / (xl1 - xl0) * (yl1 - yl0);
             let t = yu - yl;
             thick = thick.max(t);
-            if t < 0.0 {
+            if t < -CROSS_TOLERANCE {
                 flags |= FLAG_CROSSING;
                 violation = violation.max(-t);
             }
         }
     }
     let te_cross = yof(nd(n - 1)) - yof(nd(0));
-    if te_cross > 0.0 {
+    if te_cross > CROSS_TOLERANCE {
         flags |= FLAG_CROSSING;
         violation = violation.max(te_cross);
     }

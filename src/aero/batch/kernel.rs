@@ -137,6 +137,9 @@ pub const PENALTY_GEOMETRY: f64 = 1e6;
 pub const MAX_VIOLATION: f64 = 1e5;
 /// A surface may run back in x by this much (chord fraction) before it counts as folded.
 pub const FOLD_TOLERANCE: f64 = 1e-3;
+/// The upper and lower surfaces may swap by this much (chord fraction) before they count as
+/// crossed: the kernels' f32 cannot tell a closed trailing edge from one crossed by rounding.
+pub const CROSS_TOLERANCE: f64 = 1e-6;
 /// Samples per surface of the target Cp table.
 pub const TARGET_SAMPLES: usize = 1001;
 

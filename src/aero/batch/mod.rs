@@ -29,8 +29,9 @@ pub mod gpu;
 pub mod kernel;
 
 pub use kernel::{
-    flags, AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, FOLD_TOLERANCE, LOOP_BUDGET,
-    MAX_GPU_NODES, MAX_VIOLATION, PENALTY_CONSTRAINT, PENALTY_GEOMETRY, PENALTY_UNCONVERGED, TARGET_SAMPLES,
+    flags, AeroConfig, AeroEvaluator, AeroKernel, AeroResult, AeroStep, CROSS_TOLERANCE, FOLD_TOLERANCE,
+    LOOP_BUDGET, MAX_GPU_NODES, MAX_VIOLATION, PENALTY_CONSTRAINT, PENALTY_GEOMETRY, PENALTY_UNCONVERGED,
+    TARGET_SAMPLES,
 };
 
 /// Panel nodes as an affine function of the design offsets: node `k` is
@@ -215,14 +216,14 @@ fn geometry(nodes: &[DVec2], chord: &Chord) -> (f64, u32, f64) {
             let yl = y(nodes[m]) + (xu - xl0) / (xl1 - xl0) * (y(nodes[m + 1]) - y(nodes[m]));
             let t = yu - yl;
             thick = thick.max(t);
-            if t < 0.0 {
+            if t < -CROSS_TOLERANCE {
                 flags |= flags::CROSSING;
                 violation = violation.max(-t);
             }
         }
     }
     let te_cross = y(nodes[n - 1]) - y(nodes[0]);
-    if te_cross > 0.0 {
+    if te_cross > CROSS_TOLERANCE {
         flags |= flags::CROSSING;
         violation = violation.max(te_cross);
     }
