@@ -465,10 +465,14 @@ fn far_from_the_origin_the_sums_are_those_near_it() {
 /// `bezchain eval`'s path on the NACA 4413 degree-3 × 5 fit, over populations of 2,000 that move
 /// its foot points across basins: individual i perturbed by σ = 0.002·(i mod 7) chord, and by σ up
 /// to 0.05 chord (loops, crossings, the two ends parted at the trailing edge). With the
-/// candidate starts, the CPU and the GPU agree on every row within 1e-4, and both find the
-/// global closest point: every row's sum of squares is the f64 truth (a 64-sample search on
-/// every segment, then Newton) within 1e-4, except the unperturbed rows, whose offsets
-/// (1e-5 of the chord) lie near the f32 resolution of the data's extent (within 2e-3 there).
+/// candidate starts both backends find the global closest point: every row's sum of squares is
+/// the f64 truth (a 64-sample search on every segment, then Newton) within 1e-4, except the
+/// unperturbed rows, whose offsets (1e-5 of the chord) lie near the f32 resolution of the
+/// data's extent (within 2e-3 there). The CPU and the GPU agree within 1e-4 on every perturbed
+/// row; on the unperturbed rows within the same 2e-3, since there each is only as close to the
+/// other as to the truth (lavapipe, which rounds as the portable kernels do, agrees within
+/// 1e-4 there too; an NVIDIA H200, whose compiler contracts and orders the f32 arithmetic in
+/// its own way, by 1.7e-4 on row 0 against a truth both miss by 1e-3).
 #[test]
 fn eval_finds_the_global_closest_point_on_every_backend() {
     use bezchain::chain::{ChainLayout, CurveChain};
@@ -539,15 +543,31 @@ fn eval_finds_the_global_closest_point_on_every_backend() {
             }
         }
         if let [(_, cpu), (_, gpu)] = &results[..] {
+            // The worst relative difference on perturbed and on unperturbed rows.
+            let mut worst = [(0.0f64, 0usize); 2];
             for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
                 let r = rel(c.sum_sq.into(), g.sum_sq.into());
-                assert!(
-                    r <= PARITY_TOL,
-                    "{name}, row {i}: cpu {} gpu {} ({r:.1e})",
-                    c.sum_sq,
-                    g.sum_sq
-                );
+                let w = &mut worst[usize::from(i % 7 == 0)];
+                if r > w.0 {
+                    *w = (r, i);
+                }
             }
+            eprintln!(
+                "{name}: cpu against gpu, worst perturbed row {:.1e} (row {}), unperturbed {:.1e} (row {})",
+                worst[0].0, worst[0].1, worst[1].0, worst[1].1
+            );
+            assert!(
+                worst[0].0 <= PARITY_TOL,
+                "{name}, row {}: {:.1e}",
+                worst[0].1,
+                worst[0].0
+            );
+            assert!(
+                worst[1].0 <= 2e-3,
+                "{name}, row {}: {:.1e}",
+                worst[1].1,
+                worst[1].0
+            );
         }
     }
 }
