@@ -18,7 +18,7 @@ surface report, the points, the population with the base design first), and
    reported, with bezchain's speed-up over the best peer.
 
 Usage: python3 benches/peers/population.py [--bezchain target/release/bezchain]
-       [--population 1024] [--points 4096] [--rounds 7] [--backend cpu]
+       [--population 1024] [--points 4096] [--rounds 7] [--backend cpu] [--jax-chunk 128]
 Needs numpy and `pip install "jax[cpu]"`.
 """
 
@@ -166,7 +166,8 @@ def numpy_fitness(problem, dtype, chunk=32):
 
 
 def make_jax(problem, chunk=128):
-    """JAX, jit-compiled, `chunk` individuals at a time, one matrix product per patch."""
+    """JAX, jit-compiled, `chunk` individuals at a time, one matrix product per patch (on the
+    CPU 128 is its fastest chunk we know; on a GPU a whole population at once fills it)."""
     import jax
     import jax.numpy as jnp
 
@@ -202,6 +203,13 @@ def make_jax(problem, chunk=128):
     return run, jax.__version__
 
 
+def jax_device():
+    import jax
+
+    d = jax.devices()[0]
+    return f"{d.platform} ({getattr(d, 'device_kind', '?')})"
+
+
 def bezchain(binary, paths, backend, repeat):
     """`bezchain eval --newton 0` on the files: the fitness and the median seconds of one
     evaluation over `repeat` timed ones (one process, the evaluator built once)."""
@@ -229,11 +237,12 @@ def main():
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--backend", default="cpu")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--jax-chunk", type=int, default=128, help="individuals per JAX call")
     args = ap.parse_args()
 
     problem = Problem(args.population, args.points, args.seed)
     truth = numpy_fitness(problem, np.float64)
-    jax_run, jax_version = make_jax(problem)
+    jax_run, jax_version = make_jax(problem, min(args.jax_chunk, args.population))
     with tempfile.TemporaryDirectory() as folder:
         paths = problem.write(folder)
         # The report's control net is checked against bezchain's own map by `sample`.
@@ -244,7 +253,7 @@ def main():
         jax_fit = jax_run()
         np_fit = numpy_fitness(problem, np.float32)
         print(f"P {args.population} x N {args.points}, 2 x 2 bicubic grid, fixed parameters; "
-              f"JAX {jax_version}, numpy {np.__version__}; bezchain: {adapter}")
+              f"JAX {jax_version} on {jax_device()}, numpy {np.__version__}; bezchain: {adapter}")
         print("fitness against numpy f64 (largest relative difference of sum_sq):")
         for name, fit in [("bezchain eval", bz_fit), ("JAX f32", jax_fit), ("numpy f32", np_fit)]:
             print(f"  {name:14s} {worst_relative(fit, truth):.1e}")
@@ -261,7 +270,7 @@ def main():
     med = {k: float(np.median(v)) for k, v in times.items()}
     print(f"median seconds per population over {args.rounds} alternating rounds:")
     for k, label in [("bezchain", f"bezchain eval ({args.backend}, median of 5 a round)"),
-                     ("jax", "JAX jit, 128 at a time, per-patch matmul"),
+                     ("jax", f"JAX jit, {min(args.jax_chunk, args.population)} at a time, per-patch matmul"),
                      ("numpy", "numpy f32, 32 at a time, dense matmul")]:
         print(f"  {label:48s} {med[k] * 1e3:8.2f} ms")
     best = min(med["jax"], med["numpy"])
