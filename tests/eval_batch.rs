@@ -157,3 +157,45 @@ fn case_1_far_from_the_origin_gives_the_sums_it_gives_at_the_origin() {
         );
     }
 }
+
+/// `Backend::Auto` takes a hardware GPU only: on a software adapter (lavapipe, on the same cores
+/// and slower than the CPU kernels) it takes the CPU and says why; the panel method's kernel
+/// takes the CPU under Auto wherever it runs.
+#[test]
+fn auto_takes_a_hardware_gpu_only() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let case = curve_case(103, 3, 4, Continuity::C1, 60, 8, 4e-3, 4e-3);
+    let EvalLayout::Curve(layout) = &case.layout else {
+        unreachable!()
+    };
+    let points: Vec<DVec2> = case.targets.points().iter().map(|p| p.truncate()).collect();
+    let auto = eval_curve_population(layout, &points, &case.population, &BatchOptions::default()).unwrap();
+    eprintln!("Auto on {}: {}", ctx.adapter(), auto.info);
+    if ctx.is_software() {
+        assert_eq!(auto.info.backend, Backend::Cpu);
+        let why = auto.info.fallback.as_deref().unwrap_or_default();
+        assert!(why.contains("software adapter"), "{why}");
+    } else {
+        assert_eq!(auto.info.backend, Backend::Gpu);
+    }
+
+    use bezchain::aero::{
+        build_aero_evaluator, AeroBatch, Analysis, Constraints, NodeMap, Objective, Paneling,
+    };
+    let pts = bezchain::geometry::read_curve(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/naca4413.dat"
+    )))
+    .unwrap()
+    .points;
+    let a = Analysis::of_points(&pts, &Paneling::default()).unwrap();
+    let map = NodeMap {
+        base: a.solution.nodes().to_vec(),
+        columns: vec![],
+    };
+    let b = AeroBatch::new(map, 4.0, Objective::MaxCl, Constraints::default()).unwrap();
+    let ev = build_aero_evaluator(&b.kernel(), Backend::Auto, &Default::default()).unwrap();
+    assert_eq!(ev.info().backend, Backend::Cpu, "{}", ev.info());
+}

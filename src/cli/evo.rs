@@ -18,7 +18,8 @@ use std::path::{Path, PathBuf};
 /// Options of the evolutionary methods (ga, cmaes, ga+lsq, cmaes+lsq).
 #[derive(clap::Args, Debug, Default, Clone)]
 pub struct EvoArgs {
-    /// Where populations are evaluated: auto (the GPU when one is found), gpu or cpu.
+    /// Where populations are evaluated: auto (a hardware GPU when one is found, else the CPU),
+    /// gpu (lavapipe too) or cpu.
     #[arg(long, value_parser = super::parse_word::<Backend>)]
     pub backend: Option<Backend>,
     /// Seed of the random streams [default: 1].

@@ -93,7 +93,8 @@ pub struct Args {
     /// Constraint: enclosed area over chord² at least this.
     #[arg(long)]
     pub min_area: Option<f64>,
-    /// Where populations are evaluated: auto, gpu or cpu.
+    /// Where populations are evaluated: auto (the CPU: the panel kernel is faster there), gpu or
+    /// cpu.
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<Backend>)]
     pub backend: Backend,
     /// Write the curve report (with an `optimise` block) here (`-` for standard output).

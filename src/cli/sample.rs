@@ -22,7 +22,8 @@ pub struct Args {
     /// Samples along v (along the span), evenly spaced in the global parameter, at least 2.
     #[arg(long, default_value_t = 101)]
     pub v: usize,
-    /// Where to evaluate: auto (the GPU when one is found), gpu or cpu.
+    /// Where to evaluate: auto (a hardware GPU when one is found, else the CPU), gpu (lavapipe
+    /// too) or cpu.
     #[arg(long, default_value = "auto", value_parser = parse_word::<Backend>)]
     pub backend: Backend,
     /// The cloud: CSV `x,y,z,section,index`, one section per v sample (`-` for standard

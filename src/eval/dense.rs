@@ -117,16 +117,16 @@ impl DenseEvaluator {
             adapter: format!("CPU: {} rayon threads", rayon::current_num_threads()),
             fallback: None,
         };
-        let gpu = || -> Result<(Engine, BackendInfo)> {
-            let ctx = GpuContext::shared()?;
+        let gpu = |context: Result<GpuContext>| -> Result<(Engine, BackendInfo)> {
+            let ctx = context?;
             let gpu = DenseGpu::new(&ctx, &problem, &samples)?;
             let info = ctx.backend_info();
             Ok((Engine::Gpu(Box::new(gpu)), info))
         };
         let (engine, info) = match backend {
             Backend::Cpu => (Engine::Cpu, cpu()),
-            Backend::Gpu => gpu()?,
-            Backend::Auto => gpu().unwrap_or_else(|e| {
+            Backend::Gpu => gpu(GpuContext::shared())?,
+            Backend::Auto => gpu(GpuContext::shared_hardware()).unwrap_or_else(|e| {
                 let mut info = cpu();
                 info.fallback = Some(e.to_string());
                 (Engine::Cpu, info)

@@ -46,7 +46,10 @@ use std::fmt;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// The GPU when wgpu's Vulkan backend finds an adapter (Mesa lavapipe counts), else the CPU.
+    /// The GPU when wgpu's Vulkan backend finds a hardware adapter, else the CPU. A software
+    /// adapter (Mesa lavapipe) runs only when asked for by [`Backend::Gpu`]: it is slower than
+    /// the CPU kernels. The panel method's population kernel always takes the CPU here
+    /// ([`crate::aero::batch::build_aero_evaluator`]).
     #[default]
     Auto,
     /// The GPU; an error when no adapter exists.
@@ -336,9 +339,10 @@ pub trait PopulationEvaluator: Send + HoldsProblem {
     }
 }
 
-/// Build an evaluator on the backend `options` asks for. With [`Backend::Auto`] any failure
-/// to start the GPU path (no adapter, `BEZCHAIN_NO_GPU=1`, a device error) falls back to the
-/// CPU, and [`BackendInfo::fallback`] says why.
+/// Build an evaluator on the backend `options` asks for. [`Backend::Auto`] takes a hardware
+/// GPU ([`GpuContext::shared_hardware`]); without one (no adapter, a software adapter such as
+/// lavapipe, `BEZCHAIN_NO_GPU=1`, a device error) it falls back to the CPU, and
+/// [`BackendInfo::fallback`] says why.
 pub fn build_evaluator(
     layout: &EvalLayout,
     targets: &Targets,
@@ -349,8 +353,8 @@ pub fn build_evaluator(
         e.set_seeds(options.seeds)?;
         Ok(e)
     };
-    let gpu = || {
-        GpuContext::shared().and_then(|ctx| {
+    let gpu = |context: Result<GpuContext>| {
+        context.and_then(|ctx| {
             GpuEvaluator::with_seeds(
                 &ctx,
                 layout,
@@ -362,11 +366,11 @@ pub fn build_evaluator(
     };
     Ok(match options.backend {
         Backend::Cpu => Box::new(cpu()?),
-        Backend::Gpu => Box::new(gpu()?),
+        Backend::Gpu => Box::new(gpu(GpuContext::shared())?),
         Backend::Auto => {
             // Input errors are the caller's whichever path runs: check them before trying.
             let cpu = cpu()?;
-            match gpu() {
+            match gpu(GpuContext::shared_hardware()) {
                 Ok(g) => Box::new(g),
                 Err(e) => Box::new(cpu.with_fallback(e.to_string())),
             }
