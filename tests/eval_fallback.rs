@@ -29,7 +29,7 @@ fn auto_falls_back_to_the_cpu_and_says_why() {
         .fallback
         .as_deref()
         .is_some_and(|w| w.contains("BEZCHAIN_NO_GPU")));
-    assert!(info.to_string().contains("fell back to the CPU"));
+    assert!(info.to_string().contains("auto took the CPU"));
 
     // The fallback evaluates, as the f64 chain says.
     let design: Vec<f32> = (0..6).flat_map(|k| [k as f32 * 0.4, 0.0]).collect();

@@ -338,7 +338,7 @@ pub fn time(
     let evals_per_second = evals / seconds_median;
     let info = evaluator.info().clone();
     let adapter = match &info.fallback {
-        Some(why) => format!("{} (Auto fell back to the CPU: {why})", info.adapter),
+        Some(why) => format!("{} (auto took the CPU: {why})", info.adapter),
         None => info.adapter.clone(),
     };
     Ok(BenchReport {

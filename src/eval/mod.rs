@@ -67,7 +67,8 @@ pub struct BackendInfo {
     pub backend: Backend,
     /// The adapter: the GPU's name and driver, or a description of the CPU path.
     pub adapter: String,
-    /// Set when Auto fell back to the CPU: what the GPU request answered.
+    /// Set when Auto took the CPU: why (what the GPU request answered, or why the kernel
+    /// runs on the CPU).
     pub fallback: Option<String>,
 }
 
@@ -75,7 +76,7 @@ impl fmt::Display for BackendInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {}", self.backend, self.adapter)?;
         if let Some(why) = &self.fallback {
-            write!(f, " (fell back to the CPU: {why})")?;
+            write!(f, " (auto took the CPU: {why})")?;
         }
         Ok(())
     }
