@@ -6,7 +6,7 @@
 #
 # Usage: benches/gpu_device.sh BIN_DIR LOG_DIR
 #   BIN_DIR holds `bezchain` (release) and the test executables as `test-NAME`
-#   (`cargo test --release --no-run`, each renamed); built elsewhere they still read this
+#   (benches/gpu_pack.sh builds and packs them); built elsewhere they still read this
 #   checkout's data through the path they were built in, which the script links here.
 # Every command's output goes to LOG_DIR, one line per run is printed. QUICK=1 runs small
 # sizes and the tests' first file only, to try the script on lavapipe.
