@@ -142,10 +142,16 @@ fn every_viscous_objective_improves_on_its_start() {
         ("min-cd", vec!["--cl", "0.6", "--re", "1e6"]),
         ("multipoint:points.txt", vec![]),
     ] {
-        let mut args = vec!["--objective", objective];
+        let mut args = vec!["--objective", objective, "--svg", "cp.svg"];
         args.extend(extra.iter().chain(&short));
         let (v, _) = optimise(d, &args);
         let o = &v["optimise"];
+        // The picture draws the coupled analysis's pressures, labelled with its CL at the
+        // first point's angle: the result's is the report's.
+        let svg = std::fs::read_to_string(d.join("cp.svg")).unwrap();
+        assert!(svg.contains("viscous Cp"), "{objective}: the title");
+        let label = format!("result: viscous CL {:.4}", o["result"]["cl"].as_f64().unwrap());
+        assert!(svg.contains(&label), "{objective}: no '{label}' in the picture");
         let (start, result) = (&o["start"], &o["result"]);
         let (s, r) = (
             start["objective"].as_f64().unwrap(),

@@ -73,6 +73,14 @@ pub struct Solved {
     warm: Warm,
 }
 
+impl Solved {
+    /// The viscous pressure coefficient at the body's `nodes` panel nodes, in their order.
+    #[must_use]
+    pub fn cp(&self, nodes: usize) -> Vec<f64> {
+        self.warm.cp(nodes)
+    }
+}
+
 impl ViscousGoal {
     /// The solver's options at `point`.
     fn options(&self, point: &OperatingPoint) -> ViscousOptions {

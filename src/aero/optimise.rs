@@ -106,6 +106,16 @@ impl AeroProblem {
         self.evaluate(delta, anchors).0
     }
 
+    /// A viscous objective's first operating point solved on a design, begun from the start's
+    /// solution; `None` for an inviscid objective, an unusable shape or a point that does not
+    /// converge.
+    #[must_use]
+    pub fn first_viscous_point(&self, delta: &[f64]) -> Option<Solved> {
+        let anchors = self.viscous.as_ref()?.start.as_slice();
+        let (_, solved) = self.evaluate(delta, anchors);
+        solved.into_iter().next().flatten()
+    }
+
     /// [`reference`](Self::reference) with the viscous points begun from `anchors`, and the
     /// points solved (empty for an inviscid objective or an unusable shape).
     pub fn evaluate(&self, delta: &[f64], anchors: &[Option<Solved>]) -> (AeroEval, Vec<Option<Solved>>) {

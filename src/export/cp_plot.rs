@@ -59,22 +59,39 @@ impl CpPlot {
         let cp = |s: &PanelSolution| -> Vec<(f64, f64)> {
             s.nodes().iter().zip(s.cp(alpha)).map(|(p, c)| (p.x, c)).collect()
         };
-        // A viscous objective scores the coupled analysis; the pressures drawn are the panel
-        // method's, and the labels say so.
-        let cl = if study.setup.re.is_some() {
-            "inviscid CL"
-        } else {
-            "CL"
+        // A viscous objective draws the coupled analysis's pressures at its first operating
+        // point (the angle it was solved at, for a design CL), where it converges; the panel
+        // method's otherwise, and the labels say which.
+        let viscous = |delta: &[f64], s: &PanelSolution| -> Option<(Vec<(f64, f64)>, f64, f64)> {
+            let p = study.problem.first_viscous_point(delta)?;
+            let xy = s
+                .nodes()
+                .iter()
+                .zip(p.cp(s.nodes().len()))
+                .map(|(q, c)| (q.x, c))
+                .collect();
+            Some((xy, p.cl, p.alpha))
+        };
+        let is_viscous = study.problem.viscous.is_some();
+        let curve = |name: &str, delta: &[f64], s: &PanelSolution| {
+            let inviscid = |note: &str| CpCurve {
+                label: format!("{name}: {note}CL {:.4}", s.coefficients(alpha).cl),
+                points: cp(s),
+            };
+            if !is_viscous {
+                return inviscid("");
+            }
+            match viscous(delta, s) {
+                Some((points, cl, at)) => CpCurve {
+                    label: format!("{name}: viscous CL {cl:.4} at α {at:.2}°"),
+                    points,
+                },
+                None => inviscid("viscous unconverged; inviscid "),
+            }
         };
         let mut curves = vec![
-            CpCurve {
-                label: format!("start: {cl} {:.4}", start.coefficients(alpha).cl),
-                points: cp(&start),
-            },
-            CpCurve {
-                label: format!("result: {cl} {:.4}", end.coefficients(alpha).cl),
-                points: cp(&end),
-            },
+            curve("start", space.start(), &start),
+            curve("result", &result.design, &end),
         ];
         let mut outlines = vec![
             Outline {
@@ -98,13 +115,17 @@ impl CpPlot {
             });
         }
         Ok(CpPlot {
-            title: match study.setup.re {
-                None => format!(
+            title: match (is_viscous, study.setup.re) {
+                (false, _) => format!(
                     "bezchain optimise --objective {} at α = {alpha}°",
                     study.setup.spec
                 ),
-                Some(re) => format!(
-                    "bezchain optimise --objective {} at Re {re:.1e}: inviscid Cp at α = {alpha}°",
+                (true, Some(re)) => format!(
+                    "bezchain optimise --objective {} at Re {re:.1e}: viscous Cp",
+                    study.setup.spec
+                ),
+                (true, None) => format!(
+                    "bezchain optimise --objective {}: viscous Cp at its first point",
                     study.setup.spec
                 ),
             },

@@ -119,6 +119,15 @@ pub struct Warm {
     turb: Vec<bool>,
 }
 
+impl Warm {
+    /// The pressure coefficient `1 - (uₑ/V∞)²` at the first `nodes` stations, the body's panel
+    /// nodes in their order (the solution's edge velocities, as its CL integrates them).
+    #[must_use]
+    pub fn cp(&self, nodes: usize) -> Vec<f64> {
+        self.u.iter().take(nodes).map(|u| 1.0 - u[3] * u[3]).collect()
+    }
+}
+
 /// One body's viscous analysis: its panel system factored once for every angle.
 pub struct Viscous {
     body: Body,
