@@ -436,13 +436,18 @@ impl PanelSolution {
         if nodes.iter().any(|p| !p.is_finite()) {
             return Err(Error::invalid("panel nodes must be finite"));
         }
-        let unit = UnitSystem::solve(nodes)?;
+        let UnitSystem {
+            chord,
+            te,
+            gamma: [gamma0, gamma90],
+            ..
+        } = UnitSystem::solve(nodes)?;
         Ok(PanelSolution {
             nodes: nodes.to_vec(),
-            chord: unit.chord,
-            sharp: unit.te.sharp,
-            gamma0: unit.gamma[0].clone(),
-            gamma90: unit.gamma[1].clone(),
+            chord,
+            sharp: te.sharp,
+            gamma0,
+            gamma90,
         })
     }
 
