@@ -62,15 +62,18 @@ impl CpPlot {
         // A viscous objective draws the coupled analysis's pressures at its first operating
         // point (the angle it was solved at, for a design CL), where it converges; the panel
         // method's otherwise, and the labels say which.
-        let viscous = |delta: &[f64], s: &PanelSolution| -> Option<(Vec<(f64, f64)>, f64, f64)> {
+        let viscous = |name: &str, delta: &[f64], s: &PanelSolution| -> Option<CpCurve> {
             let p = study.problem.first_viscous_point(delta)?;
-            let xy = s
+            let points = s
                 .nodes()
                 .iter()
                 .zip(p.cp(s.nodes().len()))
                 .map(|(q, c)| (q.x, c))
                 .collect();
-            Some((xy, p.cl, p.alpha))
+            Some(CpCurve {
+                label: format!("{name}: viscous CL {:.4} at α {:.2}°", p.cl, p.alpha),
+                points,
+            })
         };
         let is_viscous = study.problem.viscous.is_some();
         let curve = |name: &str, delta: &[f64], s: &PanelSolution| {
@@ -81,13 +84,7 @@ impl CpPlot {
             if !is_viscous {
                 return inviscid("");
             }
-            match viscous(delta, s) {
-                Some((points, cl, at)) => CpCurve {
-                    label: format!("{name}: viscous CL {cl:.4} at α {at:.2}°"),
-                    points,
-                },
-                None => inviscid("viscous unconverged; inviscid "),
-            }
+            viscous(name, delta, s).unwrap_or_else(|| inviscid("viscous unconverged; inviscid "))
         };
         let mut curves = vec![
             curve("start", space.start(), &start),
