@@ -724,6 +724,44 @@ fn the_iea_3_4mw_windio_v1_cloud_meets_1e3_of_its_chord_in_half_the_scipy_coeffi
     assert!(r.family.ends_with(" bulk"), "{}", r.family);
 }
 
+/// The same file as a blade definition, its 57 stations lofted at 160 points (`adapt-surface
+/// FILE --tol 1e-3 --relative --points-per-section 160`): no layout meets the tolerance at
+/// the stations alone (the definition turns between some of them, where the layouts that
+/// follow the stations fold or overhang), so the sections a smooth interpolation of the
+/// stations misses join the data and the second search meets it, fair and within 3
+/// tolerances of the definition between the sections. Its held-out max is about 5
+/// tolerances: near-interpolation at the root, which the report states.
+#[test]
+#[ignore = "forty seconds in release; run with --release -- --ignored"]
+fn the_iea_3_4mw_windio_v1_definition_meets_1e3_with_smooth_sections_added() {
+    let path = crate_root().join("data/blades/iea-3.4-130-rwt/windio/IEA-3.4-130-RWT.yaml");
+    let b = Blade::from_file(&path).unwrap();
+    let loft = LoftOptions {
+        points_per_section: Some(160),
+        ..LoftOptions::default()
+    };
+    let cloud = b.loft(&loft).unwrap();
+    let tol = 1e-3 * cloud.grid.unwrap().largest_chord(&cloud.points);
+    let opts = SurfaceAdaptOptions {
+        tol,
+        ..SurfaceAdaptOptions::default()
+    };
+    let r = bezchain::adaptive::adapt_blade(&b, &loft, &opts, &|_| {}).unwrap();
+    assert!(r.surface.met, "{:?}", r.surface.message);
+    assert!(
+        r.radii.len() > b.stations.len() && r.rounds >= 2,
+        "{} sections",
+        r.radii.len()
+    );
+    assert!(
+        r.surface.agreement <= 1.1 && r.surface.fold.passes,
+        "{:?}",
+        r.surface.fold
+    );
+    let between = r.surface.between.expect("between-section check");
+    assert!(between.max <= 3.0 * tol, "between max {:e}", between.max);
+}
+
 /// A reference blade lofted to 160 points a section (`sections` sections), its largest chord
 /// `chord` (to 1e-3), searched with the default options at 1e-3 of that chord and held to
 /// the blade-fit bars against `scipy` coefficients ([`assert_meets_blade_bars`]).

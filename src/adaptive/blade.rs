@@ -61,9 +61,16 @@ pub(crate) struct SectionFrame {
     pub te: f64,
 }
 
+/// The largest trailing-edge gap of a section the chord rule takes, as a fraction of its
+/// chord. The flatback root sections of recent blades open wide: the IEA 22 MW's FB70 and FB80
+/// by 0.34–0.39 of their chord, which a quarter refused, leaving that blade to the plain
+/// families, none of which met 1e-3 of its largest chord; at half, the trailing-edge families
+/// meet it.
+pub(crate) const MAX_TE_GAP: f64 = 0.5;
+
 /// The section's frame, when it looks like an aerofoil section that starts and ends at its
 /// trailing edge: the leading edge at least two points from either end, and a trailing-edge
-/// gap below a quarter of the chord.
+/// gap of at most [`MAX_TE_GAP`] of the chord.
 pub(crate) fn section_frame(points: &[DVec2]) -> Option<SectionFrame> {
     let n = points.len();
     if n < 7 {
@@ -77,7 +84,8 @@ pub(crate) fn section_frame(points: &[DVec2]) -> Option<SectionFrame> {
     })?;
     let mut chord = te - points[le_index];
     let c = chord.length();
-    if le_index < 2 || le_index + 3 > n || !(c > 0.0) || (points[0] - points[n - 1]).length() > 0.25 * c {
+    if le_index < 2 || le_index + 3 > n || !(c > 0.0) || (points[0] - points[n - 1]).length() > MAX_TE_GAP * c
+    {
         return None;
     }
     // A blunt trailing edge: the chord at right angles to its gap (when that turns it by
@@ -533,6 +541,32 @@ mod tests {
             .collect();
         let f = section_frame(&sharp).unwrap();
         assert_eq!(f.chord, 0.5 * (sharp[0] + sharp[n - 1]) - sharp[f.le_index]);
+    }
+
+    #[test]
+    fn a_flatback_opening_to_half_its_chord_is_an_aerofoil_section() {
+        // An ellipse from its trailing edge round the leading edge and back, cut off where the
+        // gap between its ends is `gap` of the unit axis (a little more of the chord, which
+        // the cut shortens).
+        let section = |gap: f64| -> Vec<DVec2> {
+            let a0 = (gap / 0.8).asin();
+            (0..81)
+                .map(|k| {
+                    let a = a0 + (std::f64::consts::TAU - 2.0 * a0) * k as f64 / 80.0;
+                    DVec2::new(0.5 + 0.5 * a.cos(), 0.4 * a.sin())
+                })
+                .collect()
+        };
+        for gap in [0.2, 0.39, 0.45] {
+            let pts = section(gap);
+            let f = section_frame(&pts).unwrap_or_else(|| panic!("gap {gap} refused"));
+            let c = f.chord.length();
+            let opened = (pts[0] - pts[80]).length() / c;
+            assert!(opened > gap && opened <= MAX_TE_GAP, "gap {opened} of the chord");
+            assert_eq!(f.le_index, 40);
+        }
+        // Wider than half the chord: not an aerofoil section.
+        assert!(section_frame(&section(0.7)).is_none());
     }
 
     #[test]

@@ -186,7 +186,8 @@ pub fn run(args: Args) -> Result<()> {
         if let Some((_, added, rounds)) = refined.as_ref().filter(|c| c.1 > 0) {
             outs.say(&format!(
                 "note: {name}: {added} section(s) lofted between stations joined the data where the surface \
-                 left the definition between them ({rounds} searches)\n"
+                 (or, before any layout met the stations, a smooth interpolation of them) left the definition \
+                 between them ({rounds} searches)\n"
             ));
         }
         if tols.len() == 1 {

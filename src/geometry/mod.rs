@@ -25,6 +25,7 @@ pub use blade::{
 };
 pub use dat::{write_selig, write_selig_to, SELIG_DECIMALS};
 pub use gaussian::Gaussian;
+pub(crate) use interp::Pchip;
 pub(crate) use io::{from_json_value, parse_json, read_bytes, read_text};
 pub use io::{is_stdin, write_atomic, Destination, Staged, MAX_INPUT_BYTES, MAX_LINE_BYTES};
 pub use loft::{LoftOptions, MAX_CLOUD_POINTS, MIN_SECTION_POINTS};

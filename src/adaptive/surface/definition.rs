@@ -10,10 +10,18 @@
 //! again, checked half-way between the new neighbours: at most [`MAX_ROUNDS`] searches. The
 //! data then holds the stations and only the sections the surface needed to follow the
 //! definition between them.
+//!
+//! When no layout meets the tolerance at the stations, no surface shows where to add: once,
+//! the sections where a smooth interpolation of the stations leaves the definition by more
+//! than the tolerance join the data ([`smooth_sections`]) and the search runs again. On the
+//! IEA 3.4 MW windIO files (57 stations) that turns "not met" into met; it runs only after a
+//! search that met nothing, so a blade that meets keeps its result (adding those sections up
+//! front cost the NREL 5 MW, IEA 10 MW and IEA 15 MW 8 %, 25 % and 57 % more stored scalars).
 
 use super::{adapt_surface_with, AdaptedSurface, SurfaceAdaptOptions, SurfaceProgress};
 use crate::error::{Error, Result};
-use crate::geometry::{Blade, Cloud, LoftOptions};
+use crate::geometry::{Blade, Cloud, LoftOptions, Pchip};
+use glam::DVec3;
 
 /// Searches of [`adapt_blade`]: the stations', and at most this many less one with lofted
 /// sections added.
@@ -52,6 +60,8 @@ pub fn adapt_blade(
     // meets the tolerance at the sections shows where it leaves the definition); the last
     // holds them.
     let mut checks = false;
+    // Whether sections a smooth interpolation missed were added ([`smooth_sections`]).
+    let mut smoothed = false;
     loop {
         rounds += 1;
         let cloud = blade.loft_at(&radii, loft)?;
@@ -76,9 +86,25 @@ pub fn adapt_blade(
         if checks || !opts.span_checks {
             return Ok(done(surface));
         }
-        if !surface.at_sections || surface.faults.is_empty() {
-            // Nothing to add: without faults the result passes the checks, and one that does
-            // not meet the tolerance at the sections will not with more of them.
+        if !surface.at_sections {
+            // No layout met the tolerance at the sections, so none shows where the blade
+            // leaves them: once, the sections where a smooth interpolation of the data's
+            // leaves the definition join the data (where the definition turns quickly between
+            // two stations, the layouts that follow the stations fold or overhang there).
+            if smoothed || rounds + 1 >= MAX_ROUNDS {
+                return Ok(done(surface));
+            }
+            smoothed = true;
+            let add = smooth_sections(blade, &radii, loft, opts.tol)?;
+            if add.is_empty() {
+                return Ok(done(surface));
+            }
+            radii.extend(add);
+            radii.sort_by(f64::total_cmp);
+            continue;
+        }
+        if surface.faults.is_empty() {
+            // Nothing to add: without faults the result passes the checks.
             return Ok(done(surface));
         }
         if rounds + 1 >= MAX_ROUNDS {
@@ -103,5 +129,115 @@ pub fn adapt_blade(
         }
         radii.extend(add);
         radii.sort_by(f64::total_cmp);
+    }
+}
+
+/// Passes of [`smooth_sections`]: each halves the intervals the one before added to.
+const SMOOTH_PASSES: usize = 3;
+
+/// The radii, half-way between neighbours of `radii` (increasing), where a smooth surface
+/// through the definition's sections at `radii` would leave the definition by more than
+/// `tol`, found again between the new neighbours up to [`SMOOTH_PASSES`] times. The smooth
+/// surface is point-wise: point `k` of every section followed along the span by a Bessel
+/// cubic (third-order, free to overshoot as a spline surface does), measured against the
+/// section lofted half-way ([`smooth_departures`]).
+fn smooth_sections(blade: &Blade, radii: &[f64], loft: &LoftOptions, tol: f64) -> Result<Vec<f64>> {
+    let mut all = radii.to_vec();
+    let mut added = Vec::new();
+    for _ in 0..SMOOTH_PASSES {
+        let mids: Vec<f64> = all.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+        let away = smooth_departures(blade, &all, &mids, loft)?;
+        let add: Vec<f64> = mids
+            .iter()
+            .zip(&away)
+            .filter(|(_, d)| **d > tol)
+            .map(|(m, _)| *m)
+            .collect();
+        if add.is_empty() {
+            break;
+        }
+        all.extend(&add);
+        all.sort_by(f64::total_cmp);
+        added.extend(add);
+    }
+    added.sort_by(f64::total_cmp);
+    Ok(added)
+}
+
+/// How far the definition's sections at `mids` lie from a smooth interpolation along the span
+/// of its sections at `radii`: point `k` of each section followed by a Bessel cubic in the
+/// radius through point `k` of every section, the largest distance of those points from the
+/// section lofted at the mid (a polyline).
+fn smooth_departures(blade: &Blade, radii: &[f64], mids: &[f64], loft: &LoftOptions) -> Result<Vec<f64>> {
+    let at = blade.loft_at(radii, loft)?;
+    let between = blade.loft_at(mids, loft)?;
+    let n = at.points.len() / radii.len();
+    let curves: Vec<[Pchip; 3]> = (0..n)
+        .map(|k| {
+            let axis = |c: usize| -> Pchip {
+                let v: Vec<f64> = (0..radii.len()).map(|j| at.points[j * n + k][c]).collect();
+                Pchip::bessel(radii, &v)
+            };
+            [axis(0), axis(1), axis(2)]
+        })
+        .collect();
+    Ok(mids
+        .iter()
+        .enumerate()
+        .map(|(m, &r)| {
+            let section = &between.points[m * n..(m + 1) * n];
+            curves
+                .iter()
+                .map(|c| distance_to_polyline(DVec3::new(c[0].eval(r), c[1].eval(r), c[2].eval(r)), section))
+                .fold(0.0, f64::max)
+        })
+        .collect())
+}
+
+/// The distance from `p` to the polyline through `line`.
+fn distance_to_polyline(p: DVec3, line: &[DVec3]) -> f64 {
+    line.windows(2)
+        .map(|w| {
+            let (a, d) = (w[0], w[1] - w[0]);
+            let t = ((p - a).dot(d) / d.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+            (a + d * t - p).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// A blade of six stations, NACA 4413 throughout, whose chord steps from 0.2 to 0.1
+    /// between the third and fourth.
+    fn stepped(chord: [f64; 6]) -> Blade {
+        let text = format!(
+            r#"{{"name": "stepped", "radius": [1.0, 1.2, 1.4, 1.6, 1.8, 2.0], "chord": {chord:?},
+               "twist_deg": [5, 5, 5, 5, 5, 5], "aerofoil": "NACA 4413", "pitch_axis": 0.25}}"#
+        );
+        Blade::from_json(&text, Path::new("stepped.json")).unwrap()
+    }
+
+    #[test]
+    fn smooth_sections_join_where_the_definition_turns_between_stations() {
+        let loft = LoftOptions {
+            points_per_section: Some(41),
+            ..LoftOptions::default()
+        };
+        let b = stepped([0.2, 0.2, 0.2, 0.1, 0.1, 0.1]);
+        let radii: Vec<f64> = b.stations.iter().map(|s| s.radius).collect();
+        let add = smooth_sections(&b, &radii, &loft, 1e-3).unwrap();
+        // A smooth interpolation of the stations overshoots the plateaus next to the step
+        // (the definition's monotone interpolation does not); the flat ends stay out.
+        assert!(add.contains(&1.5), "{add:?}");
+        assert!(add.iter().all(|&r| r > 1.2 && r < 1.8), "{add:?}");
+        // A blade the smooth interpolation follows adds nothing.
+        let b = stepped([0.2, 0.18, 0.16, 0.14, 0.12, 0.1]);
+        assert!(smooth_sections(&b, &radii, &loft, 1e-3).unwrap().is_empty());
+        // Nor does a tolerance above the overshoot.
+        let b = stepped([0.2, 0.2, 0.2, 0.1, 0.1, 0.1]);
+        assert!(smooth_sections(&b, &radii, &loft, 0.05).unwrap().is_empty());
     }
 }
