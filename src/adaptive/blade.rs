@@ -229,7 +229,21 @@ pub(crate) const TE_DEGREE: usize = 4;
 /// 1e-3 of the chord (one design column per section and two more) 1e-8 already removes the
 /// root's folds that the unregularised fit leaves between its first sections; 1e-6 moves
 /// the fit's largest offset by less than 1 %.
-const SPAN_FAIRNESS: f64 = 1e-6;
+pub(crate) const SPAN_FAIRNESS: f64 = 1e-6;
+
+/// The second differences along the span of `rows` unknowns a column over `nv` columns,
+/// unknown `(k, j)` (row `k`, column `j`) at index `at(k, j)`: the rows of a span fairness
+/// ([`crate::problem::Constraint::with_fairness`]).
+pub(crate) fn span_differences(
+    rows: usize,
+    nv: usize,
+    at: impl Fn(usize, usize) -> usize,
+) -> Vec<Vec<(usize, f64)>> {
+    (1..nv.saturating_sub(1))
+        .flat_map(|j| (0..rows).map(move |k| (k, j)))
+        .map(|(k, j)| vec![(at(k, j - 1), 1.0), (at(k, j), -2.0), (at(k, j + 1), 1.0)])
+        .collect()
+}
 
 impl Chordwise {
     /// The law on `lu`; `te` carries the trailing-edge term (from [`TE_DEGREE`] around).
@@ -386,18 +400,7 @@ impl ColumnFrames {
             return con;
         }
         // Every column unknown against its two neighbours along the span.
-        let d = (1..nv.saturating_sub(1))
-            .flat_map(|j| {
-                (0..per).map(move |k| {
-                    vec![
-                        ((j - 1) * per + k, 1.0),
-                        (j * per + k, -2.0),
-                        ((j + 1) * per + k, 1.0),
-                    ]
-                })
-            })
-            .collect();
-        con.with_fairness(d, SPAN_FAIRNESS)
+        con.with_fairness(span_differences(per, nv, |k, j| j * per + k), SPAN_FAIRNESS)
     }
 
     /// The stored numbers of a design net that follows the rule: every column's frame

@@ -1,7 +1,7 @@
 //! The fit the search runs on every candidate layout: warm-started closest-point least
 //! squares with a polish, and the offsets, span maxima and fold check of its result.
 
-use super::super::blade::{Chordwise, ColumnFrames};
+use super::super::blade::{span_differences, Chordwise, ColumnFrames, SPAN_FAIRNESS};
 use super::super::Norm;
 use super::data::Data;
 use super::{fold_check, SurfaceAdaptOptions, FOLD_SAMPLES};
@@ -113,7 +113,15 @@ impl<'p> Fitter<'p> {
                         }
                     })
                     .collect();
-                problem.with_constraint(Constraint::new(coords)).ok()?
+                let con = Constraint::new(coords);
+                // A bulk family has dv more design columns than sections: the fairness holds
+                // the columns the sections leave free, as under the chord rule.
+                let con = if te_ends.is_some() {
+                    con.with_fairness(span_differences(nu, nv, |i, j| i * nv + j), SPAN_FAIRNESS)
+                } else {
+                    con
+                };
+                problem.with_constraint(con).ok()?
             }
             _ => problem,
         };

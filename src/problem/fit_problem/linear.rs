@@ -499,6 +499,7 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
                         }
                     }
                     let z = if n > 0 {
+                        add_fairness(con, &mut a);
                         a.solve_ridged(rhs, |c| centroid[group[c]])?
                     } else {
                         DMatrix::zeros(0, group.len())
@@ -528,12 +529,16 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
 }
 
 /// Add `con`'s fairness penalty ([`Constraint::with_fairness`]) to the normal matrix `a` of
-/// the coupled constraint's unknowns.
+/// its unknowns: the coupled constraint's, or one coordinate group's (its rows then index
+/// that group's unknowns; a group with fewer unknowns than they index takes none).
 fn add_fairness(con: &Constraint, a: &mut Normal<'_>) {
     let Some((d, eps)) = &con.fair else {
         return;
     };
     let nz = a.size();
+    if d.iter().flatten().any(|&(p, _)| p >= nz) {
+        return;
+    }
     let lambda = eps * (0..nz).map(|i| a.diagonal(i)).sum::<f64>() / nz.max(1) as f64;
     for row in d {
         for &(p, wp) in row {
