@@ -16,9 +16,13 @@ pub struct Generations {
     bar: Option<ProgressBar>,
     quiet: bool,
     plain: bool,
-    /// When the counter was made, for the estimate of the time left on plain lines.
+    /// When the current pass began (the counter made, or its count started again), for the
+    /// estimate of the time left on plain lines.
     started: Instant,
     last_line: Instant,
+    /// The last step shown, its total and when: a count that goes back or a new total is a
+    /// new pass (`adapt-surface`'s chord-rule and plain passes, a blade's later searches).
+    last: (u64, u64, Instant),
     /// What a step is called on a plain line, and on the bar.
     unit: (&'static str, &'static str),
 }
@@ -39,8 +43,22 @@ impl Generations {
             plain: !quiet && !std::io::stderr().is_terminal(),
             started: Instant::now(),
             last_line: Instant::now(),
+            last: (0, 0, Instant::now()),
             unit,
         }
+    }
+
+    /// Record step `step` of `total` done at `now`; true when it begins a new pass, which
+    /// then counts from the step before it (so that the estimate of the time left is this
+    /// pass's, not the whole run's).
+    fn record(&mut self, step: u64, total: u64, now: Instant) -> bool {
+        let (last_step, last_total, last_at) = self.last;
+        let new_pass = last_total != 0 && (step <= last_step || total != last_total);
+        if new_pass {
+            self.started = last_at;
+        }
+        self.last = (step, total, now);
+        new_pass
     }
 
     /// Whether a bar is showing.
@@ -69,7 +87,11 @@ impl Generations {
 
     /// Generation `generation` of `total` of the run `name` is done; `msg` says how it stands.
     pub fn show(&mut self, name: &str, generation: u64, total: u64, msg: String) {
+        let new_pass = self.record(generation, total, Instant::now());
         if let Some(bar) = &self.bar {
+            if new_pass {
+                bar.reset();
+            }
             if bar.length() != Some(total) {
                 bar.set_length(total);
             }
@@ -90,5 +112,29 @@ impl Generations {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_count_that_starts_again_is_timed_from_its_own_start() {
+        let mut g = Generations::counting(("family", "family"));
+        let t0 = Instant::now();
+        let at = |s: u64| t0 + Duration::from_secs(s);
+        // The chord-rule pass: 3 families, one a second.
+        assert!(!g.record(1, 3, at(1)));
+        assert!(!g.record(2, 3, at(2)));
+        assert!(!g.record(3, 3, at(3)));
+        // The plain pass begins: its first family ended at 13 s, timed from 3 s.
+        assert!(g.record(1, 40, at(13)));
+        assert_eq!(g.started, at(3));
+        assert!(!g.record(2, 40, at(14)));
+        assert_eq!(g.started, at(3));
+        // A later search of the same passes counts again from 1.
+        assert!(g.record(1, 40, at(20)));
+        assert_eq!(g.started, at(14));
     }
 }
