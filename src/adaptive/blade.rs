@@ -224,8 +224,9 @@ pub(crate) struct Chordwise {
 /// The least degree around that carries the trailing-edge term.
 pub(crate) const TE_DEGREE: usize = 4;
 
-/// The span fairness of the trailing-edge families: `ε` of [`Constraint::with_fairness`] on
-/// the second differences of every column unknown along the span. On the IEA 15 MW cloud at
+/// The span fairness of the bulk families (the chord rule's trailing-edge families, and the
+/// plain bulk families on their two free coordinates): `ε` of [`Constraint::with_fairness`]
+/// on the second differences of every column unknown along the span. On the IEA 15 MW cloud at
 /// 1e-3 of the chord (one design column per section and two more) 1e-8 already removes the
 /// root's folds that the unregularised fit leaves between its first sections; 1e-6 moves
 /// the fit's largest offset by less than 1 %.
