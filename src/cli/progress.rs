@@ -48,12 +48,13 @@ impl Generations {
         }
     }
 
-    /// Record step `step` of `total` done at `now`; true when it begins a new pass, which
-    /// then counts from the step before it (so that the estimate of the time left is this
-    /// pass's, not the whole run's).
+    /// Record step `step` of `total` done at `now`; true when it begins a new pass (the count
+    /// went back, or the total changed), which then counts from the step before it, so that
+    /// the estimate of the time left is this pass's, not the whole run's. The same step shown
+    /// again (a status update between generations) is not a new pass.
     fn record(&mut self, step: u64, total: u64, now: Instant) -> bool {
         let (last_step, last_total, last_at) = self.last;
-        let new_pass = last_total != 0 && (step <= last_step || total != last_total);
+        let new_pass = last_total != 0 && (step < last_step || total != last_total);
         if new_pass {
             self.started = last_at;
         }
@@ -133,8 +134,11 @@ mod tests {
         assert_eq!(g.started, at(3));
         assert!(!g.record(2, 40, at(14)));
         assert_eq!(g.started, at(3));
+        // The same step again is a status update, not a new pass.
+        assert!(!g.record(2, 40, at(15)));
+        assert_eq!(g.started, at(3));
         // A later search of the same passes counts again from 1.
         assert!(g.record(1, 40, at(20)));
-        assert_eq!(g.started, at(14));
+        assert_eq!(g.started, at(15));
     }
 }
