@@ -529,16 +529,17 @@ impl<'a, S: Shape<K>, const K: usize> FitProblem<'a, S, K> {
 }
 
 /// Add `con`'s fairness penalty ([`Constraint::with_fairness`]) to the normal matrix `a` of
-/// its unknowns: the coupled constraint's, or one coordinate group's (its rows then index
-/// that group's unknowns; a group with fewer unknowns than they index takes none).
+/// its unknowns: the coupled constraint's, or one coordinate group's with unknowns (its rows
+/// then index that group's unknowns, as the span rule's two free coordinates share theirs).
 fn add_fairness(con: &Constraint, a: &mut Normal<'_>) {
     let Some((d, eps)) = &con.fair else {
         return;
     };
     let nz = a.size();
-    if d.iter().flatten().any(|&(p, _)| p >= nz) {
-        return;
-    }
+    debug_assert!(
+        d.iter().flatten().all(|&(p, _)| p < nz),
+        "fairness rows index {nz} unknowns at most"
+    );
     let lambda = eps * (0..nz).map(|i| a.diagonal(i)).sum::<f64>() / nz.max(1) as f64;
     for row in d {
         for &(p, wp) in row {
