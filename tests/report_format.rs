@@ -304,9 +304,17 @@ fn adapt_reports_regenerate_from_their_encoding() {
                 "fits",
                 "search",
             ],
-            &["message", "held_out", "held_out_ratio", "sign_changes"],
+            &["message", "held_out", "held_out_ratio", "sign_changes", "follows"],
             "adapt block",
         );
+        if let Some(f) = a.get("follows") {
+            assert_keys(
+                f,
+                &["away", "allowed", "at", "turning_deg", "source_turning_deg"],
+                &[],
+                "follows",
+            );
+        }
         if let Some(c) = a.get("sign_changes") {
             assert_keys(
                 c,

@@ -38,6 +38,105 @@ use crate::geometry::SplineContour;
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
+/// Points of the source spline in every interval for the distance check: the polyline through
+/// them lies within `κ h² / 8` of the spline over chords `h` a 32nd of an interval (on a
+/// 61-point aerofoil about 5e-6 chord at the leading edge), so a chain on the spline measures
+/// that far from it at most.
+pub const PATH_PER_INTERVAL: usize = 32;
+
+/// How much more a chain may turn than its source, degrees. A loop adds 360°, a fold (the
+/// chain doubling back on itself) at least 180° each way, a hook at a trailing edge tens of
+/// degrees; the waves a tolerance allows add a few (at most 18° on 88 UIUC files met at 1e-4
+/// of the chord, where a chain hooked at its trailing edge added 82°).
+pub const EXTRA_TURN_DEG: f64 = 45.0;
+
+/// How many tolerances a chain may stray from the source spline between the data points, at
+/// least. The spline is not the truth there, only one interpolant of the points, so a chain
+/// may also stray as far as the source bends between the two points ([`Follows::allowed`]):
+/// where they are sparse (a leading edge sampled every 0.01 chord) another sound interpolant
+/// differs from the spline by about that. On 90 UIUC aerofoil files, the chains that met 1e-4
+/// of the chord before this check lay up to 7.5 tolerances from the spline, at sparse leading
+/// edges; the defects it catches (a loop or a tail at the trailing edge, a spike ahead of the
+/// leading edge, a segment flying off) lay 18 to 5e6 tolerances off.
+pub const AWAY_FACTOR: f64 = 10.0;
+
+/// Chain samples around the last one's nearest path segment searched before all of them.
+const PATH_WINDOW: usize = 64;
+
+/// Whether an adapted chain stays with its source between the data points, where the offsets
+/// of the data points cannot see: how far it strays from the source (the spline through the
+/// data) and how much it turns. A chain can meet the tolerance at every data point and still
+/// leave them between two of them (a free layout's segment flying metres off a 1-chord
+/// aerofoil, a loop at the trailing edge, a spike ahead of the leading edge, a tail past the
+/// trailing edge, a stretch doubling back on itself): the first shows as distance, loops and
+/// folds as turning.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Follows {
+    /// The distance from the source of the chain sample ([`PER_SEGMENT`] a segment) that
+    /// strays farthest beyond what it may, model units.
+    pub away: f64,
+    /// What that sample may stray: the larger of [`AWAY_FACTOR`] tolerances and the source's
+    /// bend between the two data points it lies between (the largest distance of the spline
+    /// there from the straight line through them), model units.
+    pub allowed: f64,
+    /// That sample.
+    pub at: [f64; 2],
+    /// The chain's total turning: the absolute angles between successive chords of its
+    /// samples, summed, degrees.
+    pub turning_deg: f64,
+    /// The source's, the same way ([`PATH_PER_INTERVAL`] points an interval).
+    pub source_turning_deg: f64,
+}
+
+impl Follows {
+    /// True when the chain strays nowhere farther than it may and turns at most
+    /// [`EXTRA_TURN_DEG`] more than its source.
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        self.stays() && self.turning_deg <= self.source_turning_deg + EXTRA_TURN_DEG
+    }
+
+    /// True when the chain strays nowhere farther than it may.
+    #[must_use]
+    pub fn stays(&self) -> bool {
+        self.away <= self.allowed
+    }
+}
+
+/// The total absolute turning of the polyline through `points`, degrees (chords of zero
+/// length skipped).
+#[must_use]
+pub fn turning_deg(points: impl IntoIterator<Item = DVec2>) -> f64 {
+    let mut last_point: Option<DVec2> = None;
+    let mut last_dir: Option<DVec2> = None;
+    let mut total = 0.0;
+    for p in points {
+        if let Some(q) = last_point {
+            let d = p - q;
+            if d.length_squared() > 0.0 {
+                if let Some(e) = last_dir {
+                    total += e.perp_dot(d).atan2(e.dot(d)).abs();
+                }
+                last_dir = Some(d);
+            }
+        }
+        last_point = Some(p);
+    }
+    total.to_degrees()
+}
+
+/// The distance from `p` to segment `a`–`b`.
+fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    let t = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + t * ab)
+}
+
 /// Curvature samples in every chain segment.
 pub const PER_SEGMENT: usize = 64;
 /// Curvature samples in every interval of the source spline.
@@ -103,11 +202,19 @@ pub fn chain_samples(layout: &ChainLayout, coeffs: &[DVec2], per: usize) -> Vec<
         .collect()
 }
 
-/// The source's count and the rule both curves are counted by.
+/// The source's count and the rule both curves are counted by; the source as a polyline for
+/// [`Fairness::follows`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fairness {
     /// The data points, in order.
     points: Vec<DVec2>,
+    /// The source spline at [`PATH_PER_INTERVAL`] points an interval.
+    path: Vec<DVec2>,
+    /// Its total turning, degrees.
+    path_turning_deg: f64,
+    /// Per data interval, the spline's bend there: its largest distance from the chord between
+    /// the interval's two points.
+    bend: Vec<f64>,
     /// The threshold at each data point.
     thresholds: Vec<f64>,
     /// The data's estimated scatter.
@@ -154,8 +261,25 @@ impl Fairness {
                 (FLOOR / size).max(NOISE_FACTOR * scatter / (h * h))
             })
             .collect();
+        let path: Vec<DVec2> = spline
+            .curvature_samples(PATH_PER_INTERVAL)
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect();
+        let bend = (0..n - 1)
+            .map(|j| {
+                let (a, b) = (path[j * PATH_PER_INTERVAL], path[(j + 1) * PATH_PER_INTERVAL]);
+                path[j * PATH_PER_INTERVAL..=(j + 1) * PATH_PER_INTERVAL]
+                    .iter()
+                    .map(|&p| segment_distance(p, a, b))
+                    .fold(0.0, f64::max)
+            })
+            .collect();
         let mut f = Fairness {
             points: points.to_vec(),
+            path_turning_deg: turning_deg(path.iter().copied()),
+            path,
+            bend,
             thresholds,
             scatter,
             source: 0,
@@ -204,6 +328,55 @@ impl Fairness {
     #[must_use]
     pub fn chain_count(&self, layout: &ChainLayout, coeffs: &[DVec2]) -> usize {
         self.count(&chain_samples(layout, coeffs, PER_SEGMENT))
+    }
+
+    /// How the chain of `layout` with coefficients `coeffs` follows the source between the
+    /// data points at tolerance `tol` ([`Follows`]): every sample's distance from the source
+    /// polyline over what it may stray there, the largest kept (each sample first against the
+    /// segments about its predecessor's nearest; against all of them only where that could
+    /// beat the largest so far, so the largest is exact), and the turning.
+    #[must_use]
+    pub fn follows(&self, layout: &ChainLayout, coeffs: &[DVec2], tol: f64) -> Follows {
+        let samples = chain_samples(layout, coeffs, PER_SEGMENT);
+        let segs = self.path.len() - 1;
+        let least = AWAY_FACTOR * tol;
+        let allowed = |k: usize| least.max(self.bend[(k / PATH_PER_INTERVAL).min(self.bend.len() - 1)]);
+        let nearest = |p: DVec2, range: std::ops::Range<usize>| -> (f64, usize) {
+            range.fold((f64::INFINITY, 0), |best, k| {
+                let d = segment_distance(p, self.path[k], self.path[k + 1]);
+                if d < best.0 {
+                    (d, k)
+                } else {
+                    best
+                }
+            })
+        };
+        // The worst sample: its distance and allowance, their ratio, and where.
+        let (mut away, mut room, mut worst, mut at) = (0.0_f64, allowed(0), 0.0_f64, DVec2::ZERO);
+        let mut hint = 0_usize;
+        for &(p, _) in &samples {
+            let (lo, hi) = (hint.saturating_sub(PATH_WINDOW), (hint + PATH_WINDOW).min(segs));
+            let (mut d, mut k) = nearest(p, lo..hi);
+            // The true distance is at most `d` and the allowance at least `least`.
+            if !(d / least <= worst) {
+                (d, k) = nearest(p, 0..segs);
+            }
+            hint = k;
+            let ratio = d / allowed(k);
+            if !(ratio <= worst) {
+                (away, room, worst, at) = (d, allowed(k), ratio, p);
+                if !d.is_finite() {
+                    (away, worst) = (f64::INFINITY, f64::INFINITY);
+                }
+            }
+        }
+        Follows {
+            away,
+            allowed: room,
+            at: [at.x, at.y],
+            turning_deg: turning_deg(samples.iter().map(|s| s.0)),
+            source_turning_deg: self.path_turning_deg,
+        }
     }
 
     /// The report of a chain with `chain` sign changes.
@@ -262,6 +435,40 @@ mod tests {
             .map(|p| *p + DVec2::new(0.0, 1e-4 * (40.0 * std::f64::consts::PI * p.x).sin()))
             .collect();
         assert!(f.chain_count(&layout, &rippled) > 2);
+    }
+
+    /// A chain through points of a smooth curve follows it; one design point moved half a unit
+    /// off leaves it between the points; a polyline that loops turns 360° more.
+    #[test]
+    fn a_chain_that_leaves_its_points_or_loops_does_not_follow() {
+        let curve = |x: f64| DVec2::new(x, 0.05 * (std::f64::consts::PI * x).sin());
+        let data: Vec<DVec2> = (0..=40).map(|i| curve(f64::from(i) / 40.0)).collect();
+        let f = Fairness::of_source(&data).unwrap();
+        let layout = ChainLayout::uniform(3, 12, Continuity::C2).unwrap();
+        let good: Vec<DVec2> = layout.greville().iter().map(|&t| curve(t)).collect();
+        let ok = f.follows(&layout, &good, 1e-3);
+        assert!(ok.passes(), "{ok:?}");
+        assert!(ok.away < 1e-3, "{ok:?}");
+        assert!((ok.turning_deg - ok.source_turning_deg).abs() < 1.0, "{ok:?}");
+        let mut off = good.clone();
+        off[7].y += 0.5;
+        let bad = f.follows(&layout, &off, 1e-3);
+        assert!(!bad.stays() && !bad.passes(), "{bad:?}");
+        assert!(
+            bad.away > 0.1 && (bad.at[0] - layout.greville()[7]).abs() < 0.1,
+            "{bad:?}"
+        );
+        // The same straight run, once plain and once with a loop of radius 0.01 in it.
+        let line: Vec<DVec2> = (0..=100).map(|i| DVec2::new(f64::from(i) / 100.0, 0.0)).collect();
+        let mut looped = line[..50].to_vec();
+        looped.extend((0..=36).map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 36.0;
+            DVec2::new(0.5 + 0.01 * a.sin(), 0.01 - 0.01 * a.cos())
+        }));
+        looped.extend_from_slice(&line[51..]);
+        assert!(turning_deg(line.iter().copied()) < 1e-9);
+        let t = turning_deg(looped.iter().copied());
+        assert!((t - 360.0).abs() < 15.0, "{t}");
     }
 
     #[test]

@@ -20,13 +20,16 @@
 //! offsets stall (the data's noise). The winner's breaks are then moved by a coordinate
 //! search so that more of them can go.
 //!
-//! "Met" is three criteria, all judged inside the search on candidates that meet the
+//! "Met" is four criteria, all judged inside the search on candidates that meet the
 //! tolerance: the held-out check of the layout (refitted on every other point, the others
-//! within [`HELD_OUT_FACTOR`] tolerances) and no more curvature sign changes than the source
+//! within [`HELD_OUT_FACTOR`] tolerances), no more curvature sign changes than the source
 //! ([`fairness`]: counted on the cubic spline through the data points, with a threshold that
 //! rises with the data's estimated scatter, so that on noisy data the interpolant's noise
-//! waves are not taken for the contour's shape). A candidate that fails either is refused and
-//! its family grows on; a result that is not met says which criteria fail.
+//! waves are not taken for the contour's shape), and the chain following the source between
+//! the points ([`Follows`]: every chain sample within [`fairness::AWAY_FACTOR`] tolerances of
+//! that spline, or of its bend between the two points, and no loop or fold: the chain turns at most [`fairness::EXTRA_TURN_DEG`] more than
+//! it). A candidate that fails any is refused and its family grows on; a result that is not
+//! met says which criteria fail.
 //!
 //! The tolerance is judged on the fit's own foot-point distances (local Newton searches,
 //! never below the true distances); the result is re-measured with the global closest-point
@@ -45,7 +48,7 @@ pub mod surface;
 
 pub use crate::chain::MAX_DEGREE;
 pub use encoding::{Breaks, Encoding, ScalarCount, XStore};
-pub use fairness::SignChanges;
+pub use fairness::{Follows, SignChanges};
 pub use search::HELD_OUT_FACTOR;
 pub use surface::{
     adapt_blade, adapt_surface, adapt_surface_with, sampled_offsets, AdaptedBlade, AdaptedSurface,
@@ -187,9 +190,14 @@ pub struct AdaptedCurve {
     /// Curvature sign changes of the chain and of the source (`None` when no spline goes
     /// through the data).
     pub sign_changes: Option<SignChanges>,
+    /// How the chain follows the source between the data points (`None` when no spline goes
+    /// through the data).
+    pub follows: Option<Follows>,
     /// True when the tolerance holds, the held-out check passes (at most
-    /// [`HELD_OUT_FACTOR`] tolerances, when asked for and possible) and the chain's curvature
-    /// changes sign no more often than the source's.
+    /// [`HELD_OUT_FACTOR`] tolerances, when asked for and possible), the chain's curvature
+    /// changes sign no more often than the source's, and it stays near the source between the
+    /// points (within [`fairness::AWAY_FACTOR`] tolerances, or the source's bend there), turning
+    /// at most [`fairness::EXTRA_TURN_DEG`] more than it.
     pub met: bool,
     /// Why not, when it is not met: the criteria that fail.
     pub message: Option<String>,
@@ -399,7 +407,11 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
     });
     let held_ok = !opts.held_out || held_measure.is_some_and(|m| m <= HELD_OUT_FACTOR * opts.tol);
     let waves_ok = sign_changes.is_none_or(|c| c.chain <= c.source);
-    let met = tol_met && held_ok && waves_ok;
+    let follows = fairness
+        .as_ref()
+        .map(|f| f.follows(chain.layout(), chain.design(), opts.tol));
+    let follows_ok = follows.is_none_or(|f| f.passes());
+    let met = tol_met && held_ok && waves_ok && follows_ok;
     let message = (!met).then(|| {
         let mut failed = Vec::new();
         if !(measure <= opts.tol) {
@@ -438,17 +450,39 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
                 c.chain, c.source, c.threshold
             ));
         }
+        if let Some(f) = follows.filter(|_| !follows_ok) {
+            if !f.stays() {
+                failed.push(format!(
+                    "the chain leaves the source between the points: {:.3e} from the spline \
+                     through them at ({:.5}, {:.5}), where it may stray {:.3e} ({} tolerances, or \
+                     the spline's bend between the two points)",
+                    f.away,
+                    f.at[0],
+                    f.at[1],
+                    f.allowed,
+                    fairness::AWAY_FACTOR
+                ));
+            } else {
+                failed.push(format!(
+                    "the chain loops or folds: it turns {:.0}° in all, the source {:.0}° (at most \
+                     {:.0}° more)",
+                    f.turning_deg,
+                    f.source_turning_deg,
+                    fairness::EXTRA_TURN_DEG
+                ));
+            }
+        }
         if failed.is_empty() {
             // The search found no candidate passing every check and its closest passes them
             // on all the points: say what refused the others.
             failed.push("no layout passed every check in the search".to_string());
         }
         let refused = found.refused;
-        let refusals = if refused.held_out + refused.waves > 0 {
+        let refusals = if refused.held_out + refused.waves + refused.strays > 0 {
             format!(
                 " ({} layouts met the tolerance but failed the held-out check, {} waved more \
-                 than the source)",
-                refused.held_out, refused.waves
+                 than the source, {} left it between the points or looped)",
+                refused.held_out, refused.waves, refused.strays
             )
         } else {
             String::new()
@@ -469,6 +503,7 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
         offset,
         held_out,
         sign_changes,
+        follows,
         met,
         message,
         family: found.best.fam.name(),

@@ -228,8 +228,9 @@ impl Stop {
 
 /// A candidate that meets the tolerance is accepted only when its layout also passes the
 /// held-out check (refitted on every other data point, the others within
-/// [`HELD_OUT_FACTOR`] tolerances) and its chain changes the sign of its curvature no more
-/// often than the source ([`Fairness`]).
+/// [`HELD_OUT_FACTOR`] tolerances), its chain changes the sign of its curvature no more
+/// often than the source ([`Fairness`]), and it stays near the source between the data points
+/// without turning more than it ([`super::Follows`]).
 pub const HELD_OUT_FACTOR: f64 = 3.0;
 
 /// What a candidate meeting the tolerance must also pass, and on which data.
@@ -254,6 +255,8 @@ pub(crate) struct Refused {
     pub held_out: usize,
     /// More curvature sign changes than the source.
     pub waves: usize,
+    /// Left the source between the data points, or turned more than it ([`super::Follows`]).
+    pub strays: usize,
 }
 
 /// The search's shared context.
@@ -282,6 +285,7 @@ pub(crate) struct Search<'a> {
     checks: Checks<'a>,
     refused_held_out: AtomicUsize,
     refused_waves: AtomicUsize,
+    refused_strays: AtomicUsize,
 }
 
 /// What the search found.
@@ -327,6 +331,7 @@ impl<'a> Search<'a> {
             checks,
             refused_held_out: AtomicUsize::new(0),
             refused_waves: AtomicUsize::new(0),
+            refused_strays: AtomicUsize::new(0),
         }
     }
 
@@ -335,6 +340,7 @@ impl<'a> Search<'a> {
         Refused {
             held_out: self.refused_held_out.load(Ordering::Relaxed),
             waves: self.refused_waves.load(Ordering::Relaxed),
+            strays: self.refused_strays.load(Ordering::Relaxed),
         }
     }
 
@@ -353,6 +359,13 @@ impl<'a> Search<'a> {
         if let Some(f) = self.checks.fairness {
             if f.chain_count(&c.model.layout, &c.state.coeffs) > f.source {
                 self.refused_waves.fetch_add(1, Ordering::Relaxed);
+                return false;
+            }
+            if !f
+                .follows(&c.model.layout, &c.state.coeffs, self.checks.tol)
+                .passes()
+            {
+                self.refused_strays.fetch_add(1, Ordering::Relaxed);
                 return false;
             }
         }

@@ -9,7 +9,7 @@ use crate::adaptive::surface::{
     AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, SpanFairness,
     SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
-use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, HeldOut, Norm, SignChanges};
+use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, Follows, HeldOut, Norm, SignChanges};
 use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
 use serde::{Deserialize, Serialize};
 
@@ -83,6 +83,11 @@ pub struct AdaptBlock {
     /// the source's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sign_changes: Option<SignChanges>,
+    /// How the chain follows the source between the data points (met needs it within
+    /// [`crate::adaptive::fairness::AWAY_FACTOR`] tolerances of it and turning at most
+    /// [`crate::adaptive::fairness::EXTRA_TURN_DEG`] more).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub follows: Option<Follows>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -119,6 +124,7 @@ impl AdaptReport {
                     m / opts.tol
                 }),
                 sign_changes: r.sign_changes,
+                follows: r.follows,
                 fits: r.fits,
                 search: r.trace.clone(),
             },

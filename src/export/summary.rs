@@ -314,6 +314,13 @@ pub fn adapted_curve(name: &str, points: usize, tol: f64, norm: Norm, r: &Adapte
             c.chain, c.source, c.threshold, c.scatter
         );
     }
+    if let Some(f) = &r.follows {
+        let _ = writeln!(
+            s,
+            "  between points {:.3e} from the source spline where it may stray {:.3e} ({} tolerances or its bend), turning {:.0}° (source {:.0}°)",
+            f.away, f.allowed, crate::adaptive::fairness::AWAY_FACTOR, f.turning_deg, f.source_turning_deg
+        );
+    }
     let met = r.trace.iter().filter(|t| t.best_scalars.is_some()).count();
     held_out_and_search(&mut s, r.held_out.as_ref(), r.trace.len(), met, r.fits, r.seconds);
     s
