@@ -14,18 +14,25 @@ pub struct Analysis {
     pub params: Vec<f64>,
     /// The panel method on the nodes.
     pub solution: PanelSolution,
+    /// How far the trailing edge's ends moved to close it where they overlapped
+    /// ([`close_crossed_trailing_edge`](super::panel::close_crossed_trailing_edge)); `None`
+    /// when they did not.
+    pub te_closed: Option<f64>,
 }
 
 impl Analysis {
-    /// Panel `contour` and solve; a contour whose panels cross is refused
-    /// ([`check_simple`](super::panel::check_simple)).
+    /// Panel `contour` and solve. Trailing-edge ends that overlap are closed at their
+    /// crossing ([`Analysis::te_closed`]); a contour whose panels cross anywhere else is
+    /// refused ([`check_simple`](super::panel::check_simple)).
     pub fn of(contour: &dyn Contour, paneling: &Paneling) -> Result<Analysis> {
-        let params = panel_params(contour, paneling)?;
-        let nodes: Vec<DVec2> = params.iter().map(|&t| contour.point(t)).collect();
+        let mut params = panel_params(contour, paneling)?;
+        let mut nodes: Vec<DVec2> = params.iter().map(|&t| contour.point(t)).collect();
+        let te_closed = super::panel::close_crossed_trailing_edge(&mut nodes, &mut params);
         super::panel::check_simple(&nodes)?;
         Ok(Analysis {
             solution: PanelSolution::solve(&nodes)?,
             params,
+            te_closed,
         })
     }
 

@@ -53,15 +53,30 @@ impl Aerofoil {
         match Aerofoil::read(path, warn)? {
             Aerofoil::Points(loaded) => {
                 let a = Analysis::of_points(&loaded.points, paneling).map_err(|e| e.in_file(path))?;
+                closed_note(path, &a, warn);
                 Ok((loaded.points, a))
             }
             Aerofoil::Curve(r, _) => {
                 let chain = r.chain()?;
                 let a = Analysis::of_chain(&chain, paneling).map_err(|e| e.in_file(path))?;
+                closed_note(path, &a, warn);
                 Ok((samples(&chain), a))
             }
             Aerofoil::Surface => Err(surface_report(path, surface)),
         }
+    }
+}
+
+/// Tell `warn` when the analysis closed the trailing edge where its two ends overlapped.
+fn closed_note(path: &Path, a: &Analysis, warn: Warn<'_>) {
+    if let Some(d) = a.te_closed {
+        warn(
+            path,
+            &format!(
+                "the trailing edge's two ends overlap: closed where its first and last panels cross \
+                 ({d:.2e} from the farther end)"
+            ),
+        );
     }
 }
 
@@ -82,6 +97,7 @@ pub fn analyse_input(
                 points: loaded.points.len(),
             };
             let a = Analysis::of_points(&loaded.points, paneling).map_err(|e| e.in_file(path))?;
+            closed_note(path, &a, warn);
             Ok((a, input, what))
         }
         Aerofoil::Curve(r, _) => {
@@ -97,6 +113,7 @@ pub fn analyse_input(
                 points: chain.ctrl().len(),
             };
             let a = Analysis::of_chain(&chain, paneling).map_err(|e| e.in_file(path))?;
+            closed_note(path, &a, warn);
             Ok((a, input, what))
         }
         Aerofoil::Surface => Err(surface_report(path, "; aero needs a curve")),

@@ -517,6 +517,43 @@ pub fn check_simple(nodes: &[DVec2]) -> Result<()> {
     }
 }
 
+/// Where the first and the last panel of `nodes` cross: a contour whose two trailing-edge ends
+/// overlap, as a chain fitted to a closed trailing edge can within its tolerance (the upper
+/// surface ending 5e-5 below the lower one's end). Returns the crossing point and its
+/// fractions along the first panel and along the last; `None` where they do not cross.
+#[must_use]
+pub fn trailing_edge_crossing(nodes: &[DVec2]) -> Option<(DVec2, f64, f64)> {
+    let m = nodes.len();
+    if m < 4 {
+        return None;
+    }
+    let (a, b) = (nodes[0], nodes[1]);
+    let (c, d) = (nodes[m - 2], nodes[m - 1]);
+    let (r, q) = (b - a, d - c);
+    let den = r.perp_dot(q);
+    if den == 0.0 || !den.is_finite() {
+        return None;
+    }
+    let s = (c - a).perp_dot(q) / den;
+    let u = (c - a).perp_dot(r) / den;
+    ((0.0..1.0).contains(&s) && s > 0.0 && u > 0.0 && u < 1.0).then(|| (a + s * r, s, u))
+}
+
+/// Close a trailing edge whose two ends overlap ([`trailing_edge_crossing`]): the first and
+/// last nodes move to the crossing point, and their parameters on the contour with them
+/// (linearly along the panel). Returns how far the farther end moved, or `None` when the ends
+/// do not cross (nothing changed).
+pub fn close_crossed_trailing_edge(nodes: &mut [DVec2], params: &mut [f64]) -> Option<f64> {
+    let (x, s, u) = trailing_edge_crossing(nodes)?;
+    let m = nodes.len();
+    let moved = nodes[0].distance(x).max(nodes[m - 1].distance(x));
+    params[0] += s * (params[1] - params[0]);
+    params[m - 1] = params[m - 2] + u * (params[m - 1] - params[m - 2]);
+    nodes[0] = x;
+    nodes[m - 1] = x;
+    Some(moved)
+}
+
 /// The first two panels between consecutive `nodes` that cross each other (neighbours, which
 /// share a node, aside; touching is not crossing), or `None` for a contour that does not cross
 /// itself. A fitted chain can fold back over its data in a small loop; its offsets stay small,
