@@ -252,6 +252,59 @@ fn the_command_writes_a_curve_report_a_selig_file_and_a_picture() {
     assert!(d.join("o3.json").exists() && d.join("o3.ckpt").exists());
 }
 
+/// An aerofoil whose adapted chain ends its two surfaces crossed at the closed trailing edge
+/// (NACA 63-209 at 1e-4) starts an optimisation as `aero` analyses it: closed where the ends
+/// cross, the same start CL.
+#[test]
+fn a_start_whose_trailing_edge_ends_cross_is_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let file = root().join("data/airfoils/regressions/naca63209.dat");
+    let file = file.to_str().unwrap();
+    let o = bezchain(
+        &[
+            "optimise",
+            file,
+            "--objective",
+            "max-cl",
+            "--alpha",
+            "4",
+            "--min-thickness",
+            "0.08",
+            "--population",
+            "8",
+            "--generations",
+            "2",
+            "--backend",
+            "cpu",
+            "--json",
+            "o.json",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o.json")).unwrap()).unwrap();
+    let o = bezchain(
+        &["adapt", file, "--tol", "1e-4", "--relative", "--json", "a.json"],
+        d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = bezchain(&["aero", "a.json", "--alpha", "4", "--json", "p.json"], d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let p: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("p.json")).unwrap()).unwrap();
+    let (start, analysed) = (
+        v["optimise"]["start"]["cl"].as_f64(),
+        p["polar"][0]["cl"].as_f64(),
+    );
+    assert!(start.is_some() && analysed.is_some(), "{v}");
+    assert!(
+        (start.unwrap() - analysed.unwrap()).abs() <= 1e-3 * analysed.unwrap().abs(),
+        "{start:?} {analysed:?}"
+    );
+}
+
 #[test]
 fn bad_arguments_are_refused_before_anything_is_written() {
     let dir = tempfile::tempdir().unwrap();

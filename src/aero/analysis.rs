@@ -27,7 +27,8 @@ impl Analysis {
     pub fn of(contour: &dyn Contour, paneling: &Paneling) -> Result<Analysis> {
         let mut params = panel_params(contour, paneling)?;
         let mut nodes: Vec<DVec2> = params.iter().map(|&t| contour.point(t)).collect();
-        let te_closed = super::panel::close_crossed_trailing_edge(&mut nodes, &mut params);
+        let te_closed =
+            super::panel::close_crossed_trailing_edge(&mut nodes, &mut params, &|t| contour.point(t));
         super::panel::check_simple(&nodes)?;
         Ok(Analysis {
             solution: PanelSolution::solve(&nodes)?,

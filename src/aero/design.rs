@@ -83,8 +83,11 @@ impl DesignSpace {
             )));
         }
         let chain = chain_of(start)?;
-        let params = panel_params(&chain, paneling)?;
-        let base: Vec<DVec2> = params.iter().map(|&t| chain.eval(t)).collect();
+        let mut params = panel_params(&chain, paneling)?;
+        let mut base: Vec<DVec2> = params.iter().map(|&t| chain.eval(t)).collect();
+        // A start whose trailing-edge ends overlap within its fit's tolerance is closed where
+        // they cross, as the analysis closes it: the end nodes then sit at those parameters.
+        super::panel::close_crossed_trailing_edge(&mut base, &mut params, &|t| chain.eval(t));
         let chord = super::panel::Chord::of(&base).length;
         let t_le = super::contour::leading_edge_param(&chain);
         let mut stored: Vec<Var> = (0..start.y.len()).map(Var::Y).collect();

@@ -540,17 +540,51 @@ pub fn trailing_edge_crossing(nodes: &[DVec2]) -> Option<(DVec2, f64, f64)> {
 }
 
 /// Close a trailing edge whose two ends overlap ([`trailing_edge_crossing`]): the first and
-/// last nodes move to the crossing point, and their parameters on the contour with them
-/// (linearly along the panel). Returns how far the farther end moved, or `None` when the ends
-/// do not cross (nothing changed).
-pub fn close_crossed_trailing_edge(nodes: &mut [DVec2], params: &mut [f64]) -> Option<f64> {
+/// last nodes move to where the contour's two ends cross, found by Newton on the parameters
+/// from the panels' crossing (`point` is the contour at a parameter; the panels' crossing
+/// itself where Newton does not settle inside the two end panels), and their parameters with
+/// them. Returns how far the farther end moved, or `None` when the ends do not cross (nothing
+/// changed).
+pub fn close_crossed_trailing_edge(
+    nodes: &mut [DVec2],
+    params: &mut [f64],
+    point: &dyn Fn(f64) -> DVec2,
+) -> Option<f64> {
     let (x, s, u) = trailing_edge_crossing(nodes)?;
     let m = nodes.len();
-    let moved = nodes[0].distance(x).max(nodes[m - 1].distance(x));
-    params[0] += s * (params[1] - params[0]);
-    params[m - 1] = params[m - 2] + u * (params[m - 1] - params[m - 2]);
-    nodes[0] = x;
-    nodes[m - 1] = x;
+    let (lo_a, hi_a) = (params[0], params[1]);
+    let (lo_b, hi_b) = (params[m - 2], params[m - 1]);
+    let (mut a, mut b) = (lo_a + s * (hi_a - lo_a), lo_b + u * (hi_b - lo_b));
+    let h = 1e-7 * (hi_a - lo_a).abs().max(hi_b - lo_b).max(1e-12);
+    let d = |t: f64| (point(t + h) - point(t - h)) / (2.0 * h);
+    for _ in 0..20 {
+        let r = point(a) - point(b);
+        let (da, db) = (d(a), -d(b));
+        let det = da.perp_dot(db);
+        if !(det.abs() > 0.0) {
+            break;
+        }
+        // [da db] [Δa Δb]ᵀ = −r by Cramer's rule.
+        let (step_a, step_b) = (-r.perp_dot(db) / det, -da.perp_dot(r) / det);
+        a += step_a;
+        b += step_b;
+        if step_a.abs().max(step_b.abs()) <= 1e-14 * (1.0 + a.abs().max(b.abs())) {
+            break;
+        }
+    }
+    let inside = |t: f64, lo: f64, hi: f64| t >= lo.min(hi) && t <= lo.max(hi);
+    let exact = inside(a, lo_a, hi_a)
+        && inside(b, lo_b, hi_b)
+        && point(a).distance(point(b)) <= 1e-12 * (1.0 + point(a).length());
+    let (pa, at) = if exact {
+        (point(a), (a, b))
+    } else {
+        (x, (lo_a + s * (hi_a - lo_a), lo_b + u * (hi_b - lo_b)))
+    };
+    let moved = nodes[0].distance(pa).max(nodes[m - 1].distance(pa));
+    (params[0], params[m - 1]) = at;
+    nodes[0] = pa;
+    nodes[m - 1] = pa;
     Some(moved)
 }
 
