@@ -134,8 +134,8 @@ impl ViscousReport {
         table
     }
 
-    /// The readable summary: per file a heading and a row an angle ("not converged" where
-    /// Newton did not converge).
+    /// The readable summary: per file a heading and a row an angle ("not converged" and the
+    /// reason where Newton did not converge).
     #[must_use]
     pub fn summary(&self) -> String {
         let mut text = String::new();
@@ -159,7 +159,8 @@ impl ViscousReport {
                         );
                     }
                     _ => {
-                        let _ = writeln!(text, "{:8.3}   not converged", p.alpha);
+                        let why = p.failure.as_deref().unwrap_or("no reason recorded");
+                        let _ = writeln!(text, "{:8.3}   not converged: {why}", p.alpha);
                     }
                 }
             }

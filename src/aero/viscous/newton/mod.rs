@@ -73,6 +73,41 @@ pub struct Outcome {
     pub converged: bool,
     /// Newton iterations taken.
     pub iterations: usize,
+    /// Why the solve ended.
+    pub stop: Stop,
+}
+
+/// Why a Newton solve ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Stop {
+    /// The residual norm fell below tolerance.
+    Converged,
+    /// The residual was not finite (a closure outside its range), at this iteration.
+    NotFinite,
+    /// The residual norm stopped falling, at this value.
+    Stalled(f64),
+    /// The Newton system was singular.
+    Singular,
+    /// A step left the state not finite.
+    Diverged,
+    /// The iteration limit was reached, at this residual norm.
+    Limit(f64),
+}
+
+impl std::fmt::Display for Stop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Stop::Converged => write!(f, "converged"),
+            Stop::NotFinite => write!(
+                f,
+                "the boundary-layer residual is not finite (a closure outside its range)"
+            ),
+            Stop::Stalled(r) => write!(f, "the Newton residual stalled at {r:.2e}"),
+            Stop::Singular => write!(f, "the Newton system is singular"),
+            Stop::Diverged => write!(f, "a Newton step left the boundary layer not finite"),
+            Stop::Limit(r) => write!(f, "the Newton iteration limit was reached at residual {r:.2e}"),
+        }
+    }
 }
 
 /// Residual norm (2-norm over all equations) taken as converged.
@@ -512,10 +547,18 @@ impl<'a> System<'a> {
             for q in 0..4 {
                 self.u[i][q] += omega * du[i][q];
             }
-            let hmin = if i >= self.n { 1.00005 } else { 1.02 };
-            let hk = c::plain::h(&self.u[i]);
+            // The limit is on the shape the closures see: in the wake, δ* less the blunt
+            // edge's dead air (XFOIL's `DSLIM` on `DSTR − DSWAKI`). Pushed back past it by as
+            // much again, never to below the limit itself (a negative δ* would stay negative).
+            let (hmin, gap) = if i >= self.n {
+                (1.00005, self.wgap[i - self.n])
+            } else {
+                (1.02, 0.0)
+            };
+            let (th, ds) = (self.u[i][0], self.u[i][1] - gap);
+            let hk = ds / th;
             if hk < hmin {
-                self.u[i][1] += 2.0 * (hmin - hk) * self.u[i][1];
+                self.u[i][1] = gap + (ds + 2.0 * (hmin - hk) * ds).max(hmin * th);
             }
             if self.turb[i] && self.u[i][2] < 0.0 {
                 self.u[i][2] = 0.1 * ctmax;
@@ -703,7 +746,15 @@ impl<'a> System<'a> {
                 } else {
                     [0.0; 2]
                 };
-                let u1 = self.u[a];
+                // The march works in the δ* the closures see (in the wake, less the blunt
+                // edge's dead air, XFOIL's `DSWAKI`), so that its shape limits and inverse
+                // targets hold there; the gap is added back when the station is stored.
+                let with_gap = |v: &State, gap: f64| -> State {
+                    let mut w = *v;
+                    w[1] += gap;
+                    w
+                };
+                let u1 = with_gap(&self.u[a], -g[0]);
                 let mut u2 = u1;
                 u2[3] = ue[k];
                 if tran {
@@ -721,7 +772,15 @@ impl<'a> System<'a> {
                         };
                         eq::transition(&self.fl, x, xt, &u1, v)
                     } else {
-                        eq::interval(&self.fl, kind, false, x, &u1, v, g)
+                        eq::interval(
+                            &self.fl,
+                            kind,
+                            false,
+                            x,
+                            &with_gap(&u1, g[0]),
+                            &with_gap(v, g[1]),
+                            g,
+                        )
                     }
                 };
                 let turb_now = tran || kind.turb;
@@ -806,7 +865,7 @@ impl<'a> System<'a> {
                         continue;
                     }
                 }
-                self.u[b] = u2;
+                self.u[b] = with_gap(&u2, g[1]);
                 if tran {
                     kind = Kind::TURBULENT;
                     tran = false;
@@ -837,12 +896,14 @@ impl<'a> System<'a> {
                 return Outcome {
                     converged: false,
                     iterations: it,
+                    stop: Stop::NotFinite,
                 };
             }
             if rn < TOL {
                 return Outcome {
                     converged: true,
                     iterations: it,
+                    stop: Stop::Converged,
                 };
             }
             hist.push(rn);
@@ -850,12 +911,14 @@ impl<'a> System<'a> {
                 return Outcome {
                     converged: false,
                     iterations: it,
+                    stop: Stop::Stalled(rn),
                 };
             }
             let Some(du) = self.step(&r) else {
                 return Outcome {
                     converged: false,
                     iterations: it,
+                    stop: Stop::Singular,
                 };
             };
             self.update(&du);
@@ -867,6 +930,7 @@ impl<'a> System<'a> {
                 return Outcome {
                     converged: false,
                     iterations: it + 1,
+                    stop: Stop::Diverged,
                 };
             }
         }
@@ -874,6 +938,11 @@ impl<'a> System<'a> {
         Outcome {
             converged: rn < TOL,
             iterations: max_iter,
+            stop: if rn < TOL {
+                Stop::Converged
+            } else {
+                Stop::Limit(rn)
+            },
         }
     }
 
