@@ -368,7 +368,7 @@ mod tests {
     /// CL is 0.011 above, from nodes placed apart from PANE's), a gap not yet accounted for.
     #[test]
     fn a_blunt_trailing_edge_polar_converges() {
-        let v = shipped("data/fx77w270.dat");
+        let v = shipped("data/airfoils/regressions/fx77w270.dat");
         let polar = v.polar(&[0.0, 2.0, 4.0], &ViscousOptions::default());
         let xfoil = [(0.4902, 0.01301), (0.7488, 0.01406), (1.0057, 0.01455)];
         for (p, (cl, cd)) in polar.iter().zip(xfoil) {
