@@ -547,18 +547,22 @@ impl<'a> System<'a> {
             for q in 0..4 {
                 self.u[i][q] += omega * du[i][q];
             }
-            // The limit is on the shape the closures see: in the wake, δ* less the blunt
-            // edge's dead air (XFOIL's `DSLIM` on `DSTR − DSWAKI`). Pushed back past it by as
-            // much again, never to below the limit itself (a negative δ* would stay negative).
-            let (hmin, gap) = if i >= self.n {
-                (1.00005, self.wgap[i - self.n])
+            // `H` pushed back past its floor by as much again. In the wake the floor is on the
+            // shape the closures see, δ* less the blunt edge's dead air (XFOIL's `DSLIM` on
+            // `DSTR − DSWAKI`), and δ* is never left under it (a δ* under the gap would stay
+            // there); on the body the rule is as before.
+            if i >= self.n {
+                let (hmin, gap) = (1.00005, self.wgap[i - self.n]);
+                let (th, ds) = (self.u[i][0], self.u[i][1] - gap);
+                let hk = ds / th;
+                if hk < hmin {
+                    self.u[i][1] = gap + (ds + 2.0 * (hmin - hk) * ds).max(hmin * th);
+                }
             } else {
-                (1.02, 0.0)
-            };
-            let (th, ds) = (self.u[i][0], self.u[i][1] - gap);
-            let hk = ds / th;
-            if hk < hmin {
-                self.u[i][1] = gap + (ds + 2.0 * (hmin - hk) * ds).max(hmin * th);
+                let hk = c::plain::h(&self.u[i]);
+                if hk < 1.02 {
+                    self.u[i][1] += 2.0 * (1.02 - hk) * self.u[i][1];
+                }
             }
             if self.turb[i] && self.u[i][2] < 0.0 {
                 self.u[i][2] = 0.1 * ctmax;
@@ -691,6 +695,21 @@ impl<'a> System<'a> {
     /// March the boundary layer on the inviscid edge speed, each station by Newton (direct,
     /// or inverse with a target `Hk` where the direct march separates), as mfoil starts it.
     fn init_boundary_layer(&mut self) {
+        self.march_boundary_layer(false);
+        // A blunt edge's wake can leave the march with δ* under the gap (fx77w270: 0.0371
+        // against 0.0386 at its first wake station), which the closures see as a negative
+        // thickness: then march again in the thickness they see.
+        let under = (self.n..self.u.len()).any(|i| !(self.u[i][1] > self.wgap[i - self.n]));
+        if under || !self.residual().iter().all(|v| v.is_finite()) {
+            self.march_boundary_layer(true);
+        }
+    }
+
+    /// The march of [`System::init_boundary_layer`]; with `in_gap`, the wake's stations are
+    /// marched in the δ* the closures see (less the blunt edge's dead air, XFOIL's `DSWAKI`),
+    /// so that the march's shape limits and inverse targets hold there, the gap added back
+    /// when a station is stored.
+    fn march_boundary_layer(&mut self, in_gap: bool) {
         let nu = 1.0 / self.fl.re;
         let ueinv = self.ueinv.clone();
         let sst = {
@@ -746,12 +765,11 @@ impl<'a> System<'a> {
                 } else {
                     [0.0; 2]
                 };
-                // The march works in the δ* the closures see (in the wake, less the blunt
-                // edge's dead air, XFOIL's `DSWAKI`), so that its shape limits and inverse
-                // targets hold there; the gap is added back when the station is stored.
                 let with_gap = |v: &State, gap: f64| -> State {
                     let mut w = *v;
-                    w[1] += gap;
+                    if in_gap {
+                        w[1] += gap;
+                    }
                     w
                 };
                 let u1 = with_gap(&self.u[a], -g[0]);
