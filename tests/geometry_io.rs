@@ -122,6 +122,27 @@ fn bad_inputs_name_the_file_and_line() {
     assert_parse(&e, 3, "expected numbers, found '0.5 abcabc");
     assert!(e.to_string().len() < 120, "{e}");
     assert_eq!(e.to_string().lines().count(), 1);
+    // Notes after the coordinates end them, with a warning naming the line; a number row
+    // after the notes makes them an error again.
+    let loaded = parse_curve(
+        "NAME\n1 0\n0 0.1\n0 0\n1 0\n\nhttp://example.org/notes here\nfrom a book\n",
+        Path::new("notes.dat"),
+    )
+    .unwrap();
+    assert_eq!(loaded.points.len(), 4);
+    assert!(
+        loaded
+            .warnings
+            .iter()
+            .any(|w| w.contains("line 7") && w.contains("after the coordinates")),
+        "{:?}",
+        loaded.warnings
+    );
+    assert_parse(
+        &curve_err("NAME\n1 0\n0 0.1\nsee below\n0 0\n"),
+        4,
+        "expected numbers",
+    );
     // NaN and infinities.
     assert_parse(
         &curve_err("NAME\n1 0\nnan 0.1\n"),

@@ -527,6 +527,18 @@ struct Table {
     warnings: Vec<String>,
 }
 
+/// Whether a line of `text` after line `no` looks like a row of numbers.
+fn rows_after(text: &str, no: usize) -> bool {
+    io::numbered_lines(text).filter(|(n, _)| *n > no).any(|(_, raw)| {
+        let content = io::strip_comment(raw);
+        let mut fields = content
+            .split([' ', '\t', ',', ';'])
+            .filter(|f| !f.is_empty())
+            .peekable();
+        fields.peek().is_some() && fields.all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric))
+    })
+}
+
 /// Where the reader is in the file.
 enum State {
     /// Nothing but blank lines and comments so far.
@@ -565,7 +577,7 @@ impl Table {
         let mut blocks: Vec<usize> = Vec::new();
         let mut fields: Vec<&str> = Vec::with_capacity(8);
         let mut vals: Vec<f64> = Vec::with_capacity(8);
-        for (no, raw) in io::numbered_lines(text) {
+        'lines: for (no, raw) in io::numbered_lines(text) {
             let content = io::strip_comment(raw);
             if content.trim().is_empty() {
                 if counts.is_some() && blocks.last() != Some(&t.lines.len()) && !t.lines.is_empty() {
@@ -677,6 +689,15 @@ impl Table {
             for f in &fields {
                 match io::parse_number(f) {
                     Ok(v) => vals.push(v),
+                    Err(BadNumber::NotNumeric) if !t.lines.is_empty() && !rows_after(text, no) => {
+                        // Notes after the coordinates (a source, a URL: one UIUC file in six
+                        // ends so): the coordinates end here, and a warning says so.
+                        t.warnings.push(format!(
+                            "line {no} and after ignored: text after the coordinates ('{}')",
+                            io::excerpt(content)
+                        ));
+                        break 'lines;
+                    }
                     Err(BadNumber::NotNumeric) => {
                         return Err(perr(
                             no,

@@ -696,7 +696,7 @@ impl<'a> System<'a> {
     /// or inverse with a target `Hk` where the direct march separates), as mfoil starts it.
     fn init_boundary_layer(&mut self) {
         self.march_boundary_layer(false);
-        // A blunt edge's wake can leave the march with δ* under the gap (fx77w270: 0.0371
+        // A blunt edge's wake can leave the march with δ* under the gap (fx77w343 at 2°: 0.0371
         // against 0.0386 at its first wake station), which the closures see as a negative
         // thickness: then march again in the thickness they see.
         let under = (self.n..self.u.len()).any(|i| !(self.u[i][1] > self.wgap[i - self.n]));
