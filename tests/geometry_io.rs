@@ -143,6 +143,14 @@ fn bad_inputs_name_the_file_and_line() {
         4,
         "expected numbers",
     );
+    // A name of two lines is one name.
+    let two = parse_curve(
+        "Ornithopter airfoil.\nS1020\n1 0\n0 0.1\n0 0\n1 0\n",
+        Path::new("s.dat"),
+    )
+    .unwrap();
+    assert_eq!(two.points.len(), 4);
+    assert_eq!(two.name, "Ornithopter airfoil. S1020");
     // NaN and infinities.
     assert_parse(
         &curve_err("NAME\n1 0\nnan 0.1\n"),

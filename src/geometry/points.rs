@@ -649,6 +649,12 @@ impl Table {
                 state = State::AfterName;
                 continue;
             }
+            if matches!(state, State::AfterName) && !numeric_looking() {
+                // A name of two lines (a title, then the aerofoil's designation): one name.
+                let name = t.name.take().unwrap_or_default();
+                t.name = Some(format!("{name} {}", raw.trim()));
+                continue;
+            }
             let hard = split.map_err(|m| perr(no, m))?;
             match state {
                 State::Start => {
