@@ -324,20 +324,14 @@ impl Fairness {
         )
     }
 
-    /// Sign changes of the chain of `layout` with coefficients `coeffs` under this rule.
+    /// How a chain follows the source between the data points at tolerance `tol`
+    /// ([`Follows`]), from its `samples` ([`chain_samples`] at [`PER_SEGMENT`], as
+    /// [`Fairness::count`] takes them): every sample's distance from the source polyline over
+    /// what it may stray there, the largest kept (each sample first against the segments about
+    /// its predecessor's nearest; against all of them only where that could beat the largest
+    /// so far, so the largest is exact), and the turning.
     #[must_use]
-    pub fn chain_count(&self, layout: &ChainLayout, coeffs: &[DVec2]) -> usize {
-        self.count(&chain_samples(layout, coeffs, PER_SEGMENT))
-    }
-
-    /// How the chain of `layout` with coefficients `coeffs` follows the source between the
-    /// data points at tolerance `tol` ([`Follows`]): every sample's distance from the source
-    /// polyline over what it may stray there, the largest kept (each sample first against the
-    /// segments about its predecessor's nearest; against all of them only where that could
-    /// beat the largest so far, so the largest is exact), and the turning.
-    #[must_use]
-    pub fn follows(&self, layout: &ChainLayout, coeffs: &[DVec2], tol: f64) -> Follows {
-        let samples = chain_samples(layout, coeffs, PER_SEGMENT);
+    pub fn follows(&self, samples: &[(DVec2, f64)], tol: f64) -> Follows {
         let segs = self.path.len() - 1;
         let least = AWAY_FACTOR * tol;
         let allowed = |k: usize| least.max(self.bend[(k / PATH_PER_INTERVAL).min(self.bend.len() - 1)]);
@@ -354,7 +348,7 @@ impl Fairness {
         // The worst sample: its distance and allowance, their ratio, and where.
         let (mut away, mut room, mut worst, mut at) = (0.0_f64, allowed(0), 0.0_f64, DVec2::ZERO);
         let mut hint = 0_usize;
-        for &(p, _) in &samples {
+        for &(p, _) in samples {
             let (lo, hi) = (hint.saturating_sub(PATH_WINDOW), (hint + PATH_WINDOW).min(segs));
             let (mut d, mut k) = nearest(p, lo..hi);
             // The true distance is at most `d` and the allowance at least `least`.
@@ -427,14 +421,14 @@ mod tests {
             .collect();
         let f = Fairness::of_source(&data).unwrap();
         assert_eq!(f.source, 2);
-        assert_eq!(f.chain_count(&layout, &pts), 2);
+        assert_eq!(f.count(&chain_samples(&layout, &pts, PER_SEGMENT)), 2);
         // A ripple of 1e-4 at 20 waves a unit length on the chain adds sign changes where the
         // curvature is small (about the inflections).
         let rippled: Vec<DVec2> = pts
             .iter()
             .map(|p| *p + DVec2::new(0.0, 1e-4 * (40.0 * std::f64::consts::PI * p.x).sin()))
             .collect();
-        assert!(f.chain_count(&layout, &rippled) > 2);
+        assert!(f.count(&chain_samples(&layout, &rippled, PER_SEGMENT)) > 2);
     }
 
     /// A chain through points of a smooth curve follows it; one design point moved half a unit
@@ -446,13 +440,13 @@ mod tests {
         let f = Fairness::of_source(&data).unwrap();
         let layout = ChainLayout::uniform(3, 12, Continuity::C2).unwrap();
         let good: Vec<DVec2> = layout.greville().iter().map(|&t| curve(t)).collect();
-        let ok = f.follows(&layout, &good, 1e-3);
+        let ok = f.follows(&chain_samples(&layout, &good, PER_SEGMENT), 1e-3);
         assert!(ok.passes(), "{ok:?}");
         assert!(ok.away < 1e-3, "{ok:?}");
         assert!((ok.turning_deg - ok.source_turning_deg).abs() < 1.0, "{ok:?}");
         let mut off = good.clone();
         off[7].y += 0.5;
-        let bad = f.follows(&layout, &off, 1e-3);
+        let bad = f.follows(&chain_samples(&layout, &off, PER_SEGMENT), 1e-3);
         assert!(!bad.stays() && !bad.passes(), "{bad:?}");
         assert!(
             bad.away > 0.1 && (bad.at[0] - layout.greville()[7]).abs() < 0.1,

@@ -397,9 +397,8 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
     } else {
         None
     };
-    let sign_changes = fairness
-        .as_ref()
-        .map(|f| f.report(f.chain_count(chain.layout(), chain.design())));
+    let samples = fairness::chain_samples(chain.layout(), chain.design(), fairness::PER_SEGMENT);
+    let sign_changes = fairness.as_ref().map(|f| f.report(f.count(&samples)));
     let tol_met = found.met && measure <= opts.tol;
     let held_measure = held_out.map(|h| match opts.norm {
         Norm::Max => h.max,
@@ -407,9 +406,7 @@ pub fn adapt_curve(points: &[DVec2], opts: &AdaptOptions) -> Result<AdaptedCurve
     });
     let held_ok = !opts.held_out || held_measure.is_some_and(|m| m <= HELD_OUT_FACTOR * opts.tol);
     let waves_ok = sign_changes.is_none_or(|c| c.chain <= c.source);
-    let follows = fairness
-        .as_ref()
-        .map(|f| f.follows(chain.layout(), chain.design(), opts.tol));
+    let follows = fairness.as_ref().map(|f| f.follows(&samples, opts.tol));
     let follows_ok = follows.is_none_or(|f| f.passes());
     let met = tol_met && held_ok && waves_ok && follows_ok;
     let message = (!met).then(|| {

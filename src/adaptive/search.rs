@@ -7,7 +7,7 @@
 
 use super::encoding::{per_side_breaks, Breaks, Encoding, XStore};
 use super::engine::{self, Data, Effort, Model, State, XRule, LE_BREAK};
-use super::fairness::Fairness;
+use super::fairness::{chain_samples, Fairness, PER_SEGMENT};
 use super::{AdaptOptions, FamilyTrace, HeldOut, Norm};
 use crate::chain::ChainLayout;
 use glam::DVec2;
@@ -353,18 +353,16 @@ impl<'a> Search<'a> {
         super::held_out(self.checks.full, c, params, self.opts)
     }
 
-    /// True when `c`, which meets the tolerance, also passes the held-out check and waves no
-    /// more than the source; a refusal is counted by its reason.
+    /// True when `c`, which meets the tolerance, also passes the held-out check, waves no more
+    /// than the source and follows it between the points; a refusal is counted by its reason.
     fn sound(&self, c: &Cand) -> bool {
         if let Some(f) = self.checks.fairness {
-            if f.chain_count(&c.model.layout, &c.state.coeffs) > f.source {
+            let samples = chain_samples(&c.model.layout, &c.state.coeffs, PER_SEGMENT);
+            if f.count(&samples) > f.source {
                 self.refused_waves.fetch_add(1, Ordering::Relaxed);
                 return false;
             }
-            if !f
-                .follows(&c.model.layout, &c.state.coeffs, self.checks.tol)
-                .passes()
-            {
+            if !f.follows(&samples, self.checks.tol).passes() {
                 self.refused_strays.fetch_add(1, Ordering::Relaxed);
                 return false;
             }
