@@ -197,11 +197,11 @@ impl Viscous {
         // The start kept for a second try (its wake and coupling are not built again).
         let start = sys.clone();
         let mut out = sys.solve(opts.max_iter);
-        if !out.converged {
+        if !out.converged() {
             // Again from the same start, the transition points held while far off.
             sys = start;
             out = sys.solve_held(opts.max_iter);
-            if !out.converged {
+            if !out.converged() {
                 return (failed(out.iterations, out.stop.to_string()), None);
             }
         }

@@ -69,12 +69,18 @@ type Partials = Vec<(usize, [[f64; 4]; 3])>;
 /// What one Newton solve did.
 #[derive(Clone, Copy, Debug)]
 pub struct Outcome {
-    /// Whether the residual fell below tolerance.
-    pub converged: bool,
     /// Newton iterations taken.
     pub iterations: usize,
     /// Why the solve ended.
     pub stop: Stop,
+}
+
+impl Outcome {
+    /// Whether the residual fell below tolerance.
+    #[must_use]
+    pub fn converged(&self) -> bool {
+        self.stop == Stop::Converged
+    }
 }
 
 /// Why a Newton solve ended.
@@ -912,14 +918,12 @@ impl<'a> System<'a> {
             let rn = norm(&r);
             if !rn.is_finite() {
                 return Outcome {
-                    converged: false,
                     iterations: it,
                     stop: Stop::NotFinite,
                 };
             }
             if rn < TOL {
                 return Outcome {
-                    converged: true,
                     iterations: it,
                     stop: Stop::Converged,
                 };
@@ -927,14 +931,12 @@ impl<'a> System<'a> {
             hist.push(rn);
             if stalled(&hist) {
                 return Outcome {
-                    converged: false,
                     iterations: it,
                     stop: Stop::Stalled(rn),
                 };
             }
             let Some(du) = self.step(&r) else {
                 return Outcome {
-                    converged: false,
                     iterations: it,
                     stop: Stop::Singular,
                 };
@@ -946,7 +948,6 @@ impl<'a> System<'a> {
             }
             if self.u.iter().any(|s| !s.iter().all(|v| v.is_finite())) {
                 return Outcome {
-                    converged: false,
                     iterations: it + 1,
                     stop: Stop::Diverged,
                 };
@@ -954,7 +955,6 @@ impl<'a> System<'a> {
         }
         let rn = norm(&self.residual());
         Outcome {
-            converged: rn < TOL,
             iterations: max_iter,
             stop: if rn < TOL {
                 Stop::Converged
@@ -1136,7 +1136,7 @@ mod tests {
         let mut kinds = [0usize; 3];
         for pass in 0..2 {
             if pass == 1 {
-                assert!(sys.solve(80).converged);
+                assert!(sys.solve(80).converged());
             }
             let nt = sys.u.len();
             for i in 0..nt {
