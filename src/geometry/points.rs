@@ -527,15 +527,20 @@ struct Table {
     warnings: Vec<String>,
 }
 
+/// Whether every field of `content` (split on blanks, commas and semicolons) reads as a
+/// number, finite or not: a line that looks like a row.
+fn numeric_looking(content: &str) -> bool {
+    content
+        .split([' ', '\t', ',', ';'])
+        .filter(|f| !f.is_empty())
+        .all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric))
+}
+
 /// Whether a line of `text` after line `no` looks like a row of numbers.
 fn rows_after(text: &str, no: usize) -> bool {
     io::numbered_lines(text).filter(|(n, _)| *n > no).any(|(_, raw)| {
         let content = io::strip_comment(raw);
-        let mut fields = content
-            .split([' ', '\t', ',', ';'])
-            .filter(|f| !f.is_empty())
-            .peekable();
-        fields.peek().is_some() && fields.all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric))
+        !content.trim().is_empty() && numeric_looking(content)
     })
 }
 
@@ -637,19 +642,13 @@ impl Table {
                 }
             }
             let split = io::split_fields(content, &mut fields);
-            let numeric_looking = || {
-                content
-                    .split([' ', '\t', ',', ';'])
-                    .filter(|f| !f.is_empty())
-                    .all(|f| io::parse_number(f) != Err(BadNumber::NotNumeric))
-            };
-            if matches!(state, State::Start) && split.is_err() && !numeric_looking() {
+            if matches!(state, State::Start) && split.is_err() && !numeric_looking(content) {
                 // Only a name line can be this irregular.
                 t.name = Some(raw.trim().to_string());
                 state = State::AfterName;
                 continue;
             }
-            if matches!(state, State::AfterName) && !numeric_looking() {
+            if matches!(state, State::AfterName) && !numeric_looking(content) {
                 // A name of two lines (a title, then the aerofoil's designation): one name.
                 let name = t.name.take().unwrap_or_default();
                 t.name = Some(format!("{name} {}", raw.trim()));
