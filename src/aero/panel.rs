@@ -536,7 +536,7 @@ pub fn trailing_edge_crossing(nodes: &[DVec2]) -> Option<(DVec2, f64, f64)> {
     }
     let s = (c - a).perp_dot(q) / den;
     let u = (c - a).perp_dot(r) / den;
-    ((0.0..1.0).contains(&s) && s > 0.0 && u > 0.0 && u < 1.0).then(|| (a + s * r, s, u))
+    (s > 0.0 && s < 1.0 && u > 0.0 && u < 1.0).then(|| (a + s * r, s, u))
 }
 
 /// Close a trailing edge whose two ends overlap ([`trailing_edge_crossing`]): the first and
