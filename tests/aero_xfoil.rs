@@ -8,7 +8,7 @@
 
 mod common;
 
-use bezchain::aero::{Analysis, Paneling};
+use bezchain::aero::{panel_params, Analysis, Contour, Paneling, SplineContour};
 use bezchain::geometry::read_curve;
 use std::path::{Path, PathBuf};
 
@@ -128,6 +128,30 @@ fn every_shipped_aerofoil_agrees_with_xfoil_run_now() {
                 file.ends_with("clarky_lednicer.dat"),
                 "{file}: XFOIL failed: {why}"
             ),
+        }
+    }
+}
+
+/// The panel nodes are XFOIL's: `PANE`'s nodes on three files of different families
+/// (`data/xfoil/pane/`, made by `data/xfoil/make_pane.sh`) to the seven digits PSAV writes.
+#[test]
+fn the_panel_nodes_are_xfoils() {
+    for name in ["naca4412", "naca63209", "fx77w270"] {
+        let source = ["data/airfoils", "data/airfoils/regressions"]
+            .iter()
+            .map(|d| root().join(d).join(format!("{name}.dat")))
+            .find(|p| p.exists())
+            .unwrap();
+        let pts = read_curve(&source).unwrap().points;
+        let xfoil = read_curve(&root().join(format!("data/xfoil/pane/{name}.dat")))
+            .unwrap()
+            .points;
+        let spline = SplineContour::new(&pts).unwrap();
+        let t = panel_params(&spline, &Paneling::default()).unwrap();
+        assert_eq!(t.len(), xfoil.len(), "{name}");
+        for (k, (u, x)) in t.iter().zip(&xfoil).enumerate() {
+            let d = (spline.point(*u) - *x).length();
+            assert!(d < 3e-7, "{name}: node {k} is {d:.2e} from XFOIL's");
         }
     }
 }

@@ -41,5 +41,5 @@ pub use scale::{check_design_scale, check_scale, Precision, MIN_EXTENT_F32, MIN_
 pub use scatter::{curve_scatter, section_scatter, Scatter};
 pub(crate) use section::twice_signed_area;
 pub use section::SectionShape;
-pub(crate) use spline::tridiagonal;
 pub use spline::SplineContour;
+pub(crate) use spline::{tridiagonal, Spline1};

@@ -71,6 +71,36 @@ impl Cubic {
     }
 }
 
+/// The interval `k` holding `v` among the increasing knots `s`, and the local parameter there.
+fn locate(s: &[f64], v: f64) -> (usize, f64) {
+    let k = s.partition_point(|&x| x <= v).clamp(1, s.len() - 1) - 1;
+    (k, (v - s[k]) / (s[k + 1] - s[k]))
+}
+
+/// One array splined over increasing knots with XFOIL's end conditions (its `SEGSPL`):
+/// values and slopes anywhere between the first and last knot.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Spline1 {
+    s: Vec<f64>,
+    c: Cubic,
+}
+
+impl Spline1 {
+    /// The spline through `(s[i], v[i])`; `s` strictly increasing, at least two knots.
+    pub(crate) fn new(s: &[f64], v: &[f64]) -> Spline1 {
+        Spline1 {
+            s: s.to_vec(),
+            c: Cubic::new(s, v),
+        }
+    }
+
+    /// The value and the slope at `v`.
+    pub(crate) fn at(&self, v: f64) -> (f64, f64) {
+        let (k, u) = locate(&self.s, v);
+        (self.c.eval(&self.s, k, u), self.c.derivs(&self.s, k, u).0)
+    }
+}
+
 /// Solve a tridiagonal system (Thomas' algorithm): `a` below, `b` on, `c` above the diagonal.
 pub(crate) fn tridiagonal(a: &[f64], b: &[f64], c: &[f64], d: &[f64]) -> Vec<f64> {
     let n = b.len();
@@ -133,19 +163,43 @@ impl SplineContour {
             let last = if k + 2 == n { per } else { per - 1 };
             for i in 0..=last {
                 let u = i as f64 / per as f64;
-                let (x1, x2) = self.x.derivs(&self.s, k, u);
-                let (y1, y2) = self.y.derivs(&self.s, k, u);
-                let speed = x1.hypot(y1);
-                let kappa = if speed > 0.0 {
-                    (x1 * y2 - y1 * x2) / (speed * speed * speed)
-                } else {
-                    0.0
-                };
                 let p = DVec2::new(self.x.eval(&self.s, k, u), self.y.eval(&self.s, k, u));
-                out.push((p, kappa));
+                out.push((p, self.kappa(k, u)));
             }
         }
         out
+    }
+
+    /// The signed curvature at local parameter `u` of interval `k`.
+    fn kappa(&self, k: usize, u: f64) -> f64 {
+        let (x1, x2) = self.x.derivs(&self.s, k, u);
+        let (y1, y2) = self.y.derivs(&self.s, k, u);
+        let speed = x1.hypot(y1);
+        if speed > 0.0 {
+            (x1 * y2 - y1 * x2) / (speed * speed * speed)
+        } else {
+            0.0
+        }
+    }
+
+    /// The spline's parameter at its knots (the data points), as `t = s / s_total`.
+    #[must_use]
+    pub fn knots(&self) -> Vec<f64> {
+        let total = self.s[self.s.len() - 1];
+        self.s.iter().map(|s| s / total).collect()
+    }
+
+    /// The spline's parameter at its last knot: the length of the polygon through the data.
+    #[must_use]
+    pub fn length(&self) -> f64 {
+        self.s[self.s.len() - 1]
+    }
+
+    /// The signed curvature (positive turning left) at `t = s / s_total ∈ [0, 1]`.
+    #[must_use]
+    pub fn curvature(&self, t: f64) -> f64 {
+        let (k, u) = locate(&self.s, t.clamp(0.0, 1.0) * self.s[self.s.len() - 1]);
+        self.kappa(k, u)
     }
 }
 
@@ -153,10 +207,7 @@ impl SplineContour {
     /// The point at `t = s / s_total ∈ [0, 1]`.
     #[must_use]
     pub fn at(&self, t: f64) -> DVec2 {
-        let total = self.s[self.s.len() - 1];
-        let s = t.clamp(0.0, 1.0) * total;
-        let k = self.s.partition_point(|&v| v <= s).clamp(1, self.s.len() - 1) - 1;
-        let u = (s - self.s[k]) / (self.s[k + 1] - self.s[k]);
+        let (k, u) = locate(&self.s, t.clamp(0.0, 1.0) * self.s[self.s.len() - 1]);
         DVec2::new(self.x.eval(&self.s, k, u), self.y.eval(&self.s, k, u))
     }
 }
