@@ -71,6 +71,13 @@ def is_number(w):
         return False
 
 
+def is_row(line):
+    """A polar file's data row: at least seven numbers (the header's "1 1 Reynolds number
+    fixed ..." is not one)."""
+    words = line.split()
+    return len(words) >= 7 and all(is_number(w) for w in words[:7])
+
+
 def time_xfoil(sections, work):
     """Seconds for one XFOIL process over every section, and its converged points."""
     cmds = []
@@ -82,18 +89,21 @@ def time_xfoil(sections, work):
         cmds += [f"LOAD s{k}.dat", "", "PANE", "OPER"]
         if k == 0:
             cmds += ["VISC 1e6", "ITER 200"]
-        cmds += ["PACC", f"p{k}.pol", "", "ASEQ -2 8 1", "PACC", ""]
+        # XFOIL keeps at most 12 polars in memory and dies at the 13th: delete each when done.
+        cmds += ["PACC", f"p{k}.pol", "", "ASEQ -2 8 1", "PACC", "PDEL 0", ""]
     cmds += ["QUIT", ""]
     start = time.perf_counter()
-    subprocess.run(["xvfb-run", "-a", "xfoil"], input="\n".join(cmds), text=True, cwd=work,
-                   capture_output=True)
+    run = subprocess.run(["xvfb-run", "-a", "xfoil"], input="\n".join(cmds), text=True, cwd=work,
+                         capture_output=True)
     seconds = time.perf_counter() - start
+    if "Fortran runtime error" in run.stdout + run.stderr:
+        raise SystemExit("XFOIL died: " + (run.stdout + run.stderr).split("Fortran runtime error")[1][:200])
     converged = 0
     for k in range(len(sections)):
         path = os.path.join(work, f"p{k}.pol")
         if os.path.exists(path):
             with open(path) as f:
-                converged += sum(1 for l in f if len(l.split()) >= 7 and is_number(l.split()[0]))
+                converged += sum(1 for l in f if is_row(l))
     return seconds, converged
 
 
