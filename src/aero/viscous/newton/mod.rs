@@ -175,9 +175,14 @@ impl<'a> System<'a> {
                 let m: DVector<f64> = DVector::from_iterator(n + nw, u.iter().map(|s| s[1] * s[3].abs()));
                 let ue = DVector::from_vec(ueinv.clone()) + &sys.d * m;
                 for i in 0..n + nw {
-                    sys.u[i][3] = ue[i].max(1e-6);
+                    sys.u[i][3] = ue[i];
                 }
+                // A speed that changed sign moves the stagnation point (it must see the sign
+                // before any floor): only then are the speeds kept off zero.
                 sys.stagnation_move();
+                for s in sys.u.iter_mut() {
+                    s[3] = s[3].max(1e-6);
+                }
                 sys.update_transition();
             }
             _ => sys.init_boundary_layer(),
