@@ -1,9 +1,11 @@
 //! The viscous benchmark behind `bezchain bench --kernel viscous`: a population of shapes around
 //! NACA 4412 (smooth random thickness and camber changes of up to ±0.2 % of the chord), each
-//! paneled, factored and swept over α −2…8° by continuation at Re 1e6, timed whole.
+//! paneled, factored and analysed at α −2…8° at Re 1e6 as a population is
+//! ([`polars_around`]): NACA 4412's own polar first, by continuation, then every shape's points
+//! started from it at the same angle; timed whole.
 
 use crate::aero::contour::Paneling;
-use crate::aero::viscous::{polars, Viscous, ViscousOptions};
+use crate::aero::viscous::{polars_around, Viscous, ViscousOptions};
 use crate::aero::Analysis;
 use crate::error::Result;
 use crate::geometry::{Naca, NacaOptions};
@@ -51,7 +53,8 @@ pub struct ViscousBenchReport {
     pub nodes: usize,
     /// Chord Reynolds number.
     pub re: f64,
-    /// Seconds for the whole population: paneling, factoring, every angle's Newton solve.
+    /// Seconds for the whole population: paneling, factoring, the centre's polar and every
+    /// angle's Newton solve.
     pub seconds: f64,
     /// Of which paneling and factoring the shapes.
     pub setup_seconds: f64,
@@ -70,13 +73,18 @@ pub struct ViscousBenchReport {
 /// The angles of the benchmark, degrees.
 pub const ANGLES: [f64; 11] = [-2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
 
+/// The population's centre: NACA 4412 at 161 points.
+fn centre() -> Result<Vec<glam::DVec2>> {
+    Naca::parse("4412")?.contour(&NacaOptions {
+        points: 161,
+        ..NacaOptions::default()
+    })
+}
+
 /// The population's coordinates: NACA 4412 at 161 points, `y` changed by
 /// `Σₖ aₖ sin(kπx) + x bₖ sin(kπx)` (k = 1…3), the coefficients uniform in ±0.002/3.
 pub fn shapes(population: usize, seed: u64) -> Result<Vec<Vec<glam::DVec2>>> {
-    let base = Naca::parse("4412")?.contour(&NacaOptions {
-        points: 161,
-        ..NacaOptions::default()
-    })?;
+    let base = centre()?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let amp = 0.002 / 3.0;
     Ok((0..population)
@@ -117,14 +125,16 @@ pub fn run(options: &ViscousBenchOptions) -> Result<ViscousBenchReport> {
     let pts = shapes(options.population, options.seed)?;
     let clock = Instant::now();
     let paneling = Paneling::with_nodes(options.nodes);
+    let body = |p: &[glam::DVec2]| Viscous::new(Analysis::of_points(p, &paneling)?.solution.nodes());
+    let centre = body(&centre()?)?;
     let bodies = {
         use rayon::prelude::*;
         pts.par_iter()
-            .map(|p| Viscous::new(Analysis::of_points(p, &paneling)?.solution.nodes()))
+            .map(|p| body(p))
             .collect::<Result<Vec<Viscous>>>()?
     };
     let setup_seconds = clock.elapsed().as_secs_f64();
-    let out = polars(&bodies, &ANGLES, &opts);
+    let (_, out) = polars_around(&centre, &bodies, &ANGLES, &opts);
     let seconds = clock.elapsed().as_secs_f64();
     let conv: Vec<_> = out.iter().flatten().filter(|p| p.converged).collect();
     let n = conv.len().max(1) as f64;

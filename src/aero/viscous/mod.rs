@@ -17,4 +17,4 @@ pub mod equations;
 pub mod newton;
 pub mod polar;
 
-pub use polar::{polars, Viscous, ViscousOptions, ViscousPoint, Warm};
+pub use polar::{polars, polars_around, Viscous, ViscousOptions, ViscousPoint, Warm};
