@@ -21,24 +21,34 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 
 def ours(binary, path, alphas, re):
+    """bezchain's converged points: (alpha, cl, cd, cm, xtr_top, xtr_bottom)."""
     out = subprocess.run(
         [binary, "aero", path, "--re", str(re), "--alpha", alphas, "--json", "-"],
         check=True, capture_output=True, text=True,
     ).stdout
     rows = [p for p in json.loads(out)["polar"] if p["converged"]]
-    return [(p["alpha"], p["cl"], p["cd"], p["cm"]) for p in rows]
+    return [(p["alpha"], p["cl"], p["cd"], p["cm"], p["xtr_top"], p["xtr_bottom"]) for p in rows]
 
 
 def xfoil(path, alphas, re):
+    """XFOIL's converged points (its polar file's rows): (alpha, cl, cd, cm, xtr_top,
+    xtr_bottom)."""
     start, stop, step = alphas.split(":")
     with tempfile.TemporaryDirectory() as d:
         with open(path) as src, open(os.path.join(d, "a.dat"), "w") as dst:
             dst.write(src.read())
         script = (f"LOAD a.dat\n\nPANE\nOPER\nVISC {re}\nITER 200\nPACC\npol.txt\n\n"
                   f"ASEQ {start} {stop} {step}\n\nQUIT\n")
-        subprocess.run(["xvfb-run", "-a", "xfoil"], input=script, cwd=d, text=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+        try:
+            # XFOIL can loop forever on a file it cannot panel: what it wrote by then counts.
+            subprocess.run(["xvfb-run", "-a", "xfoil"], input=script, cwd=d, text=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False,
+                           timeout=120)
+        except subprocess.TimeoutExpired:
+            subprocess.run(["pkill", "-f", "xfoil"], check=False)
         rows = []
+        if not os.path.exists(os.path.join(d, "pol.txt")):
+            return []
         with open(os.path.join(d, "pol.txt")) as f:
             for line in f:
                 words = line.split()
@@ -47,7 +57,7 @@ def xfoil(path, alphas, re):
                 except ValueError:
                     continue
                 if len(v) >= 7:
-                    rows.append((v[0], v[1], v[2], v[4]))
+                    rows.append((v[0], v[1], v[2], v[4], v[5], v[6]))
         return rows
 
 
