@@ -165,7 +165,7 @@ pub(crate) struct TrailingEdge {
 
 /// The unit tangent at the end of a polyline `p0, p1, p2` at `p0`, pointing away from `p1`:
 /// the derivative at `p0` of the parabola through the three points (chord-length spacing).
-fn end_tangent(p0: DVec2, p1: DVec2, p2: DVec2) -> DVec2 {
+pub(crate) fn end_tangent(p0: DVec2, p1: DVec2, p2: DVec2) -> DVec2 {
     let (h1, h2) = ((p1 - p0).length(), (p2 - p1).length());
     if h1 <= 0.0 || h2 <= 0.0 {
         return (p0 - p1).normalize_or_zero();
