@@ -21,7 +21,7 @@ pub struct Body {
     pub s: Vec<f64>,
     /// The chord in the same coordinates.
     pub chord: Chord,
-    /// The trailing-edge gap normal to the bisector (XFOIL's `ANTE`), unit chord.
+    /// The trailing-edge gap across the mean of the end tangents (XFOIL's `ANTE`), unit chord.
     pub gap: f64,
     /// The slope at which the blunt edge's gap opens along the wake: the tangent of the angle
     /// between the two end tangents, negative where the surfaces converge (XFOIL's `DWDXTE`).

@@ -289,7 +289,10 @@ impl Viscous {
     }
 
     /// The polar at `alphas` (degrees, any order; returned in the same order): continuation
-    /// outwards from the angle nearest zero, each point started from its converged neighbour.
+    /// outwards from the angle nearest zero, each point started from its converged neighbour;
+    /// then each point that failed without a converged neighbour's start (a first point that
+    /// failed from cold, and the cold starts after it) again from a neighbour that converged,
+    /// onwards from there.
     pub fn polar(&self, alphas: &[f64], opts: &ViscousOptions) -> Vec<ViscousPoint> {
         self.polar_solved(alphas, opts, None)
             .into_iter()
@@ -314,31 +317,62 @@ impl Viscous {
         else {
             return Vec::new();
         };
-        let from_near = |k: usize| {
+        let m = order.len();
+        // Per sorted position: the point, its solution, and the position its start came from.
+        type Slot = (ViscousPoint, Option<Warm>, Option<usize>);
+        let from_near = |pos: usize| {
+            let k = order[pos];
             let w = near.and_then(|n| n.get(k)).and_then(Option::as_ref)?;
             let solved = self.point(alphas[k], opts, Some(w));
             solved.0.converged.then_some(solved)
         };
-        let first = from_near(order[start]).unwrap_or_else(|| self.point(alphas[order[start]], opts, None));
-        let sweep = |idx: Vec<usize>| -> Vec<(usize, (ViscousPoint, Option<Warm>))> {
-            let mut warm = first.1.clone();
+        let (first, warm0) = from_near(start).unwrap_or_else(|| self.point(alphas[order[start]], opts, None));
+        let sweep = |idx: Vec<usize>| -> Vec<(usize, Slot)> {
+            let mut warm = warm0.clone().map(|w| (start, w));
             let mut out = Vec::new();
-            for k in idx {
-                let solved = from_near(k).unwrap_or_else(|| self.point_retry(alphas[k], opts, warm.as_ref()));
-                if solved.1.is_some() {
-                    warm.clone_from(&solved.1);
+            for pos in idx {
+                let from = warm.as_ref().map(|w| w.0);
+                let (p, w) = from_near(pos).unwrap_or_else(|| {
+                    self.point_retry(alphas[order[pos]], opts, warm.as_ref().map(|w| &w.1))
+                });
+                if let Some(w) = &w {
+                    warm = Some((pos, w.clone()));
                 }
-                out.push((k, solved));
+                out.push((pos, (p, w, from)));
             }
             out
         };
-        let up: Vec<usize> = order[start + 1..].to_vec();
-        let down: Vec<usize> = order[..start].iter().rev().copied().collect();
-        let (a, b) = rayon::join(|| sweep(up), || sweep(down));
+        let (a, b) = rayon::join(
+            || sweep((start + 1..m).collect()),
+            || sweep((0..start).rev().collect()),
+        );
+        let mut slots: Vec<Option<Slot>> = vec![None; m];
+        slots[start] = Some((first, warm0, None));
+        for (pos, slot) in a.into_iter().chain(b) {
+            slots[pos] = Some(slot);
+        }
+        let mut slots: Vec<Slot> = slots.into_iter().flatten().collect();
+        // Second chances, upwards then downwards, from a converged neighbour not tried yet.
+        let mut retry = |pos: usize, nb: usize| {
+            if slots[pos].0.converged || slots[pos].2 == Some(nb) {
+                return;
+            }
+            let Some(w) = slots[nb].1.clone() else { return };
+            let (p, w2) = self.point_retry(alphas[order[pos]], opts, Some(&w));
+            slots[pos].2 = Some(nb);
+            if p.converged {
+                (slots[pos].0, slots[pos].1) = (p, w2);
+            }
+        };
+        for pos in 1..m {
+            retry(pos, pos - 1);
+        }
+        for pos in (0..m.saturating_sub(1)).rev() {
+            retry(pos, pos + 1);
+        }
         let mut points: Vec<Option<(ViscousPoint, Option<Warm>)>> = vec![None; alphas.len()];
-        points[order[start]] = Some(first);
-        for (k, p) in a.into_iter().chain(b) {
-            points[k] = Some(p);
+        for (pos, slot) in slots.into_iter().enumerate() {
+            points[order[pos]] = Some((slot.0, slot.1));
         }
         points.into_iter().flatten().collect()
     }
@@ -410,10 +444,9 @@ mod tests {
 
     /// FX 77-W-270 (trailing-edge gap 0.042 chord) at Re 1e6: the polar from 0° to 4°
     /// converges at every angle. Pinned to XFOIL 6.99 (PANE, VISC 1e6, ASEQ from −2°): CD
-    /// 0.01301, 0.01406, 0.01455 at 0°, 2°, 4°, CL 0.4902, 0.7488, 1.0057. CD within 10 %;
-    /// CL within 0.05: bezchain's CL runs about 0.025 below XFOIL's on this file although its
-    /// inviscid CL is XFOIL's within 0.15 % (on PANE's nodes): the blunt edge's viscous
-    /// treatment is not yet XFOIL's.
+    /// 0.01301, 0.01406, 0.01455 at 0°, 2°, 4°, CL 0.4902, 0.7488, 1.0057. CD within 3 %, CL
+    /// within 0.005 (bezchain: 0.4893, 0.7469, 1.0039; CD 0.6 %, 1.8 %, 1.2 % high; CL was 0.024
+    /// low while the wake cells' stream function cut across the edge's lower node).
     #[test]
     fn a_blunt_trailing_edge_polar_converges() {
         let v = shipped("data/airfoils/regressions/fx77w270.dat");
@@ -423,10 +456,10 @@ mod tests {
             assert!(p.converged && p.failure.is_none(), "{p:?}");
             let (pcl, pcd) = (p.cl.unwrap(), p.cd.unwrap());
             assert!(
-                (pcd / cd - 1.0).abs() < 0.1,
+                (pcd / cd - 1.0).abs() < 0.03,
                 "CD {pcd} against XFOIL's {cd}: {p:?}"
             );
-            assert!((pcl - cl).abs() < 0.05, "CL {pcl} against XFOIL's {cl}: {p:?}");
+            assert!((pcl - cl).abs() < 0.005, "CL {pcl} against XFOIL's {cl}: {p:?}");
         }
     }
 
@@ -434,7 +467,18 @@ mod tests {
     /// same angle are the points its own polar finds by continuation.
     #[test]
     fn a_population_around_its_centre_has_the_polars_of_its_bodies() {
-        let shapes = crate::bench::viscous::shapes(3, 7).unwrap();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/airfoils/naca4412.dat");
+        let base = crate::geometry::read_curve(&path).unwrap().points;
+        // Thinner, thicker, and more cambered by up to 0.2 % of the chord.
+        let shapes: Vec<Vec<DVec2>> = [(0.998, 0.0), (1.002, 0.0), (1.0, 0.002)]
+            .iter()
+            .map(|&(f, c)| {
+                let bump = |x: f64| c * (std::f64::consts::PI * x).sin();
+                base.iter()
+                    .map(|p| DVec2::new(p.x, f * p.y + bump(p.x)))
+                    .collect()
+            })
+            .collect();
         let paneling = Paneling::default();
         let body = |p: &[DVec2]| {
             Viscous::new(
