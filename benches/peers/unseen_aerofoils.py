@@ -8,7 +8,7 @@ nodes, α −2…8° by continuation, both codes run now on the same files.
     cargo build --release
     python3 benches/peers/unseen_aerofoils.py [--files DIR]
 
-Prints one row per file against the bars of issue 30 (CL within 2 % of max(|CL|, 0.5), CD
+Prints one row per file against the viscous bars (CL within 2 % of max(|CL|, 0.5), CD
 within 5 % and median ≤ 2 %, CM within 0.005, transition within 0.03 chord, converged on at
 least 95 % of XFOIL's converged points) and the totals.
 """
