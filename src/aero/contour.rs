@@ -21,7 +21,7 @@
 use crate::chain::CurveChain;
 use crate::error::{Error, Result};
 pub use crate::geometry::SplineContour;
-use crate::geometry::{tridiagonal, Spline1};
+use crate::geometry::{locate, tridiagonal, Spline1};
 use glam::DVec2;
 
 /// A curve from the trailing edge round the leading edge back to the trailing edge.
@@ -60,21 +60,21 @@ impl Contour for SplineContour {
             s: t.iter().map(|u| u * self.length()).collect(),
             kappa: t.iter().map(|&u| self.curvature(u).abs()).collect(),
             t,
-            curvature: Box::new(|u| self.curvature(u).abs()),
+            exact: Some(Box::new(|u| self.curvature(u).abs())),
         }
     }
 }
 
 /// A contour sampled where the paneling measures its curvature: at every site the parameter
 /// `t`, the point, an increasing arclength-like parameter `s` (the panels' lengths are
-/// measured in it; XFOIL's spline parameter), the unsigned curvature with respect to `s`, and
-/// the curvature at any `t`.
+/// measured in it; XFOIL's spline parameter), the unsigned curvature with respect to `s`, and,
+/// where the contour knows it, its exact curvature at any `t` (else the sites' interpolated).
 pub struct Sites<'a> {
     t: Vec<f64>,
     p: Vec<DVec2>,
     s: Vec<f64>,
     kappa: Vec<f64>,
-    curvature: Box<dyn Fn(f64) -> f64 + 'a>,
+    exact: Option<Box<dyn Fn(f64) -> f64 + 'a>>,
 }
 
 /// Panel nodes of XFOIL's default paneling: 160 nodes.
@@ -175,27 +175,33 @@ impl<'a> Sites<'a> {
         }
         kappa[0] = kappa[1];
         kappa[n - 1] = kappa[n - 2];
-        let (tc, kc) = (t.clone(), kappa.clone());
         Sites {
             t,
             p,
             s,
             kappa,
-            curvature: Box::new(move |u| interpolate(&tc, &kc, u)),
+            exact: None,
         }
     }
 }
 
-/// The piecewise-linear interpolant of `(xs[i], ys[i])` at `x`, `xs` increasing.
+impl Sites<'_> {
+    /// The unsigned curvature at `t`: exact where the contour gives it, else linear between
+    /// the sites.
+    fn curvature(&self, t: f64) -> f64 {
+        match &self.exact {
+            Some(f) => f(t),
+            None => interpolate(&self.t, &self.kappa, t),
+        }
+    }
+}
+
+/// The piecewise-linear interpolant of `(xs[i], ys[i])` at `x`, `xs` increasing (clamped at the
+/// ends; a zero-length interval takes its first value).
 fn interpolate(xs: &[f64], ys: &[f64], x: f64) -> f64 {
-    let k = xs.partition_point(|&v| v <= x).clamp(1, xs.len() - 1);
-    let (x0, x1) = (xs[k - 1], xs[k]);
-    let u = if x1 > x0 {
-        ((x - x0) / (x1 - x0)).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    ys[k - 1] + u * (ys[k] - ys[k - 1])
+    let (k, u) = locate(xs, x);
+    let u = if u.is_finite() { u.clamp(0.0, 1.0) } else { 0.0 };
+    ys[k] + u * (ys[k + 1] - ys[k])
 }
 
 /// The parameter of the leading edge of `contour`: the point farthest from the trailing-edge
@@ -254,10 +260,10 @@ pub fn panel_params(contour: &dyn Contour, paneling: &Paneling) -> Result<Vec<f6
     let s_le = interpolate(&sites.t, &sites.s, t_le);
     let t_at = |s: f64| interpolate(&sites.s, &sites.t, s);
     let sbref = 0.5 * total;
-    let cvle = (sites.curvature)(t_le) * sbref;
+    let cvle = sites.curvature(t_le) * sbref;
     // The mean curvature at seven points within one leading-edge radius of the leading edge.
     let cvavg = (-3..=3)
-        .map(|k| (sites.curvature)(t_at(s_le + k as f64 / 3.0 * sbref / cvle.max(20.0))) * sbref)
+        .map(|k| sites.curvature(t_at(s_le + k as f64 / 3.0 * sbref / cvle.max(20.0))) * sbref)
         .sum::<f64>()
         / 7.0;
     let mut raw: Vec<f64> = sites.kappa.iter().map(|k| k * sbref).collect();

@@ -42,4 +42,4 @@ pub use scatter::{curve_scatter, section_scatter, Scatter};
 pub(crate) use section::twice_signed_area;
 pub use section::SectionShape;
 pub use spline::SplineContour;
-pub(crate) use spline::{tridiagonal, Spline1};
+pub(crate) use spline::{locate, tridiagonal, Spline1};

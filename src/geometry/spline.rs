@@ -72,7 +72,7 @@ impl Cubic {
 }
 
 /// The interval `k` holding `v` among the increasing knots `s`, and the local parameter there.
-fn locate(s: &[f64], v: f64) -> (usize, f64) {
+pub(crate) fn locate(s: &[f64], v: f64) -> (usize, f64) {
     let k = s.partition_point(|&x| x <= v).clamp(1, s.len() - 1) - 1;
     (k, (v - s[k]) / (s[k + 1] - s[k]))
 }
