@@ -14,6 +14,7 @@ JSON; XFOIL writes no row). The largest differences where both converged are pri
 import argparse
 import json
 import os
+import signal
 import subprocess
 import tempfile
 
@@ -39,13 +40,16 @@ def xfoil(path, alphas, re):
             dst.write(src.read())
         script = (f"LOAD a.dat\n\nPANE\nOPER\nVISC {re}\nITER 200\nPACC\npol.txt\n\n"
                   f"ASEQ {start} {stop} {step}\n\nQUIT\n")
+        # XFOIL can loop forever on a file it cannot panel: what it wrote by then counts. Its
+        # own process group is ended, not every XFOIL on the machine.
+        run = subprocess.Popen(["xvfb-run", "-a", "xfoil"], stdin=subprocess.PIPE, cwd=d, text=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               start_new_session=True)
         try:
-            # XFOIL can loop forever on a file it cannot panel: what it wrote by then counts.
-            subprocess.run(["xvfb-run", "-a", "xfoil"], input=script, cwd=d, text=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False,
-                           timeout=120)
+            run.communicate(script, timeout=120)
         except subprocess.TimeoutExpired:
-            subprocess.run(["pkill", "-f", "xfoil"], check=False)
+            os.killpg(run.pid, signal.SIGKILL)
+            run.wait()
         rows = []
         if not os.path.exists(os.path.join(d, "pol.txt")):
             return []
