@@ -34,6 +34,7 @@ pub mod export;
 pub mod fit;
 pub mod geometry;
 mod keyword;
+pub mod numeric;
 pub mod optim;
 pub mod problem;
 pub mod team;

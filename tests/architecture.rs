@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 /// The layers from the ground up; a module may use only modules of its own layer or below.
 const LAYERS: &[&[&str]] = &[
-    &["error", "keyword", "team"],
+    &["error", "keyword", "numeric", "team"],
     &["bezier", "geometry"],
     &["chain"],
     &["closest", "eval"],

@@ -31,6 +31,7 @@
 //! model unit.
 
 use crate::error::{Error, Result};
+use crate::numeric::atan2;
 use glam::DVec2;
 use nalgebra::{DMatrix, Dyn, LU};
 use std::f64::consts::PI;
@@ -216,6 +217,28 @@ pub(crate) struct PanelTerms {
     pub(crate) d_psig: f64,
 }
 
+/// The three integrals' gradients at the field point, in the panel's axes: the derivative of
+/// each along `n` is `c[0] (s · n) + c[1] (s × n)` with `s` the panel's unit direction.
+#[derive(Clone, Copy, Debug)]
+struct Gradients {
+    s: DVec2,
+    psis: [f64; 2],
+    psid: [f64; 2],
+    psig: [f64; 2],
+}
+
+impl Gradients {
+    /// The derivatives of `(psis, psid, psig)` along `n`.
+    fn along(&self, n: DVec2) -> [f64; 3] {
+        let (xn, yn) = (self.s.dot(n), self.s.perp_dot(n));
+        [
+            self.psis[0] * xn + self.psis[1] * yn,
+            self.psid[0] * xn + self.psid[1] * yn,
+            self.psig[0] * xn + self.psig[1] * yn,
+        ]
+    }
+}
+
 /// `ln r²`, with 0 for a field point on the node itself (its factors vanish there).
 #[inline]
 fn log_r2(r2: f64) -> f64 {
@@ -233,6 +256,15 @@ fn log_r2(r2: f64) -> f64 {
 /// velocity (`d_psig`) is taken without the cut, so that it holds in the wake behind a blunt
 /// trailing edge too.
 pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms {
+    let (mut terms, grad) = panel_terms_grad(f, a, b, n != DVec2::ZERO);
+    if let Some(g) = grad {
+        [terms.d_psis, terms.d_psid, terms.d_psig] = g.along(n);
+    }
+    terms
+}
+
+/// [`panel_terms`] without a direction: the integrals, and with `grad` their gradients.
+fn panel_terms_grad(f: DVec2, a: DVec2, b: DVec2, grad: bool) -> (PanelTerms, Option<Gradients>) {
     let d = b - a;
     let len = d.length();
     let s = d / len;
@@ -242,41 +274,43 @@ pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms 
     let yy = s.perp_dot(r1);
     let (rs1, rs2) = (r1.length_squared(), r2.length_squared());
     let (g1, g2) = (log_r2(rs1), log_r2(rs2));
-    let subtended = r1.perp_dot(r2).atan2(r1.dot(r2));
+    let subtended = atan2(r1.perp_dot(r2), r1.dot(r2));
     let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * subtended;
     let dx = x1 - x2;
     let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / dx;
-    let t1 = if rs1 > 0.0 { x1.atan2(yy) } else { 0.0 };
-    let t2 = if rs2 > 0.0 { x2.atan2(yy) } else { 0.0 };
+    let t1 = if rs1 > 0.0 { atan2(x1, yy) } else { 0.0 };
+    let t2 = if rs2 > 0.0 { atan2(x2, yy) } else { 0.0 };
     let psig = 0.5 * yy * (g1 - g2) + x2 * t2 - x1 * t1;
-    let mut terms = PanelTerms {
+    let terms = PanelTerms {
         psis,
         psid,
         psig,
         ..PanelTerms::default()
     };
-    if n != DVec2::ZERO {
-        // Field-point motion along n moves x1 and x2 alike.
-        let xn = s.dot(n);
-        let yn = s.perp_dot(n);
-        let (psx1, psx2, psyy) = (0.5 * g1, -0.5 * g2, subtended);
-        let pdx1 = ((x1 + x2) * psx1 + psis - x1 * g1 - psid) / dx;
-        let pdx2 = ((x1 + x2) * psx2 + psis + x2 * g2 + psid) / dx;
-        let pdyy = ((x1 + x2) * psyy - yy * (g1 - g2)) / dx;
-        terms.d_psis = (psx1 + psx2) * xn + psyy * yn;
-        terms.d_psid = (pdx1 + pdx2) * xn + pdyy * yn;
-        // The source's normal velocity is the angle the panel subtends, single-valued off
-        // the panel: in the strip on the panel's right, where the stream function's cut
-        // lies, `t2 − t1` is 2π short of it (on the panel itself it is −π, the left side's
-        // limit, as the stream function gives it).
-        let dt = if t2 - t1 < -PI {
-            t2 - t1 + 2.0 * PI
-        } else {
-            t2 - t1
-        };
-        terms.d_psig = dt * xn + 0.5 * (g1 - g2) * yn;
+    if !grad {
+        return (terms, None);
     }
-    terms
+    // Field-point motion along n moves x1 and x2 alike.
+    let (psx1, psx2, psyy) = (0.5 * g1, -0.5 * g2, subtended);
+    let pdx1 = ((x1 + x2) * psx1 + psis - x1 * g1 - psid) / dx;
+    let pdx2 = ((x1 + x2) * psx2 + psis + x2 * g2 + psid) / dx;
+    let pdyy = ((x1 + x2) * psyy - yy * (g1 - g2)) / dx;
+    // The source's normal velocity is the angle the panel subtends, single-valued off the
+    // panel: in the strip on the panel's right, where the stream function's cut lies,
+    // `t2 − t1` is 2π short of it (on the panel itself it is −π, the left side's limit, as
+    // the stream function gives it).
+    let dt = if t2 - t1 < -PI {
+        t2 - t1 + 2.0 * PI
+    } else {
+        t2 - t1
+    };
+    let grads = Gradients {
+        s,
+        psis: [psx1 + psx2, psyy],
+        psid: [pdx1 + pdx2, pdyy],
+        psig: [dt, 0.5 * (g1 - g2)],
+    };
+    (terms, Some(grads))
 }
 
 /// One equation of the system: the coefficients of the node `γ`s, of `Ψ₀`, and the free
@@ -290,35 +324,60 @@ struct Row {
 /// `Ψ` (or, with `n` non-zero, `∂Ψ/∂n`) at `f` as a row: vortex panels between consecutive
 /// nodes, then the trailing-edge panel from the last node to the first.
 pub(crate) fn influence(nodes: &[DVec2], te: &TrailingEdge, f: DVec2, n: DVec2) -> Vec<f64> {
+    let [row] = influences(nodes, te, f, [n]);
+    row.gamma
+}
+
+/// What the body's sheets give at a field point per unit strength.
+pub(crate) struct Influence {
+    /// Per node `γ` (the vortex sheet, the trailing-edge panel's share included).
+    pub gamma: Vec<f64>,
+    /// Per body panel `j → j + 1`, a uniform source's (times 2π).
+    pub sigma: Vec<f64>,
+}
+
+/// [`influence`] along several directions at once (each panel's integrals taken once): `Ψ`
+/// where a direction is zero, else `∂Ψ/∂n`; with the body panels' unit sources too.
+pub(crate) fn influences<const K: usize>(
+    nodes: &[DVec2],
+    te: &TrailingEdge,
+    f: DVec2,
+    dirs: [DVec2; K],
+) -> [Influence; K] {
     let m = nodes.len();
-    let derivative = n != DVec2::ZERO;
-    let mut row = vec![0.0; m];
+    let grad = dirs.iter().any(|&n| n != DVec2::ZERO);
+    let mut out: [Influence; K] = std::array::from_fn(|_| Influence {
+        gamma: vec![0.0; m],
+        sigma: vec![0.0; m - 1],
+    });
+    // (psis, psid, psig) or their derivatives along direction k.
+    let pick = |t: &PanelTerms, g: &Option<Gradients>, n: DVec2| match g {
+        Some(g) if n != DVec2::ZERO => g.along(n),
+        _ => [t.psis, t.psid, t.psig],
+    };
     for j in 0..m - 1 {
         if nodes[j] == nodes[j + 1] {
             continue;
         }
-        let t = panel_terms(f, nodes[j], nodes[j + 1], n);
-        let (s, d) = if derivative {
-            (t.d_psis, t.d_psid)
-        } else {
-            (t.psis, t.psid)
-        };
-        row[j] += QOPI * (s - d);
-        row[j + 1] += QOPI * (s + d);
+        let (t, g) = panel_terms_grad(f, nodes[j], nodes[j + 1], grad);
+        for (o, &n) in out.iter_mut().zip(&dirs) {
+            let [s, d, sig] = pick(&t, &g, n);
+            o.gamma[j] += QOPI * (s - d);
+            o.gamma[j + 1] += QOPI * (s + d);
+            o.sigma[j] = sig;
+        }
     }
     if !te.closed {
-        let t = panel_terms(f, nodes[m - 1], nodes[0], n);
-        let (sig, gam) = if derivative {
-            (t.d_psig, t.d_psis)
-        } else {
-            (t.psig, t.psis)
-        };
-        // σ = ½ scs (γ_first − γ_last), γ_te = −½ sds (γ_first − γ_last).
-        let w = HOPI * (0.5 * te.scs * sig - 0.5 * te.sds * gam);
-        row[0] += w;
-        row[m - 1] -= w;
+        let (t, g) = panel_terms_grad(f, nodes[m - 1], nodes[0], grad);
+        for (o, &n) in out.iter_mut().zip(&dirs) {
+            let [gam, _, sig] = pick(&t, &g, n);
+            // σ = ½ scs (γ_first − γ_last), γ_te = −½ sds (γ_first − γ_last).
+            let w = HOPI * (0.5 * te.scs * sig - 0.5 * te.sds * gam);
+            o.gamma[0] += w;
+            o.gamma[m - 1] -= w;
+        }
     }
-    row
+    out
 }
 
 /// The panel system on `local` nodes (unit chord): the matrix over the node `γ`s and `Ψ₀`

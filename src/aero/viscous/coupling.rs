@@ -7,9 +7,10 @@
 //! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
 
 use crate::aero::panel::{
-    end_tangent, influence, panel_terms, sharp_control, Chord, TrailingEdge, UnitSystem, HOPI,
+    end_tangent, influences, panel_terms, sharp_control, Chord, TrailingEdge, UnitSystem, HOPI,
 };
 use crate::error::{Error, Result};
+use crate::numeric::atan2;
 use glam::DVec2;
 use nalgebra::{DMatrix, Dyn, LU};
 
@@ -136,17 +137,12 @@ impl Body {
             .collect()
     }
 
-    /// The flow's velocity component along `t` at `f` (free stream plus the body's sheets).
-    fn speed_along(&self, gamma: &[f64], fs: DVec2, f: DVec2, t: DVec2) -> f64 {
-        let row = influence(&self.nodes, &self.te, f, t.perp());
-        fs.dot(t) + row.iter().zip(gamma).map(|(a, g)| a * g).sum::<f64>()
-    }
-
+    /// The flow's velocity at `f` (free stream plus the body's sheets): the component along
+    /// `t` is `∂Ψ/∂(t⊥)`.
     fn velocity(&self, gamma: &[f64], fs: DVec2, f: DVec2) -> DVec2 {
-        DVec2::new(
-            self.speed_along(gamma, fs, f, DVec2::X),
-            self.speed_along(gamma, fs, f, DVec2::Y),
-        )
+        let [vx, vy] = influences(&self.nodes, &self.te, f, [DVec2::X.perp(), DVec2::Y.perp()]);
+        let dot = |row: &[f64]| row.iter().zip(gamma).map(|(a, g)| a * g).sum::<f64>();
+        DVec2::new(fs.x + dot(&vx.gamma), fs.y + dot(&vy.gamma))
     }
 
     /// The wake at `alpha` degrees with `nw` nodes over one chord, and the edge speeds'
@@ -215,24 +211,38 @@ impl Body {
                 u_sigma[(i, n - 1 + k)] = -solw[(i, k)];
             }
         }
+        // The wake nodes' rows past the first: the sheets' response through the system (one
+        // product over all of them) and the sources' direct speeds.
         let mut uinv = gamma.clone();
-        for k in 0..nw {
-            if k == 0 {
-                // The first wake node takes the upper trailing edge's speed.
-                uinv.push(gamma[0]);
-                for p in 0..np {
-                    u_sigma[(n, p)] = u_sigma[(0, p)];
-                }
-                continue;
-            }
+        uinv.push(gamma[0]);
+        let mut rows = vec![0.0; (nw - 1) * n];
+        let mut direct = vec![0.0; (nw - 1) * np];
+        for k in 1..nw {
             let (f, t) = (pts[k], tan[k]);
-            let row = influence(&self.nodes, &self.te, f, t.perp());
-            uinv.push(fs.dot(t) + row.iter().zip(&gamma).map(|(a, g)| a * g).sum::<f64>());
+            let [at] = influences(&self.nodes, &self.te, f, [t.perp()]);
+            uinv.push(fs.dot(t) + at.gamma.iter().zip(&gamma).map(|(a, g)| a * g).sum::<f64>());
+            for j in 0..n {
+                rows[(k - 1) + j * (nw - 1)] = at.gamma[j];
+            }
             for p in 0..np {
-                let via_gamma: f64 = (0..n).map(|j| row[j] * u_sigma[(j, p)]).sum();
-                let (a, b) = panels[p];
-                let direct = HOPI * panel_terms(f, a, b, t.perp()).d_psig;
-                u_sigma[(n + k, p)] = via_gamma + direct;
+                direct[(k - 1) + p * (nw - 1)] = if p < n - 1 {
+                    HOPI * at.sigma[p]
+                } else {
+                    let (a, b) = panels[p];
+                    HOPI * panel_terms(f, a, b, t.perp()).d_psig
+                };
+            }
+        }
+        let body: Vec<f64> = (0..np)
+            .flat_map(|p| (0..n).map(move |j| (j, p)))
+            .map(|(j, p)| u_sigma[(j, p)])
+            .collect();
+        crate::numeric::gemm([nw - 1, n, np], 1.0, &rows, &body, 1.0, &mut direct);
+        for p in 0..np {
+            // The first wake node takes the upper trailing edge's speed.
+            u_sigma[(n, p)] = u_sigma[(0, p)];
+            for k in 1..nw {
+                u_sigma[(n + k, p)] = direct[(k - 1) + p * (nw - 1)];
             }
         }
         if u_sigma.iter().any(|v| !v.is_finite()) {
@@ -282,9 +292,9 @@ fn wake_psig(f: DVec2, a: DVec2, b: DVec2) -> f64 {
     let (x1, x2, yy) = (s.dot(r1), s.dot(r2), s.perp_dot(r1));
     let angle = |x: f64| {
         if yy >= 0.0 {
-            x.atan2(yy)
+            atan2(x, yy)
         } else {
-            (-x).atan2(-yy) - std::f64::consts::PI
+            atan2(-x, -yy) - std::f64::consts::PI
         }
     };
     let log_r2 = |r: DVec2| {
