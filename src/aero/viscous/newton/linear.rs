@@ -1,34 +1,112 @@
 //! The linear solve of one Newton step: block forward substitution through the boundary-layer
 //! partials `B`, then the dense Schur complement in `uₑ`, with the whole Jacobian factored
-//! densely as the fallback (the layout of the system: [`super`]).
+//! densely as the fallback (the layout of the system: [`super`]). The block factorisation is
+//! kept ([`Factored`]) so that later steps on the same layout can reuse it (chord steps).
 
 use super::{Partials, System};
+use crate::numeric::Lu;
 use nalgebra::{DMatrix, DVector};
 
+/// One unit of the forward substitution: a station, or a surface's first two stations together,
+/// with the LU factors of its diagonal block of `B` (`k = 3 · len` rows).
+struct Unit {
+    stations: [usize; 2],
+    len: usize,
+    /// Unit lower factor (below the diagonal), upper factor (on and above it).
+    l: [[f64; 6]; 6],
+    u: [[f64; 6]; 6],
+    /// The row permutation: factored row `r` is the unit's row `order[r]`.
+    order: [usize; 6],
+}
+
+impl Unit {
+    fn stations(&self) -> &[usize] {
+        &self.stations[..self.len]
+    }
+
+    /// The unit's global rows (3 per station), in its own order.
+    fn rows(&self) -> [usize; 6] {
+        let mut rows = [0; 6];
+        for (ui, row) in rows.iter_mut().enumerate().take(3 * self.len) {
+            *row = 3 * self.stations[ui / 3] + ui % 3;
+        }
+        rows
+    }
+
+    /// Divide the diagonal block out of `w`-wide rows held in `buf`, one per unit row in the
+    /// factored (permuted) order: forward through `l`, back through `u`.
+    fn divide(&self, buf: &mut [f64], w: usize) {
+        let k = 3 * self.len;
+        for i in 0..k {
+            let (head, tail) = buf.split_at_mut((i + 1) * w);
+            let bi = &head[i * w..];
+            for (r, br) in tail.chunks_mut(w).take(k - i - 1).enumerate() {
+                let f = self.l[i + 1 + r][i];
+                for (y, c) in br.iter_mut().zip(bi) {
+                    *y -= c * f;
+                }
+            }
+        }
+        for i in (0..k).rev() {
+            let (head, tail) = buf.split_at_mut(i * w);
+            let bi = &mut tail[..w];
+            for v in bi.iter_mut() {
+                *v /= self.u[i][i];
+            }
+            for (r, br) in head.chunks_mut(w).enumerate() {
+                let f = self.u[r][i];
+                for (y, c) in br.iter_mut().zip(bi.iter()) {
+                    *y -= c * f;
+                }
+            }
+        }
+    }
+}
+
+/// A Newton step's Jacobian, factored: `X = B⁻¹ C` by block forward substitution and the LU
+/// factors of the Schur complement `S` in `uₑ`. [`Factored::solve`] solves it for any residual.
+pub(super) struct Factored {
+    jac: Vec<Partials>,
+    units: Vec<Unit>,
+    /// Each station's unit, as an index into `units`.
+    unit_of: Vec<usize>,
+    /// `X`, compact: station `i`'s three rows over its span only, row `e` at
+    /// `x[off[i] + e·w..][..w]` with `w` the span's width.
+    x: Vec<f64>,
+    off: Vec<usize>,
+    span: Vec<(usize, usize)>,
+    s: Lu,
+    /// The edge speeds the Jacobian was taken at.
+    ue: Vec<f64>,
+}
+
 impl System<'_> {
-    /// Block forward substitution through `B`, then the dense Schur complement in `uₑ`.
+    /// Block forward substitution through `B`, then the dense Schur complement in `uₑ`,
+    /// factored; `None` where `B` is not block-triangular in marching order or a block is
+    /// singular.
     ///
     /// `X = B⁻¹ C` is kept row-major, each station's three rows only over the span of `uₑ`
     /// columns it can reach: the hull of its own `C` columns and the spans of the stations
     /// upstream of it (a surface station reaches its surface up to the stagnation point, the
     /// wake everything upstream), about a third of the dense block's entries.
-    pub(super) fn schur(&self, jac: &[Partials], r: &[f64]) -> Option<Vec<[f64; 4]>> {
+    pub(super) fn factor(&self, jac: Vec<Partials>) -> Result<Factored, Vec<Partials>> {
         let nt = self.u.len();
-        // Row 3i+e of X at x[(3i+e)·nt + j]; z = B⁻¹ r.
-        let mut x = vec![0.0; 3 * nt * nt];
-        let mut z = vec![0.0; 3 * nt];
+        let mut x: Vec<f64> = Vec::with_capacity(nt * nt);
+        let mut off = vec![0usize; nt];
         let mut span = vec![(0usize, 0usize); nt];
-        let mut done = vec![false; nt];
+        let mut unit_of = vec![usize::MAX; nt];
         // Units in dependency order: each surface's first two stations together.
-        let mut units: Vec<([usize; 2], usize)> = Vec::with_capacity(nt);
+        let mut order: Vec<([usize; 2], usize)> = Vec::with_capacity(nt);
         for s in 0..2 {
             let l = &self.surf[s];
-            units.push(([l[0], l[1]], 2));
-            units.extend(l[2..].iter().map(|&i| ([i, i], 1)));
+            order.push(([l[0], l[1]], 2));
+            order.extend(l[2..].iter().map(|&i| ([i, i], 1)));
         }
-        units.extend(self.surf[2].iter().map(|&i| ([i, i], 1)));
-        for &(stations, len) in &units {
+        order.extend(self.surf[2].iter().map(|&i| ([i, i], 1)));
+        let mut units = Vec::with_capacity(order.len());
+        for (ku, &(stations, len)) in order.iter().enumerate() {
             let unit = &stations[..len];
+            let done = |j: usize| unit_of[j] < ku;
             // The unit's span: its C columns and its done dependencies' spans.
             let (mut lo, mut hi) = (nt, 0);
             for &i in unit {
@@ -36,22 +114,24 @@ impl System<'_> {
                     if p.iter().any(|row| row[3] != 0.0) {
                         (lo, hi) = (lo.min(j), hi.max(j + 1));
                     }
-                    if !unit.contains(&j) && done[j] && span[j].0 < span[j].1 {
+                    if !unit.contains(&j) && done(j) && span[j].0 < span[j].1 {
                         (lo, hi) = (lo.min(span[j].0), hi.max(span[j].1));
                     }
                 }
             }
             let hi = hi.max(lo);
-            // The unit's rows of [X z] before B's diagonal block is divided out: C and r less
-            // the done stations' B entries times their solved rows.
+            let w = hi - lo;
+            // The unit's rows of X before B's diagonal block is divided out: C less the done
+            // stations' B entries times their solved rows.
             let mut a = [[0.0; 6]; 6];
             for &i in unit {
-                for e in 0..3 {
-                    z[3 * i + e] = r[3 * i + e];
-                }
+                off[i] = x.len();
+                x.resize(x.len() + 3 * w, 0.0);
                 for &(j, ref p) in &jac[i] {
                     for e in 0..3 {
-                        x[(3 * i + e) * nt + j] += p[e][3];
+                        if p[e][3] != 0.0 {
+                            x[off[i] + e * w + j - lo] += p[e][3];
+                        }
                     }
                 }
             }
@@ -63,116 +143,122 @@ impl System<'_> {
                                 a[3 * ui + e][3 * uj + q] += p[e][q];
                             }
                         }
-                    } else if done[j] {
+                    } else if done(j) {
                         let (jl, jh) = span[j];
+                        let wj = jh - jl;
+                        if wj == 0 {
+                            continue;
+                        }
+                        // j is done, so its rows lie before i's.
+                        let (done_rows, rows_i) = x.split_at_mut(off[i]);
                         for e in 0..3 {
+                            let dst = &mut rows_i[e * w + jl - lo..][..wj];
                             for q in 0..3 {
-                                let w = p[e][q];
-                                if w == 0.0 {
+                                let f = p[e][q];
+                                if f == 0.0 {
                                     continue;
                                 }
-                                z[3 * i + e] -= w * z[3 * j + q];
-                                if jl < jh {
-                                    let (src, dst) = rows2(&mut x, nt, 3 * j + q, 3 * i + e);
-                                    for (d, s) in dst[jl..jh].iter_mut().zip(&src[jl..jh]) {
-                                        *d -= w * s;
-                                    }
+                                let src = &done_rows[off[j] + q * wj..][..wj];
+                                for (d, s) in dst.iter_mut().zip(src) {
+                                    *d -= f * s;
                                 }
                             }
                         }
                     } else if p.iter().any(|row| row[..3].iter().any(|&w| w != 0.0)) {
                         // A station downstream in the order: B is not block-triangular here.
-                        return None;
+                        return Err(jac);
                     }
                     // Otherwise only its uₑ enters (the stagnation point): in C, not B.
                 }
             }
-            // B's diagonal block divided out by its LU factors, each column of [X z] taking the
-            // operations (and so the round-off) of nalgebra's dense LU solve.
+            // B's diagonal block, factored.
             let k = 3 * len;
             let lu = DMatrix::from_fn(k, k, |i, j| a[i][j]).lu();
             if !lu.is_invertible() {
-                return None;
+                return Err(jac);
             }
             let (l, u) = (lu.l(), lu.u());
-            let mut order = DVector::from_fn(k, |i, _| i as f64);
-            lu.p().permute_rows(&mut order);
-            let rows: Vec<usize> = (0..k).map(|ui| 3 * unit[ui / 3] + ui % 3).collect();
-            let w = hi - lo + 1;
-            let mut buf = vec![0.0; k * w];
-            for (r, b) in buf.chunks_mut(w).enumerate() {
-                let src = rows[order[r] as usize];
-                b[0] = z[src];
-                b[1..].copy_from_slice(&x[src * nt + lo..src * nt + hi]);
-            }
+            let mut perm = DVector::from_fn(k, |i, _| i as f64);
+            lu.p().permute_rows(&mut perm);
+            let mut unit = Unit {
+                stations,
+                len,
+                l: [[0.0; 6]; 6],
+                u: [[0.0; 6]; 6],
+                order: [0; 6],
+            };
             for i in 0..k {
-                let (head, tail) = buf.split_at_mut((i + 1) * w);
-                let bi = &head[i * w..];
-                for (r, br) in tail.chunks_mut(w).enumerate() {
-                    let f = l[(i + 1 + r, i)];
-                    for (y, c) in br.iter_mut().zip(bi) {
-                        *y -= c * f;
-                    }
+                unit.order[i] = perm[i] as usize;
+                for j in 0..k {
+                    unit.l[i][j] = l[(i, j)];
+                    unit.u[i][j] = u[(i, j)];
                 }
             }
-            for i in (0..k).rev() {
-                let (head, tail) = buf.split_at_mut(i * w);
-                let bi = &mut tail[..w];
-                for v in bi.iter_mut() {
-                    *v /= u[(i, i)];
+            // ... and divided out of the unit's rows of X.
+            // The unit's rows are consecutive in x, its own row r at base + r·w.
+            if w > 0 {
+                let base = off[stations[0]];
+                let mut buf = vec![0.0; k * w];
+                for (r, b) in buf.chunks_mut(w).enumerate() {
+                    b.copy_from_slice(&x[base + unit.order[r] * w..][..w]);
                 }
-                for (r, br) in head.chunks_mut(w).enumerate() {
-                    let f = u[(r, i)];
-                    for (y, c) in br.iter_mut().zip(bi.iter()) {
-                        *y -= c * f;
-                    }
-                }
+                unit.divide(&mut buf, w);
+                x[base..base + k * w].copy_from_slice(&buf);
             }
-            for (r, b) in buf.chunks(w).enumerate() {
-                let dst = rows[r];
-                z[dst] = b[0];
-                x[dst * nt + lo..dst * nt + hi].copy_from_slice(&b[1..]);
-            }
-            for &i in unit {
+            for &i in unit.stations() {
                 span[i] = (lo, hi);
-                done[i] = true;
+                unit_of[i] = ku;
             }
+            units.push(unit);
         }
-        // S = I − D (diag δ* − diag uₑ X_δ*), rhs = −q − D (uₑ ∘ z_δ*).
-        let mut m2 = DMatrix::<f64>::zeros(nt, nt);
-        let mut uz = DVector::<f64>::zeros(nt);
+        // S = I − D (diag δ* − diag uₑ X_δ*), column-major.
+        let mut m2 = vec![0.0; nt * nt];
         for i in 0..nt {
             let ue = self.u[i][3];
             let (lo, hi) = span[i];
-            let xr = &x[(3 * i + 1) * nt..(3 * i + 2) * nt];
-            for j in lo..hi {
-                m2[(i, j)] = -ue * xr[j];
+            let xr = &x[off[i] + (hi - lo)..][..hi - lo];
+            for (j, v) in (lo..hi).zip(xr) {
+                m2[i + j * nt] = -ue * v;
             }
-            m2[(i, i)] += self.u[i][1];
-            uz[i] = ue * z[3 * i + 1];
+            m2[i + i * nt] += self.u[i][1];
         }
-        let mut s = &self.d * m2;
-        s.neg_mut();
+        let mut s = vec![0.0; nt * nt];
+        crate::numeric::gemm([nt, nt, nt], -1.0, self.d.as_slice(), &m2, 0.0, &mut s);
         for i in 0..nt {
-            s[(i, i)] += 1.0;
+            s[i + i * nt] += 1.0;
         }
-        let q = DVector::from_iterator(nt, (0..nt).map(|i| r[3 * nt + i]));
-        let rhs = -q - &self.d * uz;
-        let du = s.lu().solve(&rhs)?;
-        let mut out = vec![[0.0; 4]; nt];
-        for i in 0..nt {
-            let (lo, hi) = span[i];
-            for e in 0..3 {
-                let xr = &x[(3 * i + e) * nt + lo..(3 * i + e) * nt + hi];
-                let mut v = -z[3 * i + e];
-                for (a, b) in xr.iter().zip(&du.as_slice()[lo..hi]) {
-                    v -= a * b;
+        let Some(s) = Lu::factor(nt, s) else {
+            return Err(jac);
+        };
+        Ok(Factored {
+            jac,
+            units,
+            unit_of,
+            x,
+            off,
+            span,
+            s,
+            ue: self.u.iter().map(|s| s[3]).collect(),
+        })
+    }
+
+    /// One Newton step's update by the block factorisation (kept, for later steps), else by
+    /// the dense fallback.
+    pub(super) fn solve_fresh(
+        &self,
+        jac: Vec<Partials>,
+        r: &[f64],
+    ) -> (Option<Factored>, Option<Vec<[f64; 4]>>) {
+        match self.factor(jac) {
+            Ok(f) => match f.solve(&self.d, r) {
+                Some(du) => (Some(f), Some(du)),
+                None => {
+                    let du = self.dense(&f.jac, r);
+                    (None, du)
                 }
-                out[i][e] = v;
-            }
-            out[i][3] = du[i];
+            },
+            Err(jac) => (None, self.dense(&jac, r)),
         }
-        out.iter().all(|o| o.iter().all(|v| v.is_finite())).then_some(out)
     }
 
     /// The whole Jacobian factored densely (the fallback).
@@ -205,14 +291,59 @@ impl System<'_> {
     }
 }
 
-/// Row `src` (shared) and row `dst` (mutable) of a row-major matrix with `nt` columns.
-fn rows2(x: &mut [f64], nt: usize, src: usize, dst: usize) -> (&[f64], &mut [f64]) {
-    debug_assert_ne!(src, dst);
-    if src < dst {
-        let (a, b) = x.split_at_mut(dst * nt);
-        (&a[src * nt..(src + 1) * nt], &mut b[..nt])
-    } else {
-        let (a, b) = x.split_at_mut(src * nt);
-        (&b[..nt], &mut a[dst * nt..(dst + 1) * nt])
+impl Factored {
+    /// The stations the factorisation was taken over.
+    pub(super) fn len(&self) -> usize {
+        self.ue.len()
+    }
+
+    /// The update `Δ[θ, δ*, s, uₑ]` per station for residual `r`: `z = B⁻¹ r` by the stored
+    /// forward substitution, `Δuₑ` from `S`, then `Δ(θ, δ*, s) = −z − X Δuₑ`.
+    pub(super) fn solve(&self, d: &DMatrix<f64>, r: &[f64]) -> Option<Vec<[f64; 4]>> {
+        let nt = self.len();
+        let mut z = r[..3 * nt].to_vec();
+        for (ku, unit) in self.units.iter().enumerate() {
+            for &i in unit.stations() {
+                for &(j, ref p) in &self.jac[i] {
+                    if self.unit_of[j] >= ku {
+                        continue;
+                    }
+                    for e in 0..3 {
+                        for q in 0..3 {
+                            z[3 * i + e] -= p[e][q] * z[3 * j + q];
+                        }
+                    }
+                }
+            }
+            let k = 3 * unit.len;
+            let rows = unit.rows();
+            let mut buf = [0.0; 6];
+            for r in 0..k {
+                buf[r] = z[rows[unit.order[r]]];
+            }
+            unit.divide(&mut buf[..k], 1);
+            for r in 0..k {
+                z[rows[r]] = buf[r];
+            }
+        }
+        // rhs = −q − D (uₑ ∘ z_δ*).
+        let uz = DVector::from_iterator(nt, (0..nt).map(|i| self.ue[i] * z[3 * i + 1]));
+        let q = DVector::from_iterator(nt, (0..nt).map(|i| r[3 * nt + i]));
+        let rhs = -q - d * uz;
+        let du = self.s.solve(rhs.as_slice())?;
+        let mut out = vec![[0.0; 4]; nt];
+        for i in 0..nt {
+            let (lo, hi) = self.span[i];
+            for e in 0..3 {
+                let xr = &self.x[self.off[i] + e * (hi - lo)..][..hi - lo];
+                let mut v = -z[3 * i + e];
+                for (a, b) in xr.iter().zip(&du[lo..hi]) {
+                    v -= a * b;
+                }
+                out[i][e] = v;
+            }
+            out[i][3] = du[i];
+        }
+        out.iter().all(|o| o.iter().all(|v| v.is_finite())).then_some(out)
     }
 }
