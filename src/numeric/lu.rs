@@ -4,8 +4,8 @@
 //! factored several times per operating point.
 
 /// Columns per block: the panel factorised column by column, then one matrix product for the
-/// rest.
-const BLOCK: usize = 32;
+/// rest (186 × 186: 0.17 ms at 16, 0.19 ms at 32, 0.38 ms unblocked, nalgebra's 0.36 ms).
+const BLOCK: usize = 16;
 
 /// `P A = L U` of a square matrix: `L` unit lower and `U` upper, packed together column-major;
 /// row `i` of `P A` is row `perm[i]` of `A`.

@@ -7,7 +7,7 @@
 //! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
 
 use crate::aero::panel::{
-    end_tangent, influences, panel_terms, sharp_control, Chord, TrailingEdge, UnitSystem, HOPI,
+    end_tangent, influences, panel_terms, sharp_control, Chord, Influence, TrailingEdge, UnitSystem, HOPI,
 };
 use crate::error::{Error, Result};
 use crate::numeric::atan2;
@@ -139,10 +139,15 @@ impl Body {
 
     /// The flow's velocity at `f` (free stream plus the body's sheets): the component along
     /// `t` is `∂Ψ/∂(t⊥)`.
-    fn velocity(&self, gamma: &[f64], fs: DVec2, f: DVec2) -> DVec2 {
-        let [vx, vy] = influences(&self.nodes, &self.te, f, [DVec2::X.perp(), DVec2::Y.perp()]);
+    /// The influences' rows of its two components come with it: the component along any `t`
+    /// is `t.x` times the first plus `t.y` times the second.
+    fn velocity(&self, gamma: &[f64], fs: DVec2, f: DVec2) -> (DVec2, [Influence; 2]) {
+        let rows = influences(&self.nodes, &self.te, f, [DVec2::X.perp(), DVec2::Y.perp()]);
         let dot = |row: &[f64]| row.iter().zip(gamma).map(|(a, g)| a * g).sum::<f64>();
-        DVec2::new(fs.x + dot(&vx.gamma), fs.y + dot(&vy.gamma))
+        (
+            DVec2::new(fs.x + dot(&rows[0].gamma), fs.y + dot(&rows[1].gamma)),
+            rows,
+        )
     }
 
     /// The wake at `alpha` degrees with `nw` nodes over one chord, and the edge speeds'
@@ -163,16 +168,21 @@ impl Body {
         };
         let mut pts = vec![te_mid + 1e-5 * dir];
         let mut tan = Vec::with_capacity(nw);
+        // The sheets' velocity rows at each node, for the node's own rows below.
+        let mut at = Vec::with_capacity(nw);
         for i in 0..nw - 1 {
-            let v1 = self.velocity(&gamma, fs, pts[i]).normalize_or_zero();
+            let (v1, rows) = self.velocity(&gamma, fs, pts[i]);
+            let v1 = v1.normalize_or_zero();
             let ds = sw[i + 1] - sw[i];
             let p = pts[i] + ds * v1;
-            let v2 = self.velocity(&gamma, fs, p).normalize_or_zero();
+            let v2 = self.velocity(&gamma, fs, p).0.normalize_or_zero();
             tan.push(v1);
+            at.push(rows);
             pts.push(pts[i] + ds * 0.5 * (v1 + v2));
         }
-        let last = self.velocity(&gamma, fs, pts[nw - 1]).normalize_or_zero();
-        tan.push(last);
+        let (last, rows) = self.velocity(&gamma, fs, pts[nw - 1]);
+        tan.push(last.normalize_or_zero());
+        at.push(rows);
         if pts.iter().any(|p| !p.is_finite()) || tan.contains(&DVec2::ZERO) {
             return Err(Error::Numerical("the wake streamline could not be traced".into()));
         }
@@ -219,14 +229,17 @@ impl Body {
         let mut direct = vec![0.0; (nw - 1) * np];
         for k in 1..nw {
             let (f, t) = (pts[k], tan[k]);
-            let [at] = influences(&self.nodes, &self.te, f, [t.perp()]);
-            uinv.push(fs.dot(t) + at.gamma.iter().zip(&gamma).map(|(a, g)| a * g).sum::<f64>());
-            for j in 0..n {
-                rows[(k - 1) + j * (nw - 1)] = at.gamma[j];
+            // Along the wake: t.x times the x row plus t.y times the y row.
+            let [ax, ay] = &at[k];
+            let along = |x: &[f64], y: &[f64], j: usize| t.x * x[j] + t.y * y[j];
+            let row: Vec<f64> = (0..n).map(|j| along(&ax.gamma, &ay.gamma, j)).collect();
+            uinv.push(fs.dot(t) + row.iter().zip(&gamma).map(|(a, g)| a * g).sum::<f64>());
+            for (j, v) in row.iter().enumerate() {
+                rows[(k - 1) + j * (nw - 1)] = *v;
             }
             for p in 0..np {
                 direct[(k - 1) + p * (nw - 1)] = if p < n - 1 {
-                    HOPI * at.sigma[p]
+                    HOPI * along(&ax.sigma, &ay.sigma, p)
                 } else {
                     let (a, b) = panels[p];
                     HOPI * panel_terms(f, a, b, t.perp()).d_psig

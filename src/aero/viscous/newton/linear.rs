@@ -7,6 +7,9 @@ use super::{Partials, System};
 use crate::numeric::Lu;
 use nalgebra::{DMatrix, DVector};
 
+/// Rows of `M` per band of the Schur complement's product.
+const BAND: usize = 32;
+
 /// One unit of the forward substitution: a station, or a surface's first two stations together,
 /// with the LU factors of its diagonal block of `B` (`k = 3 · len` rows).
 struct Unit {
@@ -211,21 +214,33 @@ impl System<'_> {
             }
             units.push(unit);
         }
-        // S = I − D (diag δ* − diag uₑ X_δ*), column-major.
-        let mut m2 = vec![0.0; nt * nt];
-        for i in 0..nt {
-            let ue = self.u[i][3];
-            let (lo, hi) = span[i];
-            let xr = &x[off[i] + (hi - lo)..][..hi - lo];
-            for (j, v) in (lo..hi).zip(xr) {
-                m2[i + j * nt] = -ue * v;
-            }
-            m2[i + i * nt] += self.u[i][1];
-        }
+        // S = I − D M with M = diag δ* − diag uₑ X_δ* (column-major), M taken in bands of
+        // rows over their spans' hull: a surface's rows reach back to the stagnation point
+        // only, so the bands skip about half of the dense product.
         let mut s = vec![0.0; nt * nt];
-        crate::numeric::gemm([nt, nt, nt], -1.0, self.d.as_slice(), &m2, 0.0, &mut s);
         for i in 0..nt {
-            s[i + i * nt] += 1.0;
+            s[i + i * nt] = 1.0;
+        }
+        let mut band = Vec::new();
+        for r0 in (0..nt).step_by(BAND) {
+            let r1 = (r0 + BAND).min(nt);
+            let (lo, hi) = (r0..r1).fold((nt, 0), |(lo, hi), i| {
+                (lo.min(span[i].0).min(i), hi.max(span[i].1).max(i + 1))
+            });
+            let (c, w) = (r1 - r0, hi - lo);
+            band.clear();
+            band.resize(c * w, 0.0);
+            for i in r0..r1 {
+                let (il, ih) = span[i];
+                let ue = self.u[i][3];
+                let xr = &x[off[i] + (ih - il)..][..ih - il];
+                for (j, v) in (il..ih).zip(xr) {
+                    band[(i - r0) + (j - lo) * c] = -ue * v;
+                }
+                band[(i - r0) + (i - lo) * c] += self.u[i][1];
+            }
+            let d = &self.d.as_slice()[r0 * nt..r1 * nt];
+            crate::numeric::gemm([nt, c, w], -1.0, d, &band, 1.0, &mut s[lo * nt..hi * nt]);
         }
         let Some(s) = Lu::factor(nt, s) else {
             return Err(jac);

@@ -118,8 +118,11 @@ impl std::fmt::Display for Stop {
     }
 }
 
-/// Residual norm (2-norm over all equations) taken as converged.
-const TOL: f64 = 1e-9;
+/// Residual norm (2-norm over all equations) taken as converged. The last steps converge
+/// quadratically, so the update after it is of this order too, far inside XFOIL's test (an RMS
+/// relative update under 1e-4); against 1e-9, the benchmark's mean CD moves by 3e-8 relative
+/// and a point takes a step fewer.
+const TOL: f64 = 1e-7;
 
 /// A Newton step's factored Jacobian is reused (a chord step) while each step cuts the residual
 /// norm at least this much; a slower step, a moved stagnation point or a flipped transition
