@@ -83,10 +83,13 @@ pub fn ret<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
 
 /// The kinetic-energy shape parameter `H* = θ* / θ`.
 pub fn hs<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
-    let hk = hk_limited(u, k);
+    hs_of(hk_limited(u, k), ret(u, f), k)
+}
+
+/// [`hs`] from the limited `Hk` and `Re_θ`.
+fn hs_of<const N: usize>(hk: D<N>, rt: D<N>, k: Kind) -> D<N> {
     if k.turb {
         let (hsmin, dhsinf) = (1.5, 0.015);
-        let rt = ret(u, f);
         let ho = if rt.v > 400.0 { 3.0 + 400.0 / rt } else { D::c(4.0) };
         let reb = rt.fmax(200.0);
         if hk.v < ho.v {
@@ -150,9 +153,12 @@ fn cf_laminar<const N: usize>(hk: D<N>, rt: D<N>) -> D<N> {
 
 /// The normalised slip velocity `Us`.
 pub fn us<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
-    let hsv = hs(u, k, f);
-    let hk = hk_limited(u, k);
-    let v = 0.5 * hsv * (1.0 - (hk - 1.0) / (GB * h(u)));
+    us_of(hs(u, k, f), hk_limited(u, k), h(u), k)
+}
+
+/// [`us`] from `H*`, the limited `Hk` and `H`.
+fn us_of<const N: usize>(hsv: D<N>, hk: D<N>, h: D<N>, k: Kind) -> D<N> {
+    let v = 0.5 * hsv * (1.0 - (hk - 1.0) / (GB * h));
     if !k.wake && v.v > 0.95 {
         D::c(0.98)
     } else {
@@ -162,15 +168,27 @@ pub fn us<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
 
 /// `√Cτ_eq`, the equilibrium shear stress.
 pub fn cteq<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
+    let hsv = hs(u, k, f);
+    cteq_of(
+        hsv,
+        us_of(hsv, hk_limited(u, k), h(u), k),
+        hk_limited(u, k),
+        h(u),
+        ret(u, f),
+        k,
+    )
+}
+
+/// [`cteq`] from `H*`, `Us`, the limited `Hk`, `H` and `Re_θ`.
+fn cteq_of<const N: usize>(hsv: D<N>, usv: D<N>, hk: D<N>, h: D<N>, rt: D<N>, k: Kind) -> D<N> {
     let cc = 0.5 / (GA * GA * GB);
-    let hk = hk_limited(u, k);
     let hkc = if k.wake {
         hk - 1.0
     } else {
-        (hk - 1.0 - GC / ret(u, f)).fmax(0.01)
+        (hk - 1.0 - GC / rt).fmax(0.01)
     };
-    let num = cc * hs(u, k, f) * (hk - 1.0) * hkc * hkc;
-    let den = (1.0 - us(u, k, f)) * h(u) * hk * hk;
+    let num = cc * hsv * (hk - 1.0) * hkc * hkc;
+    let den = (1.0 - usv) * h * hk * hk;
     (num / den).sqrt()
 }
 
@@ -182,41 +200,48 @@ pub fn cttr<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
 
 /// The boundary-layer thickness `δ` of the shear-lag equation.
 pub fn de<const N: usize>(u: &Du<N>, k: Kind) -> D<N> {
-    let hk = hk_limited(u, k);
+    de_of(u, hk_limited(u, k))
+}
+
+fn de_of<const N: usize>(u: &Du<N>, hk: D<N>) -> D<N> {
     (u[0] * (3.15 + 1.72 / (hk - 1.0)) + u[1]).min(12.0 * u[0])
 }
 
-fn cdi_lam<const N: usize>(u: &Du<N>, f: &Fluid) -> D<N> {
-    let hk = h(u);
+/// The laminar dissipation from `H` and `Re_θ`.
+fn cdi_lam<const N: usize>(hk: D<N>, rt: D<N>) -> D<N> {
     let num = if hk.v < 4.0 {
         0.00205 * (4.0 - hk).powf(5.5) + 0.207
     } else {
         let a = hk - 4.0;
         -0.0016 * a * a / (1.0 + 0.02 * a * a) + 0.207
     };
-    num / ret(u, f)
+    num / rt
 }
 
 /// The dissipation function `2 CD / H*`.
 pub fn cdi<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
+    Station::new(u, k, f).cdi
+}
+
+/// [`cdi`] from the station's other closures (`cft`: the turbulent `Cf` at the limited `Hk`;
+/// on the wall that limit is 1.05, as [`cdi`]'s own).
+fn cdi_of<const N: usize>(u: &Du<N>, s: &Station<N>, cft: D<N>, k: Kind) -> D<N> {
     if !k.turb {
-        return cdi_lam(u, f);
+        return cdi_lam(s.h, s.rt);
     }
-    let hsv = hs(u, k, f);
-    let usv = us(u, k, f);
-    let rt = ret(u, f);
+    let (hsv, usv, rt) = (s.hs, s.us, s.rt);
     let mut d = D::c(0.0);
     let lam = if k.wake {
-        let hk = hk_limited(u, k);
-        let hs_lam = hs(u, Kind::LAMINAR, f);
+        let hk = s.hk;
+        let hs_lam = hs_of(s.h.fmax(1.05), rt, Kind::LAMINAR);
         2.0 * 1.1 * (1.0 - 1.0 / hk).powi(2) / hk / (hs_lam * rt)
     } else {
-        let hk = h(u);
+        let hk = s.h;
         let lr = rt.ln();
         let hmin = 1.0 + 2.1 / lr;
         let fac = 0.5 + 0.5 * ((hk - 1.0) / (hmin - 1.0)).tanh();
-        d = d + cf_turbulent(hk.fmax(1.05), rt) * usv / hsv * fac;
-        cdi_lam(u, f)
+        d = d + cft * usv / hsv * fac;
+        cdi_lam(s.h, rt)
     };
     d = d + u[2] * u[2] * (0.995 - usv) * 2.0 / hsv;
     d = d + 0.15 * (0.995 - usv).powi(2) * 2.0 / (hsv * rt);
@@ -225,6 +250,66 @@ pub fn cdi<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
         2.0 * d
     } else {
         d
+    }
+}
+
+/// A station's closures, each taken once: the interval equations read most of them at both
+/// ends, some twice, and [`cdi`], [`cteq`] and [`us`] each take [`hs`] again. The same
+/// operations as the functions above, so the same values. `us`, `cteq` and `de` are only
+/// taken for a turbulent kind (zero otherwise).
+pub struct Station<const N: usize> {
+    /// `H`.
+    pub h: D<N>,
+    /// The limited `Hk` ([`hk_limited`]).
+    pub hk: D<N>,
+    /// `Re_θ`.
+    pub rt: D<N>,
+    /// `H*`.
+    pub hs: D<N>,
+    /// `Us`.
+    pub us: D<N>,
+    /// `Cf`.
+    pub cf: D<N>,
+    /// `2 CD / H*`.
+    pub cdi: D<N>,
+    /// `√Cτ_eq`.
+    pub cteq: D<N>,
+    /// `δ`.
+    pub de: D<N>,
+}
+
+impl<const N: usize> Station<N> {
+    /// The closures of state `u` for kind `k`.
+    pub fn new(u: &Du<N>, k: Kind, f: &Fluid) -> Station<N> {
+        let (h, hk, rt) = (h(u), hk_limited(u, k), ret(u, f));
+        let hs = hs_of(hk, rt, k);
+        let mut s = Station {
+            h,
+            hk,
+            rt,
+            hs,
+            us: D::c(0.0),
+            cf: D::c(0.0),
+            cdi: D::c(0.0),
+            cteq: D::c(0.0),
+            de: D::c(0.0),
+        };
+        let mut cft = D::c(0.0);
+        s.cf = if k.wake {
+            D::c(0.0)
+        } else if k.turb {
+            cft = cf_turbulent(hk, rt);
+            cft.max(cf_laminar(hk, rt))
+        } else {
+            cf_laminar(hk, rt)
+        };
+        if k.turb {
+            s.us = us_of(hs, hk, h, k);
+            s.cteq = cteq_of(hs, s.us, hk, h, rt, k);
+            s.de = de_of(u, hk);
+        }
+        s.cdi = cdi_of(u, &s, cft, k);
+        s
     }
 }
 

@@ -11,8 +11,7 @@ pub type State = [f64; 4];
 
 /// The upwinding weight of the second station (½: trapezoidal, 1: backward Euler), large
 /// where `Hk` changes fast.
-fn upwind_weight<const N: usize>(u1: &Du<N>, u2: &Du<N>, k: Kind) -> D<N> {
-    let (hk1, hk2) = (c::h(u1), c::h(u2));
+fn upwind_weight<const N: usize>(hk1: D<N>, hk2: D<N>, k: Kind) -> D<N> {
     let huc = if k.wake { 1.0 } else { 5.0 } / (hk2 * hk2);
     let la = ((hk2 - 1.0) / (hk1 - 1.0)).abs().ln();
     let hls = (la * la).fmin(15.0);
@@ -61,8 +60,8 @@ pub fn interval_d<const N: usize>(
         (x[1] / x[0]).ln(),
         x[1] - x[0],
     );
-    let (hs1, hs2) = (c::hs(&u1, k, fl), c::hs(&u2, k, fl));
-    let mut hslog = (hs2 / hs1).ln();
+    let (s1, s2) = (c::Station::new(&u1, k, fl), c::Station::new(&u2, k, fl));
+    let mut hslog = (s2.hs / s1.hs).ln();
     if simi {
         thlog = D::c(0.0);
         hslog = D::c(0.0);
@@ -70,20 +69,20 @@ pub fn interval_d<const N: usize>(
         xlog = D::c(1.0);
         dx = 0.5 * (x[0] + x[1]);
     }
-    let upw = upwind_weight(&u1, &u2, k);
-    let hav = 0.5 * (c::h(&u1) + c::h(&u2));
+    let upw = upwind_weight(s1.h, s2.h, k);
+    let hav = 0.5 * (s1.h + s2.h);
     let hw = 0.5 * (wgap[0] / u1[0] + wgap[1] / u2[0]);
 
     let lag = if k.turb {
         let salog = (u2[2] / u1[2]).ln();
-        let dea = 0.5 * (c::de(&u1, k) + c::de(&u2, k));
-        let usa = 0.5 * (c::us(&u1, k, fl) + c::us(&u2, k, fl));
-        let hka = mix(upw, c::h(&u1), c::h(&u2));
-        let rta = 0.5 * (c::ret(&u1, fl) + c::ret(&u2, fl));
-        let cfa = mix(upw, c::cf(&u1, k, fl), c::cf(&u2, k, fl));
+        let dea = 0.5 * (s1.de + s2.de);
+        let usa = 0.5 * (s1.us + s2.us);
+        let hka = mix(upw, s1.h, s2.h);
+        let rta = 0.5 * (s1.rt + s2.rt);
+        let cfa = mix(upw, s1.cf, s2.cf);
         let dsa = 0.5 * (u1[1] + u2[1]);
         let uq = c::uq(dsa, cfa, hka, rta, k);
-        let cteq = mix(upw, c::cteq(&u1, k, fl), c::cteq(&u2, k, fl));
+        let cteq = mix(upw, s1.cteq, s2.cteq);
         let saa = mix(upw, u1[2], u2[2]);
         let clag = c::SLAG_K / c::GB / (1.0 + usa);
         let ald = if k.wake { c::DLR } else { 1.0 };
@@ -94,20 +93,15 @@ pub fn interval_d<const N: usize>(
         u2[2] - u1[2] - c::damp_interval(&u1, &u2, fl) * dx
     };
 
-    let cfxt = |u: &Du<N>, x: D<N>| c::cf(u, k, fl) * x / u[0];
-    let (cfxt1, cfxt2) = (cfxt(&u1, x[0]), cfxt(&u2, x[1]));
+    let (cfxt1, cfxt2) = (s1.cf * x[0] / u1[0], s2.cf * x[1] / u2[0]);
     // The midpoint's Cf from the ends' mean Hk and Re_θ (XFOIL's BLMID).
-    let hka = 0.5 * (c::hk_limited(&u1, k) + c::hk_limited(&u2, k));
-    let rta = 0.5 * (c::ret(&u1, fl) + c::ret(&u2, fl));
+    let hka = 0.5 * (s1.hk + s2.hk);
+    let rta = 0.5 * (s1.rt + s2.rt);
     let cfxtm = c::cf_of(hka, rta, k) * 0.5 * (x[0] + x[1]) / um0;
     let cfxt_mom = 0.25 * cfxt1 + 0.5 * cfxtm + 0.25 * cfxt2;
     let mom = thlog + (2.0 + hav + hw) * uelog - 0.5 * xlog * cfxt_mom;
 
-    let cdixt = mix(
-        upw,
-        c::cdi(&u1, k, fl) * x[0] / u1[0],
-        c::cdi(&u2, k, fl) * x[1] / u2[0],
-    );
+    let cdixt = mix(upw, s1.cdi * x[0] / u1[0], s2.cdi * x[1] / u2[0]);
     let cfxtu = mix(upw, cfxt1, cfxt2);
     let shape = hslog + (1.0 - hav - hw) * uelog + xlog * (0.5 * cfxtu - cdixt);
     [mom, shape, lag]
