@@ -212,13 +212,17 @@ impl Body {
             .lu
             .solve(&bw)
             .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
-        let mut u_sigma = DMatrix::<f64>::zeros(n + nw, np);
-        for i in 0..n {
-            for p in 0..n - 1 {
-                u_sigma[(i, p)] = self.g_body[(i, p)];
-            }
-            for k in 0..nw {
-                u_sigma[(i, n - 1 + k)] = -solw[(i, k)];
+        // The body rows (column-major, n × np): the body panels' response, then the wake cells'.
+        let mut body = vec![0.0; n * np];
+        for p in 0..n - 1 {
+            body[p * n..(p + 1) * n].copy_from_slice(&self.g_body.as_slice()[p * n..(p + 1) * n]);
+        }
+        for k in 0..nw {
+            for (b, s) in body[(n - 1 + k) * n..(n + k) * n]
+                .iter_mut()
+                .zip(solw.column(k).iter())
+            {
+                *b = -s;
             }
         }
         // The wake nodes' rows past the first: the sheets' response through the system (one
@@ -246,18 +250,17 @@ impl Body {
                 };
             }
         }
-        let body: Vec<f64> = (0..np)
-            .flat_map(|p| (0..n).map(move |j| (j, p)))
-            .map(|(j, p)| u_sigma[(j, p)])
-            .collect();
         crate::numeric::gemm([nw - 1, n, np], 1.0, &rows, &body, 1.0, &mut direct);
-        for p in 0..np {
-            // The first wake node takes the upper trailing edge's speed.
-            u_sigma[(n, p)] = u_sigma[(0, p)];
-            for k in 1..nw {
-                u_sigma[(n + k, p)] = direct[(k - 1) + p * (nw - 1)];
+        let u_sigma = DMatrix::from_fn(n + nw, np, |i, p| {
+            if i < n {
+                body[i + p * n]
+            } else if i == n {
+                // The first wake node takes the upper trailing edge's speed.
+                body[p * n]
+            } else {
+                direct[(i - n - 1) + p * (nw - 1)]
             }
-        }
+        });
         if u_sigma.iter().any(|v| !v.is_finite()) {
             return Err(Error::Numerical(
                 "the wake's source response is not finite".into(),
