@@ -255,26 +255,22 @@ fn cdi_of<const N: usize>(u: &Du<N>, s: &Station<N>, cft: D<N>, k: Kind) -> D<N>
 
 /// A station's closures, each taken once: the interval equations read most of them at both
 /// ends, some twice, and [`cdi`], [`cteq`] and [`us`] each take [`hs`] again. The same
-/// operations as the functions above, so the same values. `us`, `cteq` and `de` are only
-/// taken for a turbulent kind (zero otherwise).
+/// operations as the functions above, so the same values: `h` is `H`, `hk` the limited `Hk`
+/// ([`hk_limited`]), `rt` `Re_θ`, `hs` `H*`, `us` `Us`, `cf` `Cf`, `cdi` `2 CD / H*`, `cteq`
+/// `√Cτ_eq` and `de` `δ`; `us`, `cteq` and `de` are only taken for a turbulent kind (zero
+/// otherwise).
 pub struct Station<const N: usize> {
-    /// `H`.
+    // The state's own parameters.
     pub h: D<N>,
-    /// The limited `Hk` ([`hk_limited`]).
     pub hk: D<N>,
-    /// `Re_θ`.
     pub rt: D<N>,
-    /// `H*`.
+    // The shape and friction closures.
     pub hs: D<N>,
-    /// `Us`.
     pub us: D<N>,
-    /// `Cf`.
     pub cf: D<N>,
-    /// `2 CD / H*`.
+    // The dissipation and the shear-lag closures.
     pub cdi: D<N>,
-    /// `√Cτ_eq`.
     pub cteq: D<N>,
-    /// `δ`.
     pub de: D<N>,
 }
 
