@@ -4,10 +4,11 @@
 use super::closures::Fluid;
 use super::coupling::Body;
 use super::equations::State;
-use super::newton::System;
+use super::newton::{Factored, System};
 use crate::error::{Error, Result};
 use glam::DVec2;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The operating point and solver settings of a viscous analysis.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -120,6 +121,9 @@ pub struct Warm {
     alpha: f64,
     u: Vec<State>,
     turb: Vec<bool>,
+    /// The solve's last factored Jacobian: a chord step's matrix for the first step of a
+    /// solve started here.
+    jacobian: Option<Arc<Factored>>,
 }
 
 impl Warm {
@@ -194,6 +198,7 @@ impl Viscous {
             Err(e) => return (failed(0, e.to_string()), None),
         };
         sys.exact = exact;
+        sys.jacobian = warm.and_then(|w| w.jacobian.clone());
         // The start kept for a second try (its wake and coupling are not built again).
         let start = sys.clone();
         let mut out = sys.solve(opts.max_iter);
@@ -228,6 +233,7 @@ impl Viscous {
             alpha,
             u: sys.u.clone(),
             turb: sys.turb.clone(),
+            jacobian: sys.jacobian.take(),
         };
         (point, Some(warm))
     }

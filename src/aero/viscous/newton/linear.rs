@@ -12,6 +12,7 @@ const BAND: usize = 32;
 
 /// One unit of the forward substitution: a station, or a surface's first two stations together,
 /// with the LU factors of its diagonal block of `B` (`k = 3 · len` rows).
+#[derive(Debug)]
 struct Unit {
     stations: [usize; 2],
     len: usize,
@@ -68,7 +69,8 @@ impl Unit {
 
 /// A Newton step's Jacobian, factored: `X = B⁻¹ C` by block forward substitution and the LU
 /// factors of the Schur complement `S` in `uₑ`. [`Factored::solve`] solves it for any residual.
-pub(super) struct Factored {
+#[derive(Debug)]
+pub struct Factored {
     jac: Vec<Partials>,
     units: Vec<Unit>,
     /// Each station's unit, as an index into `units`.
@@ -81,6 +83,9 @@ pub(super) struct Factored {
     s: Lu,
     /// The edge speeds the Jacobian was taken at.
     ue: Vec<f64>,
+    /// The layout it was taken on: the stagnation nodes and the turbulent stations.
+    istag: [usize; 2],
+    turb: Vec<bool>,
 }
 
 impl System<'_> {
@@ -254,6 +259,8 @@ impl System<'_> {
             span,
             s,
             ue: self.u.iter().map(|s| s[3]).collect(),
+            istag: self.istag,
+            turb: self.turb.clone(),
         })
     }
 
@@ -310,6 +317,12 @@ impl Factored {
     /// The stations the factorisation was taken over.
     pub(super) fn len(&self) -> usize {
         self.ue.len()
+    }
+
+    /// Whether it was taken on `sys`'s layout (the same stations, stagnation nodes and
+    /// turbulent stations), so that it can stand for `sys`'s Jacobian in a chord step.
+    pub(super) fn fits(&self, sys: &System<'_>) -> bool {
+        self.len() == sys.u.len() && self.istag == sys.istag && self.turb == sys.turb
     }
 
     /// The update `Δ[θ, δ*, s, uₑ]` per station for residual `r`: `z = B⁻¹ r` by the stored

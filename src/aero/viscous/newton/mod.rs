@@ -19,8 +19,9 @@ use super::closures::{self as c, Du, Fluid, Kind};
 use super::coupling::{ue_of_mass, Body, Wake};
 use super::dual::{lift, D};
 use super::equations::{self as eq, State};
-use linear::Factored;
+pub use linear::Factored;
 use nalgebra::{DMatrix, DVector};
+use std::sync::Arc;
 
 mod linear;
 
@@ -63,6 +64,10 @@ pub struct System<'a> {
     /// Exact partials where [`System::partials_exact`] gives them (the default); `false`:
     /// forward differences everywhere, as a last try for a point the exact Newton loses.
     pub exact: bool,
+    /// A factored Jacobian: before a solve, a start's (a nearby solution's: the first step is
+    /// a chord step on it when its layout is this system's); after a converged solve, the
+    /// last one the solve used.
+    pub jacobian: Option<Arc<Factored>>,
 }
 
 /// A row block's partials: per station it depends on, ∂R/∂(θ, δ*, s, uₑ) of its three equations.
@@ -166,6 +171,7 @@ impl<'a> System<'a> {
             surf: [Vec::new(), Vec::new(), Vec::new()],
             rows: Vec::new(),
             exact: true,
+            jacobian: None,
             istag: [j - 1, j],
             sgn,
             n,
@@ -931,8 +937,9 @@ impl<'a> System<'a> {
 
     fn newton(&mut self, max_iter: usize, hold_above: f64) -> Outcome {
         let mut hist: Vec<f64> = Vec::with_capacity(max_iter);
-        // The last factored Jacobian, while the layout it was taken on holds.
-        let mut kept: Option<Factored> = None;
+        // The last factored Jacobian, while the layout it was taken on holds (at first a
+        // start's).
+        let mut kept: Option<Arc<Factored>> = self.jacobian.take().filter(|f| f.fits(self));
         for it in 0..max_iter {
             let r = self.residual();
             let rn = norm(&r);
@@ -943,6 +950,7 @@ impl<'a> System<'a> {
                 };
             }
             if rn < TOL {
+                self.jacobian = kept;
                 return Outcome {
                     iterations: it,
                     stop: Stop::Converged,
@@ -964,7 +972,7 @@ impl<'a> System<'a> {
                 Some(du) => Some(du),
                 None => {
                     let (f, du) = self.step(&r);
-                    kept = f;
+                    kept = f.map(Arc::new);
                     du
                 }
             };
