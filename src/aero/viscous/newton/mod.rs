@@ -1184,6 +1184,40 @@ mod tests {
         Body::new(a.solution.nodes()).unwrap()
     }
 
+    /// A solve started from a neighbour's solution converges to the same point with the
+    /// neighbour's factorisation as its first chord matrix as without it, and hands its own
+    /// on; a factorisation taken on another layout is not used.
+    #[test]
+    fn a_carried_factorisation_changes_the_path_not_the_solution() {
+        let b = body("data/naca4413.dat");
+        let fl = Fluid { re: 1e6, ncrit: 9.0 };
+        let mut first = System::new(&b, 2.0, fl, [1.0; 2], None).unwrap();
+        assert!(first.solve(80).converged());
+        let carried = first
+            .jacobian
+            .clone()
+            .expect("a converged solve keeps its factorisation");
+        assert!(carried.fits(&first));
+        let solve = |jacobian: Option<Arc<Factored>>| {
+            let mut sys = System::new(&b, 3.0, fl, [1.0; 2], Some((&first.u, &first.turb))).unwrap();
+            sys.jacobian = jacobian;
+            let out = sys.solve(80);
+            assert!(out.converged(), "{}", out.stop);
+            let f = sys.forces(3.0);
+            (f.cl, f.cd, sys.jacobian.is_some())
+        };
+        let (cl0, cd0, _) = solve(None);
+        let (cl1, cd1, kept) = solve(Some(carried.clone()));
+        assert!(kept);
+        assert!(
+            (cl1 - cl0).abs() < 1e-6 && ((cd1 - cd0) / cd0).abs() < 1e-5,
+            "CL {cl0} {cl1}, CD {cd0} {cd1}"
+        );
+        // Another layout: a cold start at 8° moves the stagnation point and transition.
+        let other = System::new(&b, 8.0, fl, [1.0; 2], None).unwrap();
+        assert!(!carried.fits(&other));
+    }
+
     /// Every row block whose partials come from dual numbers (laminar, turbulent and wake
     /// intervals) agrees with central differences of its residuals, at the marched start and
     /// at the converged solution.
