@@ -241,7 +241,7 @@ impl Gradients {
 
 /// `ln r²`, with 0 for a field point on the node itself (its factors vanish there).
 #[inline]
-fn log_r2(r2: f64) -> f64 {
+pub(crate) fn log_r2(r2: f64) -> f64 {
     if r2 > 0.0 {
         r2.ln()
     } else {

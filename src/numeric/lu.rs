@@ -101,12 +101,6 @@ impl Lu {
         Some(Lu { n, a, perm })
     }
 
-    /// The order of the matrix.
-    #[must_use]
-    pub fn order(&self) -> usize {
-        self.n
-    }
-
     /// Solve `A x = b`; `None` when the solution is not finite.
     #[must_use]
     pub fn solve(&self, b: &[f64]) -> Option<Vec<f64>> {

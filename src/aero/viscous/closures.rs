@@ -120,12 +120,19 @@ pub fn cf<const N: usize>(u: &Du<N>, k: Kind, f: &Fluid) -> D<N> {
 /// [`cf`] from the kinematic shape parameter and `Re_θ` (the interval's midpoint value takes
 /// the ends' means of the two, XFOIL's `BLMID`).
 pub fn cf_of<const N: usize>(hk: D<N>, rt: D<N>, k: Kind) -> D<N> {
+    cf_parts(hk, rt, k).0
+}
+
+/// [`cf_of`], and on a turbulent wall the turbulent formula's own value (which [`cdi`] reads
+/// too; zero elsewhere).
+fn cf_parts<const N: usize>(hk: D<N>, rt: D<N>, k: Kind) -> (D<N>, D<N>) {
     if k.wake {
-        D::c(0.0)
+        (D::c(0.0), D::c(0.0))
     } else if k.turb {
-        cf_turbulent(hk, rt).max(cf_laminar(hk, rt))
+        let cft = cf_turbulent(hk, rt);
+        (cft.max(cf_laminar(hk, rt)), cft)
     } else {
-        cf_laminar(hk, rt)
+        (cf_laminar(hk, rt), D::c(0.0))
     }
 }
 
@@ -279,25 +286,17 @@ impl<const N: usize> Station<N> {
     pub fn new(u: &Du<N>, k: Kind, f: &Fluid) -> Station<N> {
         let (h, hk, rt) = (h(u), hk_limited(u, k), ret(u, f));
         let hs = hs_of(hk, rt, k);
+        let (cf, cft) = cf_parts(hk, rt, k);
         let mut s = Station {
             h,
             hk,
             rt,
             hs,
             us: D::c(0.0),
-            cf: D::c(0.0),
+            cf,
             cdi: D::c(0.0),
             cteq: D::c(0.0),
             de: D::c(0.0),
-        };
-        let mut cft = D::c(0.0);
-        s.cf = if k.wake {
-            D::c(0.0)
-        } else if k.turb {
-            cft = cf_turbulent(hk, rt);
-            cft.max(cf_laminar(hk, rt))
-        } else {
-            cf_laminar(hk, rt)
         };
         if k.turb {
             s.us = us_of(hs, hk, h, k);

@@ -7,7 +7,8 @@
 //! node sits on a cell's end. Everything is in unit-chord coordinates centred on the mid-chord.
 
 use crate::aero::panel::{
-    end_tangent, influences, panel_terms, sharp_control, Chord, Influence, TrailingEdge, UnitSystem, HOPI,
+    end_tangent, influences, log_r2, panel_terms, sharp_control, Chord, Influence, TrailingEdge, UnitSystem,
+    HOPI,
 };
 use crate::error::{Error, Result};
 use crate::numeric::atan2;
@@ -137,10 +138,9 @@ impl Body {
             .collect()
     }
 
-    /// The flow's velocity at `f` (free stream plus the body's sheets): the component along
-    /// `t` is `∂Ψ/∂(t⊥)`.
-    /// The influences' rows of its two components come with it: the component along any `t`
-    /// is `t.x` times the first plus `t.y` times the second.
+    /// The flow's velocity at `f` (free stream plus the body's sheets; the component along
+    /// `t` is `∂Ψ/∂(t⊥)`), with the influences' rows of its two components: the sheets' speed
+    /// along any `t` is `t.x` times the first row's plus `t.y` times the second's.
     fn velocity(&self, gamma: &[f64], fs: DVec2, f: DVec2) -> (DVec2, [Influence; 2]) {
         let rows = influences(&self.nodes, &self.te, f, [DVec2::X.perp(), DVec2::Y.perp()]);
         let dot = |row: &[f64]| row.iter().zip(gamma).map(|(a, g)| a * g).sum::<f64>();
@@ -314,15 +314,7 @@ fn wake_psig(f: DVec2, a: DVec2, b: DVec2) -> f64 {
             atan2(-x, -yy) - std::f64::consts::PI
         }
     };
-    let log_r2 = |r: DVec2| {
-        let r2 = r.length_squared();
-        if r2 > 0.0 {
-            r2.ln()
-        } else {
-            0.0
-        }
-    };
-    0.5 * yy * (log_r2(r1) - log_r2(r2)) + x2 * angle(x2) - x1 * angle(x1)
+    0.5 * yy * (log_r2(r1.length_squared()) - log_r2(r2.length_squared())) + x2 * angle(x2) - x1 * angle(x1)
 }
 
 /// The sources from the mass defects `m = uₑ δ*` at every station (body nodes then wake nodes),

@@ -90,10 +90,10 @@ pub struct Factored {
 
 impl System<'_> {
     /// Block forward substitution through `B`, then the dense Schur complement in `uₑ`,
-    /// factored; `None` where `B` is not block-triangular in marching order or a block is
-    /// singular.
+    /// factored; the partials handed back where `B` is not block-triangular in marching order
+    /// or a block (or `S`) is singular.
     ///
-    /// `X = B⁻¹ C` is kept row-major, each station's three rows only over the span of `uₑ`
+    /// `X = B⁻¹ C` is kept row by row, each station's three rows only over the span of `uₑ`
     /// columns it can reach: the hull of its own `C` columns and the spans of the stations
     /// upstream of it (a surface station reaches its surface up to the stagnation point, the
     /// wake everything upstream), about a third of the dense block's entries.

@@ -10,10 +10,10 @@
 //! `F = I − D diag(δ*)` dense. `B` is eliminated by block forward substitution and the dense
 //! Schur complement in `uₑ` (stations × stations) is factored ([`crate::numeric::Lu`]); a full
 //! dense factorisation is the fallback when a block of `B` is singular. The factorisation is
-//! kept for chord steps while they converge fast enough ([`CHORD_RATE`]). Partials of the interval equations (laminar,
-//! turbulent, wake: all rows but a few) are exact, by dual numbers through the closures
-//! ([`super::dual`]); the similarity, transition and wake-start rows take forward differences of
-//! the station functions (relative step 1e-7).
+//! kept for chord steps while they converge fast enough ([`CHORD_RATE`]). Partials of the
+//! interval equations (laminar, turbulent, wake: all rows but a few) are exact, by dual numbers
+//! through the closures ([`super::dual`]); the similarity, transition and wake-start rows take
+//! forward differences of the station functions (relative step 1e-7).
 
 use super::closures::{self as c, Du, Fluid, Kind};
 use super::coupling::{ue_of_mass, Body, Wake};
