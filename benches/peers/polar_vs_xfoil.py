@@ -21,24 +21,25 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def ours(binary, path, alphas, re):
+def ours(binary, path, alphas, re, panels=160):
     """bezchain's converged points: (alpha, cl, cd, cm, xtr_top, xtr_bottom)."""
     out = subprocess.run(
-        [binary, "aero", path, "--re", str(re), "--alpha", alphas, "--json", "-"],
+        [binary, "aero", path, "--re", str(re), "--alpha", alphas, "--panels", str(panels), "--json", "-"],
         check=True, capture_output=True, text=True,
     ).stdout
     rows = [p for p in json.loads(out)["polar"] if p["converged"]]
     return [(p["alpha"], p["cl"], p["cd"], p["cm"], p["xtr_top"], p["xtr_bottom"]) for p in rows]
 
 
-def xfoil(path, alphas, re):
+def xfoil(path, alphas, re, panels=160):
     """XFOIL's converged points (its polar file's rows): (alpha, cl, cd, cm, xtr_top,
-    xtr_bottom)."""
+    xtr_bottom). `panels`: PANE's node count (PPAR N)."""
     start, stop, step = alphas.split(":")
     with tempfile.TemporaryDirectory() as d:
         with open(path) as src, open(os.path.join(d, "a.dat"), "w") as dst:
             dst.write(src.read())
-        script = (f"LOAD a.dat\n\nPANE\nOPER\nVISC {re}\nITER 200\nPACC\npol.txt\n\n"
+        pane = "PANE" if panels == 160 else f"PPAR\nN {panels}\n\n"
+        script = (f"LOAD a.dat\n\n{pane}\nOPER\nVISC {re}\nITER 200\nPACC\npol.txt\n\n"
                   f"ASEQ {start} {stop} {step}\n\nQUIT\n")
         # XFOIL can loop forever on a file it cannot panel: what it wrote by then counts. Its
         # own process group is ended, not every XFOIL on the machine.

@@ -48,6 +48,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--files", help="a folder holding the .dat files (default: fetch the wheel)")
     ap.add_argument("--bezchain", default=os.path.join(ROOT, "target", "release", "bezchain"))
+    ap.add_argument("--panels", type=int, default=160,
+                    help="panel nodes for both codes (XFOIL's PPAR N; default 160, PANE's)")
+    ap.add_argument("--only", help="a comma-separated subset of the file names (without .dat)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as work:
         folder = a.files or fetch(work)
@@ -55,10 +58,10 @@ def main():
         print("|---|---|---|---|---|---|---|---|")
         tot_x = tot_both = 0
         cds = []
-        for name in NAMES:
+        for name in (a.only.split(",") if a.only else NAMES):
             path = os.path.join(folder, name + ".dat")
-            x = xfoil(path, "-2:8:1", "1e6")
-            b = {round(p[0], 3): p for p in ours(a.bezchain, path, "-2:8:1", "1e6")}
+            x = xfoil(path, "-2:8:1", "1e6", a.panels)
+            b = {round(p[0], 3): p for p in ours(a.bezchain, path, "-2:8:1", "1e6", a.panels)}
             both = [(b[round(q[0], 3)], q) for q in x if round(q[0], 3) in b]
             tot_x += len(x)
             tot_both += len(both)

@@ -263,23 +263,68 @@ pub(crate) fn panel_terms(f: DVec2, a: DVec2, b: DVec2, n: DVec2) -> PanelTerms 
     terms
 }
 
+/// A field point seen from a panel `a → b`, in the panel's axes (`s` along it): `x` along it
+/// from each end to the point, `yy` off it (positive on the left), the squared distances and
+/// their logarithms ([`log_r2`]), the angles `atan2(x, yy)` from the normal to each end (0 at
+/// the end itself) and the angle the panel subtends.
+struct Seen {
+    s: DVec2,
+    x1: f64,
+    x2: f64,
+    yy: f64,
+    rs1: f64,
+    rs2: f64,
+    g1: f64,
+    g2: f64,
+    t1: f64,
+    t2: f64,
+    subtended: f64,
+}
+
+fn seen(f: DVec2, a: DVec2, b: DVec2) -> Seen {
+    let d = b - a;
+    let s = d / d.length();
+    let (r1, r2) = (f - a, f - b);
+    let (x1, x2, yy) = (s.dot(r1), s.dot(r2), s.perp_dot(r1));
+    let (rs1, rs2) = (r1.length_squared(), r2.length_squared());
+    Seen {
+        s,
+        x1,
+        x2,
+        yy,
+        rs1,
+        rs2,
+        g1: log_r2(rs1),
+        g2: log_r2(rs2),
+        t1: if rs1 > 0.0 { atan2(x1, yy) } else { 0.0 },
+        t2: if rs2 > 0.0 { atan2(x2, yy) } else { 0.0 },
+        subtended: atan2(r1.perp_dot(r2), r1.dot(r2)),
+    }
+}
+
 /// [`panel_terms`] without a direction: the integrals, and with `grad` their gradients.
 fn panel_terms_grad(f: DVec2, a: DVec2, b: DVec2, grad: bool) -> (PanelTerms, Option<Gradients>) {
-    let d = b - a;
-    let len = d.length();
-    let s = d / len;
-    let (r1, r2) = (f - a, f - b);
-    let x1 = s.dot(r1);
-    let x2 = s.dot(r2);
-    let yy = s.perp_dot(r1);
-    let (rs1, rs2) = (r1.length_squared(), r2.length_squared());
-    let (g1, g2) = (log_r2(rs1), log_r2(rs2));
-    let subtended = atan2(r1.perp_dot(r2), r1.dot(r2));
+    terms_of(&seen(f, a, b), grad)
+}
+
+/// [`panel_terms_grad`] from the panel's view of the point.
+fn terms_of(v: &Seen, grad: bool) -> (PanelTerms, Option<Gradients>) {
+    let Seen {
+        s,
+        x1,
+        x2,
+        yy,
+        rs1,
+        rs2,
+        g1,
+        g2,
+        t1,
+        t2,
+        subtended,
+    } = *v;
     let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * subtended;
     let dx = x1 - x2;
     let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / dx;
-    let t1 = if rs1 > 0.0 { atan2(x1, yy) } else { 0.0 };
-    let t2 = if rs2 > 0.0 { atan2(x2, yy) } else { 0.0 };
     let psig = 0.5 * yy * (g1 - g2) + x2 * t2 - x1 * t1;
     let terms = PanelTerms {
         psis,
@@ -313,42 +358,121 @@ fn panel_terms_grad(f: DVec2, a: DVec2, b: DVec2, grad: bool) -> (PanelTerms, Op
     (terms, Some(grads))
 }
 
+/// The body's source unknowns for `n` nodes (XFOIL's, in `PSILIN`): the density at each
+/// panel's midpoint (`0..n − 1`) and at each node (`n − 1..2n − 1`), varying linearly over
+/// each half-panel between them.
+pub(crate) fn body_sources(n: usize) -> usize {
+    2 * n - 1
+}
+
+/// One end of a linearly varying source segment seen from the field point: `x` along the
+/// segment, `r²`, `ln r²` and the angle `atan2(x, yy)`.
+#[derive(Clone, Copy)]
+struct End {
+    x: f64,
+    rs: f64,
+    g: f64,
+    t: f64,
+}
+
+/// The stream function (times 4π) of a source on a segment from end `a` to end `b` (`a.x >
+/// b.x`), per unit density at `a` and per unit density at `b`, linear between: `−∫ σ θ dξ`,
+/// whose uniform part is [`PanelTerms::psig`]'s and whose linear part comes from
+/// `∫ x atan(x/y) dx = ½ r² atan(x/y) − ½ x y`.
+fn segment_psi(a: End, b: End, yy: f64) -> [f64; 2] {
+    let psum = 0.5 * yy * (a.g - b.g) + b.x * b.t - a.x * a.t;
+    let pdif = ((a.x + b.x) * psum + a.rs * a.t - b.rs * b.t + (b.x - a.x) * yy) / (a.x - b.x);
+    [psum - pdif, psum + pdif]
+}
+
+/// The same segment's velocity (times 2π) per unit density at each end, as `(along, off)`
+/// components in the segment's axes: `∫ σ (x, y) / r² dx` with `σ = c0 + c1 x`, from the
+/// logarithms and the subtended angle `theta`, so single-valued where the stream function has
+/// its cut.
+fn segment_velocity(a: End, b: End, yy: f64, theta: f64) -> [[f64; 2]; 2] {
+    let len = a.x - b.x;
+    let lg = 0.5 * (a.g - b.g);
+    let v = |c0: f64, c1: f64| [c0 * lg + c1 * (len - yy * theta), c0 * theta + c1 * yy * lg];
+    // Unit density at a (x = a.x), none at b; and the reverse.
+    [v(-b.x / len, 1.0 / len), v(a.x / len, -1.0 / len)]
+}
+
+/// A body panel's two half-panel sources at the point `v` sees: per unit density at its first
+/// node, its midpoint and its second node, the stream function (`n` zero) or its derivative
+/// along `n` (as [`panel_terms`]' `d_psig`), both times 2π as [`PanelTerms::psig`] is taken.
+fn half_panels(v: &Seen, n: DVec2) -> [f64; 3] {
+    let x0 = 0.5 * (v.x1 + v.x2);
+    let rs0 = x0 * x0 + v.yy * v.yy;
+    let e1 = End {
+        x: v.x1,
+        rs: v.rs1,
+        g: v.g1,
+        t: v.t1,
+    };
+    let e2 = End {
+        x: v.x2,
+        rs: v.rs2,
+        g: v.g2,
+        t: v.t2,
+    };
+    let mut e0 = End {
+        x: x0,
+        rs: rs0,
+        g: log_r2(rs0),
+        t: 0.0,
+    };
+    if n == DVec2::ZERO {
+        e0.t = atan2(x0, v.yy);
+        let [p1, p0] = segment_psi(e1, e0, v.yy);
+        let [q0, q2] = segment_psi(e0, e2, v.yy);
+        return [0.5 * p1, 0.5 * (p0 + q0), 0.5 * q2];
+    }
+    let th1 = atan2(v.yy * (v.x1 - x0), v.x1 * x0 + v.yy * v.yy);
+    let [u1, u0] = segment_velocity(e1, e0, v.yy, th1);
+    let [w0, w2] = segment_velocity(e0, e2, v.yy, v.subtended - th1);
+    // ∂ψ/∂n is the velocity along n turned a quarter clockwise: (along)(s × n) − (off)(s · n).
+    let (xn, yn) = (v.s.dot(n), v.s.perp_dot(n));
+    let d = |c: [f64; 2]| c[0] * yn - c[1] * xn;
+    [d(u1), d(u0) + d(w0), d(w2)]
+}
+
 /// One equation of the system: the coefficients of the node `γ`s, of `Ψ₀`, and the free
 /// stream's part at α = 0° and 90° (moved to the right-hand side).
 struct Row {
     gamma: Vec<f64>,
+    sigma: Vec<f64>,
     psi0: f64,
     rhs: [f64; 2],
-}
-
-/// `Ψ` (or, with `n` non-zero, `∂Ψ/∂n`) at `f` as a row: vortex panels between consecutive
-/// nodes, then the trailing-edge panel from the last node to the first.
-pub(crate) fn influence(nodes: &[DVec2], te: &TrailingEdge, f: DVec2, n: DVec2) -> Vec<f64> {
-    let [row] = influences(nodes, te, f, [n]);
-    row.gamma
 }
 
 /// What the body's sheets give at a field point per unit strength.
 pub(crate) struct Influence {
     /// Per node `γ` (the vortex sheet, the trailing-edge panel's share included).
     pub gamma: Vec<f64>,
-    /// Per body panel `j → j + 1`, a uniform source's (times 2π).
+    /// Per body source unknown ([`body_sources`]; empty unless asked for), times 2π.
     pub sigma: Vec<f64>,
 }
 
-/// [`influence`] along several directions at once (each panel's integrals taken once): `Ψ`
-/// where a direction is zero, else `∂Ψ/∂n`; with the body panels' unit sources too.
+/// `Ψ` (or, with a direction `n` non-zero, `∂Ψ/∂n`) at `f` as rows, along several directions
+/// at once (each panel's integrals taken once): vortex panels between consecutive nodes, then
+/// the trailing-edge panel from the last node to the first; with `sources`, the body's
+/// sources' too.
 pub(crate) fn influences<const K: usize>(
     nodes: &[DVec2],
     te: &TrailingEdge,
     f: DVec2,
     dirs: [DVec2; K],
+    sources: bool,
 ) -> [Influence; K] {
     let m = nodes.len();
     let grad = dirs.iter().any(|&n| n != DVec2::ZERO);
     let mut out: [Influence; K] = std::array::from_fn(|_| Influence {
         gamma: vec![0.0; m],
-        sigma: vec![0.0; m - 1],
+        sigma: if sources {
+            vec![0.0; body_sources(m)]
+        } else {
+            Vec::new()
+        },
     });
     // (psis, psid, psig) or their derivatives along direction k.
     let pick = |t: &PanelTerms, g: &Option<Gradients>, n: DVec2| match g {
@@ -359,12 +483,18 @@ pub(crate) fn influences<const K: usize>(
         if nodes[j] == nodes[j + 1] {
             continue;
         }
-        let (t, g) = panel_terms_grad(f, nodes[j], nodes[j + 1], grad);
+        let v = seen(f, nodes[j], nodes[j + 1]);
+        let (t, g) = terms_of(&v, grad);
         for (o, &n) in out.iter_mut().zip(&dirs) {
-            let [s, d, sig] = pick(&t, &g, n);
+            let [s, d, _] = pick(&t, &g, n);
             o.gamma[j] += QOPI * (s - d);
             o.gamma[j + 1] += QOPI * (s + d);
-            o.sigma[j] = sig;
+            if sources {
+                let [first, mid, second] = half_panels(&v, n);
+                o.sigma[m - 1 + j] += first;
+                o.sigma[j] += mid;
+                o.sigma[m + j] += second;
+            }
         }
     }
     if !te.closed {
@@ -381,27 +511,37 @@ pub(crate) fn influences<const K: usize>(
 }
 
 /// The panel system on `local` nodes (unit chord): the matrix over the node `γ`s and `Ψ₀`
-/// (the last row the Kutta condition) and the right-hand sides at α = 0° and 90°.
-pub(crate) fn system(local: &[DVec2], te: &TrailingEdge) -> (DMatrix<f64>, DMatrix<f64>) {
+/// (the last row the Kutta condition), the right-hand sides at α = 0° and 90°, and with
+/// `sources` the stream function (the bisector row: the velocity) per unit of each body source
+/// unknown ([`body_sources`]; the Kutta row zero), else an empty matrix.
+pub(crate) fn system(
+    local: &[DVec2],
+    te: &TrailingEdge,
+    sources: bool,
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
     let m = local.len();
-    let mut rows: Vec<Row> = local
+    let row = |f: DVec2, n: DVec2, psi0: f64, rhs: [f64; 2]| {
+        let [Influence { gamma, sigma }] = influences(local, te, f, [n], sources);
+        Row {
+            gamma,
+            sigma,
+            psi0,
+            rhs,
+        }
+    };
+    let sharp = sharp_control(local, te);
+    let rows: Vec<Row> = local
         .iter()
-        .map(|&p| Row {
-            gamma: influence(local, te, p, DVec2::ZERO),
-            psi0: -1.0,
-            rhs: [-p.y, p.x],
+        .enumerate()
+        .map(|(i, &p)| match sharp {
+            // Zero velocity along the bisector just inside the trailing edge.
+            Some((f, n)) if i == m - 1 => row(f, n, 0.0, [-te.bisector.x, -te.bisector.y]),
+            _ => row(p, DVec2::ZERO, -1.0, [-p.y, p.x]),
         })
         .collect();
-    if let Some((f, n)) = sharp_control(local, te) {
-        // Zero velocity along the bisector just inside the trailing edge.
-        rows[m - 1] = Row {
-            gamma: influence(local, te, f, n),
-            psi0: 0.0,
-            rhs: [-te.bisector.x, -te.bisector.y],
-        };
-    }
     let mut a = DMatrix::<f64>::zeros(m + 1, m + 1);
     let mut b = DMatrix::<f64>::zeros(m + 1, 2);
+    let mut src = DMatrix::<f64>::zeros(if sources { m + 1 } else { 0 }, rows[0].sigma.len());
     for (i, r) in rows.iter().enumerate() {
         for j in 0..m {
             a[(i, j)] = r.gamma[j];
@@ -409,11 +549,14 @@ pub(crate) fn system(local: &[DVec2], te: &TrailingEdge) -> (DMatrix<f64>, DMatr
         a[(i, m)] = r.psi0;
         b[(i, 0)] = r.rhs[0];
         b[(i, 1)] = r.rhs[1];
+        for (p, v) in r.sigma.iter().enumerate() {
+            src[(i, p)] = HOPI * v;
+        }
     }
     // Kutta: γ_first + γ_last = 0.
     a[(m, 0)] = 1.0;
     a[(m, m - 1)] = 1.0;
-    (a, b)
+    (a, b, src)
 }
 
 /// The control point and its direction of the sharp trailing edge's row (the last node's),
@@ -443,12 +586,15 @@ pub(crate) struct UnitSystem {
     pub lu: LU<f64, Dyn, Dyn>,
     /// Node speeds (per unit free stream) at α = 0° and 90°.
     pub gamma: [Vec<f64>; 2],
+    /// The body sources' right-hand sides ([`system`]'s third matrix; empty unless asked for).
+    pub sources: DMatrix<f64>,
 }
 
 impl UnitSystem {
     /// Scale `nodes` (counterclockwise from the upper trailing edge, any units) to unit chord,
-    /// build and factor the system, and solve it for α = 0° and 90°.
-    pub(crate) fn solve(nodes: &[DVec2]) -> Result<UnitSystem> {
+    /// build and factor the system, and solve it for α = 0° and 90°; with `sources`, keep the
+    /// body sources' right-hand sides.
+    pub(crate) fn solve(nodes: &[DVec2], sources: bool) -> Result<UnitSystem> {
         let chord = Chord::of(nodes);
         if !(chord.length > 0.0) {
             return Err(Error::invalid("the contour has no chord (all nodes coincide)"));
@@ -462,7 +608,7 @@ impl UnitSystem {
         let centre = 0.5 * (chord.le + chord.te);
         let local: Vec<DVec2> = nodes.iter().map(|&p| (p - centre) / chord.length).collect();
         let te = TrailingEdge::of(&local, 1.0);
-        let (a, b) = system(&local, &te);
+        let (a, b, sources) = system(&local, &te, sources);
         let lu = a.lu();
         let x = lu
             .solve(&b)
@@ -478,6 +624,7 @@ impl UnitSystem {
             te,
             lu,
             gamma,
+            sources,
         })
     }
 }
@@ -500,7 +647,7 @@ impl PanelSolution {
             te,
             gamma: [gamma0, gamma90],
             ..
-        } = UnitSystem::solve(nodes)?;
+        } = UnitSystem::solve(nodes, false)?;
         Ok(PanelSolution {
             nodes: nodes.to_vec(),
             chord,
@@ -698,6 +845,68 @@ pub fn integrate(nodes: &[DVec2], cp: &[f64], alpha: f64, chord: &Chord) -> (f64
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A panel's half-panel sources against many uniform ones whose strengths follow them: the
+    /// stream function off the panel's cut, and the velocity everywhere off the panel, the
+    /// strip under it (where the stream function's cut lies) included.
+    #[test]
+    fn half_panel_sources_are_sums_of_uniform_ones() {
+        let (a, b) = (DVec2::new(0.2, -0.1), DVec2::new(0.9, 0.3));
+        let k = 4000;
+        let parts = |f: DVec2, n: DVec2| {
+            let mut out = [0.0; 3];
+            for j in 0..k {
+                let (w0, w1) = (j as f64 / k as f64, (j + 1) as f64 / k as f64);
+                let t = panel_terms(f, a.lerp(b, w0), a.lerp(b, w1), n);
+                let v = if n == DVec2::ZERO { t.psig } else { t.d_psig };
+                // The first node's, the midpoint's and the second node's densities there.
+                let w = 0.5 * (w0 + w1);
+                let tent = [
+                    (1.0 - 2.0 * w).max(0.0),
+                    1.0 - (2.0 * w - 1.0).abs(),
+                    (2.0 * w - 1.0).max(0.0),
+                ];
+                for (o, t) in out.iter_mut().zip(tent) {
+                    *o += t * v;
+                }
+            }
+            out
+        };
+        let n = DVec2::new(0.6, -0.8);
+        // Left of the panel, beyond its ends, and in the strip on its right.
+        for f in [
+            DVec2::new(0.5, 0.4),
+            DVec2::new(1.4, 0.2),
+            DVec2::new(-0.3, -0.5),
+            DVec2::new(0.7, -0.2),
+        ] {
+            let got = half_panels(&seen(f, a, b), n);
+            let want = parts(f, n);
+            for (g, w) in got.iter().zip(want) {
+                assert!((g - w).abs() < 1e-6, "velocity at {f}: {got:?} against {want:?}");
+            }
+        }
+        for f in [
+            DVec2::new(0.5, 0.4),
+            DVec2::new(0.1, 0.6),
+            DVec2::new(-0.3, -0.5),
+            a,
+            b,
+        ] {
+            let got = half_panels(&seen(f, a, b), DVec2::ZERO);
+            let want = parts(f, DVec2::ZERO);
+            for (g, w) in got.iter().zip(want) {
+                assert!(
+                    (g - w).abs() < 1e-6,
+                    "stream function at {f}: {got:?} against {want:?}"
+                );
+            }
+        }
+        // A unit density everywhere is the uniform source.
+        let f = DVec2::new(0.3, 0.5);
+        let sum: f64 = half_panels(&seen(f, a, b), DVec2::ZERO).iter().sum();
+        assert!((sum - panel_terms(f, a, b, DVec2::ZERO).psig).abs() < 1e-13);
+    }
 
     /// The panel integrals against brute-force quadrature of `ln r²` and the source angle.
     #[test]
