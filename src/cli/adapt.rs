@@ -3,12 +3,11 @@
 
 use super::export::{CadArgs, CadOutputs};
 use super::output::{Output, Outputs};
-use super::{usage, warn_all};
+use super::usage;
 use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Mode, Norm};
 use bezchain::export::summary::{self, Adapted, SweepRow};
-use bezchain::export::{AdaptReport, CurvePlot, InputInfo, Schema, Sweep};
-use bezchain::geometry::read_curve;
+use bezchain::export::{AdaptReport, InputInfo, Schema, Sweep};
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
 
@@ -197,8 +196,7 @@ pub fn run(args: Args) -> Result<()> {
     let plots = args.plot.add(&mut outs)?;
     let cad = args.cad.add(&mut outs)?;
     let tols = args.tolerance.list("a chain")?;
-    let loaded = read_curve(&args.input)?;
-    warn_all(&args.input, &loaded.warnings);
+    let loaded = super::fit::load(&args.input)?;
     let points = &loaded.points;
     let (min_degree, max_degree) = parse_degrees("--degrees", &args.degrees)?;
     let scale = if args.tolerance.relative {
@@ -241,17 +239,11 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     if let (true, Some((opts, r))) = (plots.wanted(), results.last()) {
-        let offsets = bezchain::problem::point_offsets(&r.chain, points)?;
-        let plot = CurvePlot {
-            title: format!(
-                "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
-                loaded.name, opts.tol, opts.norm, r.count.total, r.family
-            ),
-            data: points,
-            chain: &r.chain,
-            offsets: &offsets,
-        };
-        plots.put(&mut outs, &plot)?;
+        let title = format!(
+            "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
+            loaded.name, opts.tol, opts.norm, r.count.total, r.family
+        );
+        plots.put_chain(&mut outs, title, points, &r.chain)?;
     }
     finish(
         outs,

@@ -6,11 +6,11 @@ use super::output::Outputs;
 use super::{usage, warn, warn_all};
 use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo, Schema};
+use bezchain::export::{summary, CurveReport, InputInfo, Schema};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve_with, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
-use bezchain::problem::{point_offsets, Metric};
+use bezchain::problem::Metric;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `bezchain fit`.
@@ -125,14 +125,8 @@ pub fn run(args: Args) -> Result<()> {
             .put(&mut outs, &cad, &[shape], &super::export::stem(&args.input))?;
     }
     if plots.wanted() {
-        let offsets = point_offsets(&fit.chain, &loaded.points)?;
-        let plot = CurvePlot {
-            title: summary::curve_title(&loaded.name, &fit),
-            data: &loaded.points,
-            chain: &fit.chain,
-            offsets: &offsets,
-        };
-        plots.put(&mut outs, &plot)?;
+        let title = summary::curve_title(&loaded.name, &fit);
+        plots.put_chain(&mut outs, title, &loaded.points, &fit.chain)?;
     }
     outs.commit()?;
     outs.say(&summary::curve_fit(&args.input, &loaded, &fit));
