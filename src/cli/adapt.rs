@@ -172,11 +172,9 @@ pub struct Args {
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    // The plot of the chain and its offsets (the last tolerance's).
+    // The plot (the last tolerance's chain) and the CAD files.
     #[command(flatten)]
-    pub plot: super::picture::PlotArgs,
-    #[command(flatten)]
-    pub cad: super::export::CadArgs,
+    pub outputs: super::fit::ChainOutputArgs,
 }
 
 /// `LO-HI` or one degree, the value of `flag`.
@@ -193,8 +191,7 @@ pub(crate) fn parse_degrees(flag: &str, text: &str) -> Result<(usize, usize)> {
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let plots = args.plot.add(&mut outs)?;
-    let cad = args.cad.add(&mut outs)?;
+    let (plots, cad) = args.outputs.add(&mut outs)?;
     let tols = args.tolerance.list("a chain")?;
     let loaded = super::fit::load(&args.input)?;
     let points = &loaded.points;
@@ -248,7 +245,7 @@ pub fn run(args: Args) -> Result<()> {
     finish(
         outs,
         json,
-        (&args.cad, &cad),
+        (&args.outputs.cad, &cad),
         &args.input,
         points.len(),
         base.norm,
