@@ -3,12 +3,11 @@
 
 use super::export::{CadArgs, CadOutputs};
 use super::output::{Output, Outputs};
-use super::{usage, warn_all};
+use super::usage;
 use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Mode, Norm};
 use bezchain::export::summary::{self, Adapted, SweepRow};
-use bezchain::export::{AdaptReport, CurvePlot, InputInfo, Schema, Sweep};
-use bezchain::geometry::read_curve;
+use bezchain::export::{AdaptReport, InputInfo, Schema, Sweep};
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
 
@@ -173,11 +172,9 @@ pub struct Args {
     /// error).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    // The plot of the chain and its offsets (the last tolerance's).
+    // The plot (the last tolerance's chain) and the CAD files.
     #[command(flatten)]
-    pub plot: super::picture::PlotArgs,
-    #[command(flatten)]
-    pub cad: super::export::CadArgs,
+    pub outputs: super::fit::ChainOutputArgs,
 }
 
 /// `LO-HI` or one degree, the value of `flag`.
@@ -194,11 +191,9 @@ pub(crate) fn parse_degrees(flag: &str, text: &str) -> Result<(usize, usize)> {
 pub fn run(args: Args) -> Result<()> {
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let plots = args.plot.add(&mut outs)?;
-    let cad = args.cad.add(&mut outs)?;
+    let (plots, cad) = args.outputs.add(&mut outs)?;
     let tols = args.tolerance.list("a chain")?;
-    let loaded = read_curve(&args.input)?;
-    warn_all(&args.input, &loaded.warnings);
+    let loaded = super::fit::load(&args.input)?;
     let points = &loaded.points;
     let (min_degree, max_degree) = parse_degrees("--degrees", &args.degrees)?;
     let scale = if args.tolerance.relative {
@@ -241,22 +236,16 @@ pub fn run(args: Args) -> Result<()> {
         ));
     }
     if let (true, Some((opts, r))) = (plots.wanted(), results.last()) {
-        let offsets = bezchain::problem::point_offsets(&r.chain, points)?;
-        let plot = CurvePlot {
-            title: format!(
-                "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
-                loaded.name, opts.tol, opts.norm, r.count.total, r.family
-            ),
-            data: points,
-            chain: &r.chain,
-            offsets: &offsets,
-        };
-        plots.put(&mut outs, &plot)?;
+        let title = format!(
+            "{} — adapt to {:.1e} ({}): {} stored scalars, {}",
+            loaded.name, opts.tol, opts.norm, r.count.total, r.family
+        );
+        plots.put_chain(&mut outs, title, points, &r.chain)?;
     }
     finish(
         outs,
         json,
-        (&args.cad, &cad),
+        (&args.outputs.cad, &cad),
         &args.input,
         points.len(),
         base.norm,

@@ -2,15 +2,17 @@
 //! methods with a progress bar, a history file and checkpoints.
 
 use super::evo::{EvoArgs, Monitor};
+use super::export::{CadArgs, CadOutputs};
 use super::output::Outputs;
+use super::picture::{PlotArgs, Plots};
 use super::{usage, warn, warn_all};
 use anyhow::Result;
 use bezchain::chain::{ChainLayout, Continuity};
-use bezchain::export::{summary, CurvePlot, CurveReport, InputInfo, Schema};
+use bezchain::export::{summary, CurveReport, InputInfo, Schema};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
 use bezchain::fit::{fit_curve_with, FitOptions, Method};
 use bezchain::geometry::{read_curve, Loaded2};
-use bezchain::problem::{point_offsets, Metric};
+use bezchain::problem::Metric;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `bezchain fit`.
@@ -38,11 +40,27 @@ pub struct Args {
     #[arg(long)]
     pub json: Option<PathBuf>,
     #[command(flatten)]
-    pub plot: super::picture::PlotArgs,
-    #[command(flatten)]
-    pub cad: super::export::CadArgs,
+    pub outputs: ChainOutputArgs,
     #[command(flatten)]
     pub evo: EvoArgs,
+}
+
+/// The outputs of a fitted chain besides its report, shared by `fit` and `adapt`: the plot of
+/// the chain over its data points and their offsets, and the STEP and IGES files.
+#[derive(clap::Args, Debug)]
+pub struct ChainOutputArgs {
+    #[command(flatten)]
+    pub plot: PlotArgs,
+    #[command(flatten)]
+    pub cad: CadArgs,
+}
+
+impl ChainOutputArgs {
+    /// Check the plot and CAD outputs asked for before any work, and add them to the run's
+    /// outputs.
+    pub fn add(&self, outs: &mut Outputs) -> Result<(Plots, CadOutputs)> {
+        Ok((self.plot.add(outs)?, self.cad.add(outs)?))
+    }
 }
 
 /// Read a contour, printing the reader's warnings.
@@ -79,8 +97,7 @@ pub fn run(args: Args) -> Result<()> {
     // Every output is checked (and its temporary file made) before the work.
     let mut outs = Outputs::new();
     let json = outs.add_opt("--json", args.json.as_deref())?;
-    let plots = args.plot.add(&mut outs)?;
-    let cad = args.cad.add(&mut outs)?;
+    let (plots, cad) = args.outputs.add(&mut outs)?;
     let mut monitor = Monitor::new(&args.evo, &mut outs)?;
     let evolutionary = args.method.evolutionary();
     let (evo, resume) = args.evo.settings(evolutionary.is_some(), &args.method)?;
@@ -119,20 +136,14 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(o) = json {
         outs.put_json(o, Schema::Curve, &rep)?;
     }
-    if args.cad.wanted() {
+    let cad_args = &args.outputs.cad;
+    if cad_args.wanted() {
         let shape = bezchain::export::CadShape::from_curve_report(&rep)?;
-        args.cad
-            .put(&mut outs, &cad, &[shape], &super::export::stem(&args.input))?;
+        cad_args.put(&mut outs, &cad, &[shape], &super::export::stem(&args.input))?;
     }
     if plots.wanted() {
-        let offsets = point_offsets(&fit.chain, &loaded.points)?;
-        let plot = CurvePlot {
-            title: summary::curve_title(&loaded.name, &fit),
-            data: &loaded.points,
-            chain: &fit.chain,
-            offsets: &offsets,
-        };
-        plots.put(&mut outs, &plot)?;
+        let title = summary::curve_title(&loaded.name, &fit);
+        plots.put_chain(&mut outs, title, &loaded.points, &fit.chain)?;
     }
     outs.commit()?;
     outs.say(&summary::curve_fit(&args.input, &loaded, &fit));

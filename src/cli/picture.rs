@@ -5,9 +5,10 @@
 use super::output::{Output, Outputs};
 use super::{parse_pair, usage};
 use anyhow::Result;
-use bezchain::chain::PatchGrid;
-use bezchain::export::{render, render_svg, Plot, RenderOptions};
-use glam::DVec3;
+use bezchain::chain::{CurveChain, PatchGrid};
+use bezchain::export::{render, render_svg, CurvePlot, Plot, RenderOptions};
+use bezchain::problem::point_offsets;
+use glam::{DVec2, DVec3};
 use std::path::PathBuf;
 
 /// The picture outputs of a surface.
@@ -117,5 +118,24 @@ impl Plots {
             outs.put(o, &plot.png()?)?;
         }
         Ok(())
+    }
+
+    /// Draw `chain` over its `data` points with their closest-point offsets (a [`CurvePlot`]
+    /// under `title`) into the outputs asked for.
+    pub fn put_chain(
+        &self,
+        outs: &mut Outputs,
+        title: String,
+        data: &[DVec2],
+        chain: &CurveChain<DVec2>,
+    ) -> Result<()> {
+        let offsets = point_offsets(chain, data)?;
+        let plot = CurvePlot {
+            title,
+            data,
+            chain,
+            offsets: &offsets,
+        };
+        self.put(outs, &plot)
     }
 }

@@ -39,6 +39,20 @@ impl<const N: usize> D<N> {
         D { v, d }
     }
 
+    /// `op` on the two values and on each pair of partials: a sum or a difference, whose
+    /// partials are the sum or the difference of the partials.
+    #[inline]
+    fn zip(self, o: Self, op: impl Fn(f64, f64) -> f64) -> Self {
+        let mut d = self.d;
+        for k in 0..N {
+            d[k] = op(d[k], o.d[k]);
+        }
+        D {
+            v: op(self.v, o.v),
+            d,
+        }
+    }
+
     /// The larger, by value (`f64::max`'s choice, ties to `self`).
     #[inline]
     pub fn max(self, o: Self) -> Self {
@@ -137,11 +151,7 @@ impl<const N: usize> Add for D<N> {
     type Output = Self;
     #[inline]
     fn add(self, o: Self) -> Self {
-        let mut d = self.d;
-        for k in 0..N {
-            d[k] += o.d[k];
-        }
-        D { v: self.v + o.v, d }
+        self.zip(o, |a, b| a + b)
     }
 }
 
@@ -149,11 +159,7 @@ impl<const N: usize> Sub for D<N> {
     type Output = Self;
     #[inline]
     fn sub(self, o: Self) -> Self {
-        let mut d = self.d;
-        for k in 0..N {
-            d[k] -= o.d[k];
-        }
-        D { v: self.v - o.v, d }
+        self.zip(o, |a, b| a - b)
     }
 }
 

@@ -247,51 +247,43 @@ impl Viscous {
         opts: &ViscousOptions,
         warm: Option<&Warm>,
     ) -> (ViscousPoint, Option<Warm>) {
-        let (p, w) = self.point_retry_with(alpha, opts, warm, true);
+        // The tries with exact partials or (`exact: false`) forward differences throughout.
+        let tries = |exact: bool| {
+            let (p, w) = self.point_with(alpha, opts, warm, exact);
+            let Some(start) = warm else { return (p, w) };
+            if p.converged {
+                return (p, w);
+            }
+            for parts in [2, 4] {
+                let mut cur = start.clone();
+                let mut done = true;
+                for k in 1..parts {
+                    let a = start.alpha + (alpha - start.alpha) * f64::from(k) / f64::from(parts);
+                    match self.point_with(a, opts, Some(&cur), exact) {
+                        (_, Some(next)) => cur = next,
+                        _ => {
+                            done = false;
+                            break;
+                        }
+                    }
+                }
+                if done {
+                    let (q, w2) = self.point_with(alpha, opts, Some(&cur), exact);
+                    if q.converged {
+                        return (q, w2);
+                    }
+                }
+            }
+            rescued_or(p, self.point_with(alpha, opts, None, exact))
+        };
+        let (p, w) = tries(true);
         if p.converged || warm.is_none() {
             return (p, w);
         }
         // The same tries again with forward-difference partials: a different path to the same
         // solution, which finds some points near the stall that the exact Newton loses (S1223
         // at 7°; 5 more of the benchmark's 352 points on 32 shapes, at no loss of points/s).
-        rescued_or(p, self.point_retry_with(alpha, opts, warm, false))
-    }
-
-    /// The tries of [`Viscous::point_retry`] with exact partials or (`exact: false`)
-    /// forward differences throughout.
-    fn point_retry_with(
-        &self,
-        alpha: f64,
-        opts: &ViscousOptions,
-        warm: Option<&Warm>,
-        exact: bool,
-    ) -> (ViscousPoint, Option<Warm>) {
-        let (p, w) = self.point_with(alpha, opts, warm, exact);
-        let Some(start) = warm else { return (p, w) };
-        if p.converged {
-            return (p, w);
-        }
-        for parts in [2, 4] {
-            let mut cur = start.clone();
-            let mut done = true;
-            for k in 1..parts {
-                let a = start.alpha + (alpha - start.alpha) * f64::from(k) / f64::from(parts);
-                match self.point_with(a, opts, Some(&cur), exact) {
-                    (_, Some(next)) => cur = next,
-                    _ => {
-                        done = false;
-                        break;
-                    }
-                }
-            }
-            if done {
-                let (q, w2) = self.point_with(alpha, opts, Some(&cur), exact);
-                if q.converged {
-                    return (q, w2);
-                }
-            }
-        }
-        rescued_or(p, self.point_with(alpha, opts, None, exact))
+        rescued_or(p, tries(false))
     }
 
     /// The polar at `alphas` (degrees, any order; returned in the same order): continuation

@@ -62,14 +62,9 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
     );
     let _ = writeln!(svg, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
-    let hex = |c: Rgb| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
     let panel_h = h / opts.views.len() as f64;
     for (k, view) in opts.views.iter().enumerate() {
         let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, w, panel_h))?;
-        let xy = |p: DVec3| {
-            let (x, y, _) = cam.project(p);
-            format!("{x:.1},{y:.1}")
-        };
         let _ = writeln!(svg, r#"<g fill="none" stroke-linejoin="round">"#);
         for (pts, border) in &curves {
             let (colour, width, opacity) = if *border {
@@ -77,7 +72,7 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
             } else {
                 (SURFACE, 0.8, 0.9)
             };
-            let path: Vec<String> = pts.iter().map(|&p| xy(p)).collect();
+            let path: Vec<String> = pts.iter().map(|&p| svg_xy(&cam, p)).collect();
             let _ = writeln!(
                 svg,
                 r#"<polyline points="{}" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"/>"#,
@@ -85,18 +80,11 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
                 hex(colour)
             );
         }
-        // The control net: its rows, then its columns.
-        let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
-        let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
-        for line in rows.chain(cols) {
-            let path: Vec<String> = line.iter().map(|&k| xy(net[k])).collect();
-            let _ = writeln!(
-                svg,
-                r#"<polyline points="{}" stroke="{}" stroke-width="0.9" stroke-opacity="0.75"/>"#,
-                path.join(" "),
-                hex(NET)
-            );
-        }
+        let net_style = format!(
+            r#" stroke="{}" stroke-width="0.9" stroke-opacity="0.75""#,
+            hex(NET)
+        );
+        net_lines_svg(&mut svg, &cam, (net, mu, mv), &net_style);
         let _ = writeln!(svg, "</g>");
         let _ = writeln!(svg, r#"<g fill="{}" fill-opacity="0.6">"#, hex(DATA_POINT));
         for p in opts.cloud.iter().step_by(step) {
@@ -125,7 +113,24 @@ pub fn render_svg(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Strin
     Ok(svg)
 }
 
-/// `#rrggbb`.
+/// `p` on the picture, as a polyline's `x,y` point.
+fn svg_xy(cam: &Camera, p: DVec3) -> String {
+    let (x, y, _) = cam.project(p);
+    format!("{x:.1},{y:.1}")
+}
+
+/// The control net's rows, then its columns, as SVG polylines, each with the attributes
+/// `style` after its points (a leading space; empty for none).
+fn net_lines_svg(svg: &mut String, cam: &Camera, (net, mu, mv): (&[DVec3], usize, usize), style: &str) {
+    use std::fmt::Write as _;
+    let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
+    let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
+    for line in rows.chain(cols) {
+        let path: Vec<String> = line.iter().map(|&k| svg_xy(cam, net[k])).collect();
+        let _ = writeln!(svg, r#"<polyline points="{}"{style}/>"#, path.join(" "));
+    }
+}
+
 /// The control net's points in SVG: the generated ones (join points) first, then the design
 /// points over them, radii `[design, generated]`, each group with the attributes `style`.
 fn net_points_svg(
@@ -155,6 +160,7 @@ fn net_points_svg(
     }
 }
 
+/// `#rrggbb`.
 fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
@@ -297,21 +303,12 @@ fn coloured_svg(
         }
         let _ = writeln!(svg, "</g>");
         // The control net, faint over the colours, and its points.
-        let xy = |p: DVec3| {
-            let (x, y, _) = cam.project(p);
-            format!("{x:.1},{y:.1}")
-        };
         let _ = writeln!(
             svg,
             r#"<g fill="none" stroke="{}" stroke-width="0.9" stroke-opacity="0.3">"#,
             hex(NET)
         );
-        let rows = (0..mu).map(|r| (0..mv).map(|c| r * mv + c).collect::<Vec<_>>());
-        let cols = (0..mv).map(|c| (0..mu).map(|r| r * mv + c).collect::<Vec<_>>());
-        for line in rows.chain(cols) {
-            let path: Vec<String> = line.iter().map(|&k| xy(net[k])).collect();
-            let _ = writeln!(svg, r#"<polyline points="{}"/>"#, path.join(" "));
-        }
+        net_lines_svg(&mut svg, &cam, (net, mu, mv), "");
         let _ = writeln!(svg, "</g>");
         net_points_svg(
             &mut svg,
