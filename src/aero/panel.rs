@@ -309,19 +309,9 @@ fn panel_terms_grad(f: DVec2, a: DVec2, b: DVec2, grad: bool) -> (PanelTerms, Op
 
 /// [`panel_terms_grad`] from the panel's view of the point.
 fn terms_of(v: &Seen, grad: bool) -> (PanelTerms, Option<Gradients>) {
-    let Seen {
-        s,
-        x1,
-        x2,
-        yy,
-        rs1,
-        rs2,
-        g1,
-        g2,
-        t1,
-        t2,
-        subtended,
-    } = *v;
+    let (s, x1, x2, yy) = (v.s, v.x1, v.x2, v.yy);
+    let (rs1, rs2, g1, g2) = (v.rs1, v.rs2, v.g1, v.g2);
+    let (t1, t2, subtended) = (v.t1, v.t2, v.subtended);
     let psis = 0.5 * x1 * g1 - 0.5 * x2 * g2 + x2 - x1 + yy * subtended;
     let dx = x1 - x2;
     let psid = ((x1 + x2) * psis + 0.5 * (rs2 * g2 - rs1 * g1 + x1 * x1 - x2 * x2)) / dx;
