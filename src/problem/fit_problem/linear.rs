@@ -54,13 +54,16 @@ impl ProductRun {
 
     fn add<P: Vector>(&mut self, first: &[f64], w: f64, q: P) {
         let n = self.width;
+        debug_assert_eq!(self.dim, P::DIM, "a run sums the points' own coordinates");
         for (a, &fa) in first.iter().enumerate() {
             let wa = w * fa;
             for (g, &fc) in self.gram[a * n..(a + 1) * n].iter_mut().zip(first) {
                 *g += wa * fc;
             }
-            for k in 0..self.dim {
-                self.rhs[a * self.dim + k] += wa * q.coord(k);
+            // Over the point's own dimension, a constant: unrolled, each coordinate read
+            // directly (over `self.dim` it was a loop of indexed reads).
+            for (k, r) in self.rhs[a * P::DIM..(a + 1) * P::DIM].iter_mut().enumerate() {
+                *r += wa * q.coord(k);
             }
         }
     }
