@@ -123,7 +123,7 @@ const SCAN_MAX: usize = 16;
 /// The basis functions of a chain that are non-zero at one parameter: design points
 /// `first ..= first + degree`, with the values and the first and second derivatives with
 /// respect to the global parameter.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SpanBasis {
     /// The segment holding the parameter.
     pub segment: usize,
@@ -456,17 +456,28 @@ impl ChainLayout {
             d1: [0.0; MAX_SUPPORT],
             d2: [0.0; MAX_SUPPORT],
         };
+        self.basis_into(k, u, order, &mut out);
+        out
+    }
+
+    /// [`ChainLayout::basis_in`] written into `out`, whose entries past the degree's and of
+    /// the orders not asked for are left as they are. Where the caller reads the values off a
+    /// basis it keeps, this spares the copy of the returned one (a `memcpy` a point in the
+    /// least-squares sums of a grid fit, which `basis_in` inlined still made).
+    #[inline(always)]
+    pub fn basis_into(&self, k: usize, u: f64, order: usize, out: &mut SpanBasis) {
+        out.segment = k;
+        out.first = self.first[k];
         // One monomorphic path per degree: every loop length is a constant, unrolled.
         match self.degree {
-            1 => self.eval_fixed::<2>(k, u, order, &mut out),
-            2 => self.eval_fixed::<3>(k, u, order, &mut out),
-            3 => self.eval_fixed::<4>(k, u, order, &mut out),
-            4 => self.eval_fixed::<5>(k, u, order, &mut out),
-            5 => self.eval_fixed::<6>(k, u, order, &mut out),
-            6 => self.eval_fixed::<7>(k, u, order, &mut out),
-            _ => self.eval_fixed::<MAX_SUPPORT>(k, u, order, &mut out),
+            1 => self.eval_fixed::<2>(k, u, order, out),
+            2 => self.eval_fixed::<3>(k, u, order, out),
+            3 => self.eval_fixed::<4>(k, u, order, out),
+            4 => self.eval_fixed::<5>(k, u, order, out),
+            5 => self.eval_fixed::<6>(k, u, order, out),
+            6 => self.eval_fixed::<7>(k, u, order, out),
+            _ => self.eval_fixed::<MAX_SUPPORT>(k, u, order, out),
         }
-        out
     }
 
     /// The basis in segment `k` at local `u`, for degree `N - 1`.

@@ -392,21 +392,24 @@ impl<P: Vector> Shape<2> for GridShape<P> {
         rest: &mut Vec<f64>,
         same: Option<usize>,
     ) -> Option<usize> {
-        let bu = self.u.basis(t[0], 0);
-        let nu = self.u.support(bu.segment).len();
+        // Each factor's values read off one basis filled in place ([`ChainLayout::basis_into`]).
+        let mut b = SpanBasis::default();
+        let (ku, u) = self.u.locate(t[0]);
+        self.u.basis_into(ku, u, 0, &mut b);
         first.clear();
-        first.extend_from_slice(&bu.value[..nu]);
+        first.extend_from_slice(&b.value[..self.u.support(ku).len()]);
         let pv = self.v.segments();
-        let b = match same {
+        let kv = match same {
             Some(cell) => cell % pv,
             None => {
-                let bv = self.v.basis(t[1], 0);
+                let (kv, v) = self.v.locate(t[1]);
+                self.v.basis_into(kv, v, 0, &mut b);
                 rest.clear();
-                rest.extend_from_slice(&bv.value[..self.v.support(bv.segment).len()]);
-                bv.segment
+                rest.extend_from_slice(&b.value[..self.v.support(kv).len()]);
+                kv
             }
         };
-        Some(bu.segment * pv + b)
+        Some(ku * pv + kv)
     }
 
     /// Row `i` of the curve's design is `Σ_j B_j(v) x_ij` over the v basis at `t[1]`.

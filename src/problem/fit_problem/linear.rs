@@ -54,13 +54,16 @@ impl ProductRun {
 
     fn add<P: Vector>(&mut self, first: &[f64], w: f64, q: P) {
         let n = self.width;
+        debug_assert_eq!(self.dim, P::DIM, "a run sums the points' own coordinates");
         for (a, &fa) in first.iter().enumerate() {
             let wa = w * fa;
             for (g, &fc) in self.gram[a * n..(a + 1) * n].iter_mut().zip(first) {
                 *g += wa * fc;
             }
-            for k in 0..self.dim {
-                self.rhs[a * self.dim + k] += wa * q.coord(k);
+            // Over the point's own dimension, a constant: unrolled, each coordinate read
+            // directly (over `self.dim` it was a loop of indexed reads).
+            for (k, r) in self.rhs[a * P::DIM..(a + 1) * P::DIM].iter_mut().enumerate() {
+                *r += wa * q.coord(k);
             }
         }
     }
@@ -69,12 +72,19 @@ impl ProductRun {
     /// `slots`) and to `atq`, for the cell's `support`; the run is then empty.
     fn flush(&mut self, slots: &[u32], support: &[u32], ata: &mut [f64], atq: &mut [f64]) {
         let (n, r, s) = (self.width, self.rest.len(), support.len());
+        debug_assert_eq!(s, n * r, "a cell's support is the product of its factors'");
         for a in 0..s {
             let (au, av) = (a / r, a % r);
             let ra = self.rest[av];
-            for c in a..s {
-                let (cu, cv) = (c / r, c % r);
-                ata[slots[a * s + c] as usize] += self.gram[au * n + cu] * ra * self.rest[cv];
+            // Support entries `c = cu r + cv >= a`, walked factor by factor rather than
+            // divided out of `c` (an integer division per entry).
+            let row = &slots[a * s..(a + 1) * s];
+            for cu in au..n {
+                let g = self.gram[au * n + cu] * ra;
+                let from = if cu == au { av } else { 0 };
+                for (&slot, &rc) in row[cu * r + from..(cu + 1) * r].iter().zip(&self.rest[from..]) {
+                    ata[slot as usize] += g * rc;
+                }
             }
             for k in 0..self.dim {
                 atq[support[a] as usize * self.dim + k] += self.rhs[au * self.dim + k] * ra;
