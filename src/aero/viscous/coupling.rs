@@ -4,21 +4,23 @@
 //!
 //! Body panels carry XFOIL's source distribution (`PSILIN`): linear over each half-panel, its
 //! density at a panel's midpoint the mass defect's difference over the panel and at a node its
-//! difference over the node's two panels; the wake carries one uniform source cell around each
-//! wake node (from the midpoints to its neighbours), so that no wake node sits on a cell's end.
-//! Everything is in unit-chord coordinates centred on the mid-chord.
+//! difference over the node's two panels; the wake's panels (between consecutive wake nodes)
+//! carry the same distribution (`PSWLIN`), their stream function at the body cut along each
+//! panel's own line downstream. Everything is in unit-chord coordinates centred on the
+//! mid-chord.
 //!
 //! The half-panel distribution is what makes a short laminar bubble behind the leading edge come
 //! out as XFOIL's at 160 nodes: with a uniform source per panel, SD7080's lower surface at −2°
 //! peaked at `H` 4.5 against XFOIL's 5.9 and went turbulent at 0.107 chord against 0.055;
-//! with it, 0.0545 (both codes near 0.13 at 320 nodes).
+//! with it, 0.0545 (both codes near 0.13 at 320 nodes). In the wake, one uniform source cell
+//! around each wake node left the thickest blunt sections' CL up to 12 % (of 0.5) off XFOIL's
+//! (FX 79-W-660A past 4°); with the half-panels, 2 %.
 
 use crate::aero::panel::{
-    body_sources, end_tangent, influences, log_r2, panel_terms, sharp_control, Chord, Influence,
-    TrailingEdge, UnitSystem, HOPI,
+    body_sources, end_tangent, half_panels, influences, seen, sharp_control, wake_half_panels_psi, Chord,
+    Influence, TrailingEdge, UnitSystem, HOPI,
 };
 use crate::error::{Error, Result};
-use crate::numeric::atan2;
 use glam::DVec2;
 use nalgebra::{DMatrix, Dyn, LU};
 
@@ -193,30 +195,27 @@ impl Body {
         if pts.iter().any(|p| !p.is_finite()) || tan.contains(&DVec2::ZERO) {
             return Err(Error::Numerical("the wake streamline could not be traced".into()));
         }
-        // Wake source cells: from the trailing edge to the first midpoint, midpoint to
-        // midpoint, the last one as long again beyond the last node.
-        let mut edges = vec![te_mid];
-        for k in 1..nw {
-            edges.push(0.5 * (pts[k - 1] + pts[k]));
-        }
-        edges.push(pts[nw - 1] + 0.5 * (pts[nw - 1] - pts[nw - 2]));
-        let cells: Vec<(DVec2, DVec2)> = (0..nw).map(|k| (edges[k], edges[k + 1])).collect();
+        // Wake panels between consecutive wake nodes, half-panel sources as the body's.
+        let cells: Vec<(DVec2, DVec2)> = (0..nw - 1).map(|k| (pts[k], pts[k + 1])).collect();
         let nb = body_sources(n);
         let np = nb + nw;
-        // Body rows: the body sources' part is fixed, the wake cells' through the system.
-        let mut bw = source_rows(&self.nodes, &self.te, &cells);
+        // The wake's sources from its mass defects: the rows below are taken per source
+        // unknown and turned into columns per wake station before the system's solve.
+        let sw_of_m = wake_sigma_of_mass(&sw);
+        // Body rows: the body sources' part is fixed, the wake's through the system.
+        let mut bw = wake_source_rows(&self.nodes, &pts) * &sw_of_m;
         if sharp_control(&self.nodes, &self.te).is_some() {
             // The sharp edge's bisector condition sees the body's sheets and sources only, as
-            // XFOIL's (QDCALC): the first wake cell starts at the edge, a tenth of a panel
-            // from the control point, where a uniform source's tangential speed is
-            // logarithmically large and would set the circulation by the wake's growth.
+            // XFOIL's (QDCALC): the wake starts at the edge, a tenth of a panel from the
+            // control point, where a source's tangential speed is logarithmically large and
+            // would set the circulation by the wake's growth.
             bw.row_mut(n - 1).fill(0.0);
         }
         let solw = self
             .lu
             .solve(&bw)
             .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
-        // The body rows (column-major, n × np): the body panels' response, then the wake cells'.
+        // The body rows (column-major, n × np): the body sources' response, then the wake stations'.
         let mut body = vec![0.0; n * np];
         body[..nb * n].copy_from_slice(self.g_body.as_slice());
         for k in 0..nw {
@@ -243,13 +242,19 @@ impl Body {
             for (j, v) in row.iter().enumerate() {
                 rows[(k - 1) + j * (nw - 1)] = *v;
             }
-            for p in 0..np {
-                direct[(k - 1) + p * (nw - 1)] = if p < nb {
-                    HOPI * along(&ax.sigma, &ay.sigma, p)
-                } else {
-                    let (a, b) = cells[p - nb];
-                    HOPI * panel_terms(f, a, b, t.perp()).d_psig
-                };
+            for p in 0..nb {
+                direct[(k - 1) + p * (nw - 1)] = HOPI * along(&ax.sigma, &ay.sigma, p);
+            }
+            let mut own = vec![0.0; 2 * nw - 1];
+            for (j, &(a, b)) in cells.iter().enumerate() {
+                let [first, mid, second] = half_panels(&seen(f, a, b), t.perp());
+                own[nw - 1 + j] += first;
+                own[j] += mid;
+                own[nw + j] += second;
+            }
+            for m in 0..nw {
+                let v: f64 = (0..2 * nw - 1).map(|q| own[q] * sw_of_m[(q, m)]).sum();
+                direct[(k - 1) + (nb + m) * (nw - 1)] = HOPI * v;
             }
         }
         crate::numeric::gemm([nw - 1, n, np], 1.0, &rows, &body, 1.0, &mut direct);
@@ -277,44 +282,22 @@ impl Body {
     }
 }
 
-/// The stream function (the bisector row: the velocity) at every node per unit source on each
-/// wake cell, as the right-hand side of the panel system ((N + 1) × cells, Kutta row 0; see
-/// [`wake_psig`]).
-fn source_rows(local: &[DVec2], te: &TrailingEdge, cells: &[(DVec2, DVec2)]) -> DMatrix<f64> {
+/// The stream function at every body node per unit of each wake source unknown (the
+/// midpoints' densities, then the nodes'; [`wake_half_panels_psi`]), as right-hand sides of the
+/// panel system (Kutta row zero; a sharp edge's bisector row is zeroed by the caller).
+fn wake_source_rows(local: &[DVec2], pts: &[DVec2]) -> DMatrix<f64> {
     let n = local.len();
-    let mut b = DMatrix::<f64>::zeros(n + 1, cells.len());
-    let sharp = sharp_control(local, te);
+    let nw = pts.len();
+    let mut b = DMatrix::<f64>::zeros(n + 1, 2 * nw - 1);
+    let mut row = vec![0.0; 2 * nw - 1];
     for i in 0..n {
-        for (p, &(a, e)) in cells.iter().enumerate() {
-            b[(i, p)] = match sharp {
-                Some((f, dir)) if i == n - 1 => HOPI * panel_terms(f, a, e, dir).d_psig,
-                _ => HOPI * wake_psig(local[i], a, e),
-            };
+        row.fill(0.0);
+        wake_half_panels_psi(local[i], pts, &mut row);
+        for (p, v) in row.iter().enumerate() {
+            b[(i, p)] = HOPI * v;
         }
     }
     b
-}
-
-/// A wake cell's uniform-source stream function (times 2π) at `f`, its cut along the cell's
-/// own line downstream of its ends (XFOIL's branch in PSWLIN for points off the wake), so that
-/// no body node sits across it. [`panel_terms`]' angles are measured from the panel's normal and
-/// cut the plane along the perpendiculars below the cell's ends; a blunt trailing edge's lower
-/// node lies between them when the wake leaves downwards across the gap's bisector (fx77w270
-/// at 0°: 0.003 chord into the first cell's strip), and took a stream function off by `2π x₁`
-/// per unit source there: the lower surface's last node 0.06 too fast and the edge's 0.02 too
-/// slow for XFOIL's own mass defects, CL 5 % low.
-fn wake_psig(f: DVec2, a: DVec2, b: DVec2) -> f64 {
-    let s = (b - a).normalize();
-    let (r1, r2) = (f - a, f - b);
-    let (x1, x2, yy) = (s.dot(r1), s.dot(r2), s.perp_dot(r1));
-    let angle = |x: f64| {
-        if yy >= 0.0 {
-            atan2(x, yy)
-        } else {
-            atan2(-x, -yy) - std::f64::consts::PI
-        }
-    };
-    0.5 * yy * (log_r2(r1.length_squared()) - log_r2(r2.length_squared())) + x2 * angle(x2) - x1 * angle(x1)
 }
 
 /// The sources from the mass defects `m = uₑ δ*` at every station (body nodes then wake nodes),
@@ -338,40 +321,31 @@ pub fn sigma_of_mass(body_s: &[f64], wake_s: &[f64], sgn: &[f64]) -> Vec<Vec<(us
         diff(n - 1 + j, j.saturating_sub(1), (j + 1).min(n - 1));
     }
     let nb = body_sources(n);
-    // Wake cell k: σ = (m_{k+½} − m_{k−½}) / len_k, m at the cells' ends the mean of the
-    // neighbours (the first and last ends the end nodes).
-    let len = |k: usize| -> f64 {
-        let lo = if k == 0 {
-            0.0
-        } else {
-            0.5 * (wake_s[k - 1] + wake_s[k])
-        };
-        let hi = if k + 1 == nw {
-            wake_s[k] + 0.5 * (wake_s[k] - wake_s[k - 1])
-        } else {
-            0.5 * (wake_s[k] + wake_s[k + 1])
-        };
-        hi - lo
-    };
+    // The wake's columns are its stations' own (see `wake_sigma_of_mass`).
     for k in 0..nw {
-        let p = nb + k;
-        let l = len(k);
-        // + m_{k+½}
-        if k + 1 == nw {
-            cols[n + k].push((p, 1.0 / l));
-        } else {
-            cols[n + k].push((p, 0.5 / l));
-            cols[n + k + 1].push((p, 0.5 / l));
-        }
-        // − m_{k−½}
-        if k == 0 {
-            cols[n].push((p, -1.0 / l));
-        } else {
-            cols[n + k - 1].push((p, -0.5 / l));
-            cols[n + k].push((p, -0.5 / l));
-        }
+        cols[n + k].push((nb + k, 1.0));
     }
     cols
+}
+
+/// The wake's source unknowns (midpoints' densities, then nodes') from its stations' mass
+/// defects: `(2 Nw − 1) × Nw`; a midpoint's the difference over its panel, a node's over its
+/// two panels (the end nodes: their panel's).
+fn wake_sigma_of_mass(wake_s: &[f64]) -> DMatrix<f64> {
+    let nw = wake_s.len();
+    let mut m = DMatrix::<f64>::zeros(2 * nw - 1, nw);
+    let mut diff = |p: usize, lo: usize, hi: usize| {
+        let ds = wake_s[hi] - wake_s[lo];
+        m[(p, lo)] -= 1.0 / ds;
+        m[(p, hi)] += 1.0 / ds;
+    };
+    for k in 0..nw - 1 {
+        diff(k, k, k + 1);
+    }
+    for k in 0..nw {
+        diff(nw - 1 + k, k.saturating_sub(1), (k + 1).min(nw - 1));
+    }
+    m
 }
 
 /// The edge-speed response to the mass defects, `D = diag(sgn) · u_σ · S` (stations × stations).
@@ -398,58 +372,6 @@ pub fn ue_of_mass(wake: &Wake, body_s: &[f64], sgn: &[f64]) -> DMatrix<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A unit uniform source panel blows outwards: half the strength just off its middle on
-    /// its left (the body's inner side for a counterclockwise contour) and on its right (where
-    /// the stream function has its cut: the wake behind a blunt trailing edge), and away from
-    /// it far off.
-    #[test]
-    fn a_positive_source_blows_outwards() {
-        let (a, b) = (DVec2::new(-0.5, 0.0), DVec2::new(0.5, 0.0));
-        for (f, t) in [
-            (DVec2::new(0.0, 1e-6), DVec2::Y),
-            (DVec2::new(0.2, -0.3), DVec2::new(0.0, -1.0)),
-            (DVec2::new(3.0, 0.2), DVec2::new(3.0, 0.2).normalize()),
-            (DVec2::new(-2.0, -0.5), DVec2::new(-2.0, -0.5).normalize()),
-        ] {
-            let v = HOPI * panel_terms(f, a, b, t.perp()).d_psig;
-            assert!(v > 0.0, "{f} {v}");
-        }
-        let v = HOPI * panel_terms(DVec2::new(0.0, -1e-9), a, b, DVec2::NEG_Y.perp()).d_psig;
-        assert!((v - 0.5).abs() < 1e-6, "{v}");
-        let v = HOPI * panel_terms(DVec2::new(0.0, 1e-9), a, b, DVec2::Y.perp()).d_psig;
-        assert!((v - 0.5).abs() < 1e-6, "{v}");
-    }
-
-    /// A wake cell's stream function differs between two points by the flux of its velocity
-    /// through the segment joining them, for points below the cell and either side of its
-    /// start (a blunt edge's lower node and its neighbour, the wake leaving downwards).
-    #[test]
-    fn a_wake_cell_stream_function_is_the_flux_between_body_points() {
-        let (a, b) = (DVec2::new(1.0, 0.0), DVec2::new(1.013, -0.0018));
-        for (p, q) in [
-            (DVec2::new(1.0, -0.021), DVec2::new(0.986, -0.020)),
-            (DVec2::new(1.004, -0.03), DVec2::new(0.95, 0.01)),
-            (DVec2::new(1.0, 0.021), DVec2::new(0.986, -0.020)),
-        ] {
-            let k = 4000;
-            let d = (p - q) / k as f64;
-            let e = d.normalize();
-            let flux: f64 = (0..k)
-                .map(|j| panel_terms(q + (j as f64 + 0.5) * d, a, b, e).d_psig * d.length())
-                .sum();
-            let dpsi = wake_psig(p, a, b) - wake_psig(q, a, b);
-            assert!((dpsi - flux).abs() < 1e-6, "{p} {q}: {dpsi} vs {flux}");
-        }
-        // Off the strip below the cell, the same as the panel's own stream function.
-        for f in [
-            DVec2::new(0.9, -0.01),
-            DVec2::new(0.5, 0.05),
-            DVec2::new(1.005, 0.02),
-        ] {
-            assert!((wake_psig(f, a, b) - panel_terms(f, a, b, DVec2::ZERO).psig).abs() < 1e-12);
-        }
-    }
 
     #[test]
     fn geometric_spacing_spans_the_length() {
