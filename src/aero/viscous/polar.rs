@@ -443,7 +443,7 @@ mod tests {
     /// FX 77-W-270 (trailing-edge gap 0.042 chord) at Re 1e6: the polar from 0° to 4°
     /// converges at every angle. Pinned to XFOIL 6.99 (PANE, VISC 1e6, ASEQ from −2°): CD
     /// 0.01301, 0.01406, 0.01455 at 0°, 2°, 4°, CL 0.4902, 0.7488, 1.0057. CD within 3 %, CL
-    /// within 0.005 (bezchain: 0.4897, 0.7482, 1.0050; CD 0.2 %, 0.1 %, 0.1 % low; CL was 0.024
+    /// within 0.005 (bezchain: 0.4895, 0.7480, 1.0048; CD within 0.03 %; CL was 0.024
     /// low while the wake cells' stream function cut across the edge's lower node).
     #[test]
     fn a_blunt_trailing_edge_polar_converges() {
