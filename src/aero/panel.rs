@@ -324,7 +324,12 @@ fn terms_of(v: &Seen, grad: bool) -> (PanelTerms, Option<Gradients>) {
         psis,
         psid,
         psig,
-        ..PanelTerms::default()
+        #[cfg(test)]
+        d_psis: 0.0,
+        #[cfg(test)]
+        d_psid: 0.0,
+        #[cfg(test)]
+        d_psig: 0.0,
     };
     if !grad {
         return (terms, None);
