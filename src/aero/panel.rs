@@ -357,11 +357,25 @@ fn terms_of(v: &Seen, grad: bool) -> (PanelTerms, Option<Gradients>) {
     (terms, Some(grads))
 }
 
-/// The body's source unknowns for `n` nodes (XFOIL's, in `PSILIN`): the density at each
-/// panel's midpoint (`0..n − 1`) and at each node (`n − 1..2n − 1`), varying linearly over
-/// each half-panel between them.
-pub(crate) fn body_sources(n: usize) -> usize {
+/// The source unknowns of a line of `n` nodes, a body's or a wake's (XFOIL's, in `PSILIN` and
+/// `PSWLIN`): the density at each panel's midpoint (`0..n − 1`) and at each node
+/// (`n − 1..2n − 1`), varying linearly over each half-panel between them.
+pub(crate) fn half_panel_unknowns(n: usize) -> usize {
     2 * n - 1
+}
+
+/// Panel `j`'s unknowns among a line's `n` nodes' ([`half_panel_unknowns`]): its first node's,
+/// its midpoint's and its second node's, the order [`half_panels`] gives their values in.
+pub(crate) fn half_panel_columns(n: usize, j: usize) -> [usize; 3] {
+    [n - 1 + j, j, n + j]
+}
+
+/// Each unknown of a line of `n` nodes as a difference of the nodes' mass defects:
+/// `(unknown, lo, hi)`, its density `(m_hi − m_lo) / (s_hi − s_lo)`; a midpoint's over its
+/// panel, a node's over its two panels (an end node's over its one).
+pub(crate) fn half_panel_differences(n: usize) -> impl Iterator<Item = (usize, usize, usize)> {
+    let mids = (0..n - 1).map(|j| (j, j, j + 1));
+    mids.chain((0..n).map(move |j| (n - 1 + j, j.saturating_sub(1), (j + 1).min(n - 1))))
 }
 
 /// One end of a linearly varying source segment seen from the field point: `x` along the
@@ -396,7 +410,8 @@ fn segment_velocity(a: End, b: End, yy: f64, theta: f64) -> [[f64; 2]; 2] {
     [v(-b.x / len, 1.0 / len), v(a.x / len, -1.0 / len)]
 }
 
-/// A body panel's two half-panel sources at the point `v` sees: per unit density at its first
+/// A panel's two half-panel sources (a body's or a wake's) at the point `v` sees: per unit
+/// density at its first
 /// node, its midpoint and its second node, the stream function (`n` zero) or its derivative
 /// along `n` (as [`panel_terms`]' `d_psig`), both times 2π as [`PanelTerms::psig`] is taken.
 pub(crate) fn half_panels(v: &Seen, n: DVec2) -> [f64; 3] {
@@ -446,7 +461,7 @@ struct Row {
 
 /// The stream function (times 2π) at `f` of the half-panel sources on a line of wake nodes
 /// `pts`, per unit of each source unknown (the midpoints' densities, then the nodes', as
-/// [`body_sources`] orders the body's), the angles' cut running along each panel's own line
+/// [`half_panel_columns`]), the angles' cut running along each panel's own line
 /// downstream of its ends (XFOIL's `PSWLIN`), so that no body point lies across it.
 pub(crate) fn wake_half_panels_psi(f: DVec2, pts: &[DVec2], out: &mut [f64]) {
     let nw = pts.len();
@@ -490,9 +505,10 @@ pub(crate) fn wake_half_panels_psi(f: DVec2, pts: &[DVec2], out: &mut [f64]) {
         };
         let [p1, p0] = segment_psi(e1, e0, yy);
         let [q0, q2] = segment_psi(e0, e2, yy);
-        out[nw - 1 + j] += 0.5 * p1;
-        out[j] += 0.5 * (p0 + q0);
-        out[nw + j] += 0.5 * q2;
+        let [c1, c0, c2] = half_panel_columns(nw, j);
+        out[c1] += 0.5 * p1;
+        out[c0] += 0.5 * (p0 + q0);
+        out[c2] += 0.5 * q2;
         g_prev = g2;
     }
 }
@@ -501,7 +517,7 @@ pub(crate) fn wake_half_panels_psi(f: DVec2, pts: &[DVec2], out: &mut [f64]) {
 pub(crate) struct Influence {
     /// Per node `γ` (the vortex sheet, the trailing-edge panel's share included).
     pub gamma: Vec<f64>,
-    /// Per body source unknown ([`body_sources`]; empty unless asked for), times 2π.
+    /// Per body source unknown ([`half_panel_unknowns`]; empty unless asked for), times 2π.
     pub sigma: Vec<f64>,
 }
 
@@ -521,7 +537,7 @@ pub(crate) fn influences<const K: usize>(
     let mut out: [Influence; K] = std::array::from_fn(|_| Influence {
         gamma: vec![0.0; m],
         sigma: if sources {
-            vec![0.0; body_sources(m)]
+            vec![0.0; half_panel_unknowns(m)]
         } else {
             Vec::new()
         },
@@ -542,10 +558,9 @@ pub(crate) fn influences<const K: usize>(
             o.gamma[j] += QOPI * (s - d);
             o.gamma[j + 1] += QOPI * (s + d);
             if sources {
-                let [first, mid, second] = half_panels(&v, n);
-                o.sigma[m - 1 + j] += first;
-                o.sigma[j] += mid;
-                o.sigma[m + j] += second;
+                for (c, x) in half_panel_columns(m, j).into_iter().zip(half_panels(&v, n)) {
+                    o.sigma[c] += x;
+                }
             }
         }
     }
@@ -565,7 +580,7 @@ pub(crate) fn influences<const K: usize>(
 /// The panel system on `local` nodes (unit chord): the matrix over the node `γ`s and `Ψ₀`
 /// (the last row the Kutta condition), the right-hand sides at α = 0° and 90°, and with
 /// `sources` the stream function (the bisector row: the velocity) per unit of each body source
-/// unknown ([`body_sources`]; the Kutta row zero), else an empty matrix.
+/// unknown ([`half_panel_unknowns`]; the Kutta row zero), else an empty matrix.
 pub(crate) fn system(
     local: &[DVec2],
     te: &TrailingEdge,

@@ -17,8 +17,8 @@
 //! (FX 79-W-660A past 4°); with the half-panels, 2 %.
 
 use crate::aero::panel::{
-    body_sources, end_tangent, half_panels, influences, seen, sharp_control, wake_half_panels_psi, Chord,
-    Influence, TrailingEdge, UnitSystem, HOPI,
+    end_tangent, half_panel_columns, half_panel_differences, half_panel_unknowns, half_panels, influences,
+    seen, sharp_control, wake_half_panels_psi, Chord, Influence, TrailingEdge, UnitSystem, HOPI,
 };
 use crate::error::{Error, Result};
 use glam::DVec2;
@@ -41,7 +41,7 @@ pub struct Body {
     lu: LU<f64, Dyn, Dyn>,
     /// Node speeds at α = 0° and 90°.
     gamma_ref: [Vec<f64>; 2],
-    /// Node speed per unit of each body source unknown (N × (2N − 1), [`body_sources`]).
+    /// Node speed per unit of each body source unknown (N × (2N − 1), [`half_panel_unknowns`]).
     g_body: DMatrix<f64>,
 }
 
@@ -197,7 +197,7 @@ impl Body {
         }
         // Wake panels between consecutive wake nodes, half-panel sources as the body's.
         let cells: Vec<(DVec2, DVec2)> = (0..nw - 1).map(|k| (pts[k], pts[k + 1])).collect();
-        let nb = body_sources(n);
+        let nb = half_panel_unknowns(n);
         let np = nb + nw;
         // The wake's sources from its mass defects: the rows below are taken per source
         // unknown and turned into columns per wake station before the system's solve.
@@ -245,15 +245,17 @@ impl Body {
             for p in 0..nb {
                 direct[(k - 1) + p * (nw - 1)] = HOPI * along(&ax.sigma, &ay.sigma, p);
             }
-            let mut own = vec![0.0; 2 * nw - 1];
+            let mut own = vec![0.0; half_panel_unknowns(nw)];
             for (j, &(a, b)) in cells.iter().enumerate() {
-                let [first, mid, second] = half_panels(&seen(f, a, b), t.perp());
-                own[nw - 1 + j] += first;
-                own[j] += mid;
-                own[nw + j] += second;
+                for (c, x) in half_panel_columns(nw, j)
+                    .into_iter()
+                    .zip(half_panels(&seen(f, a, b), t.perp()))
+                {
+                    own[c] += x;
+                }
             }
             for m in 0..nw {
-                let v: f64 = (0..2 * nw - 1).map(|q| own[q] * sw_of_m[(q, m)]).sum();
+                let v: f64 = (0..own.len()).map(|q| own[q] * sw_of_m[(q, m)]).sum();
                 direct[(k - 1) + (nb + m) * (nw - 1)] = HOPI * v;
             }
         }
@@ -288,8 +290,8 @@ impl Body {
 fn wake_source_rows(local: &[DVec2], pts: &[DVec2]) -> DMatrix<f64> {
     let n = local.len();
     let nw = pts.len();
-    let mut b = DMatrix::<f64>::zeros(n + 1, 2 * nw - 1);
-    let mut row = vec![0.0; 2 * nw - 1];
+    let mut b = DMatrix::<f64>::zeros(n + 1, half_panel_unknowns(nw));
+    let mut row = vec![0.0; half_panel_unknowns(nw)];
     for i in 0..n {
         row.fill(0.0);
         wake_half_panels_psi(local[i], pts, &mut row);
@@ -307,20 +309,13 @@ pub fn sigma_of_mass(body_s: &[f64], wake_s: &[f64], sgn: &[f64]) -> Vec<Vec<(us
     let n = body_s.len();
     let nw = wake_s.len();
     let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n + nw];
-    // Body panel j's midpoint (nodes j, j+1): σ = −(q_{j+1} − q_j)/ds, q = sgn m; node j:
-    // −(q_{j+1} − q_{j−1}) over the two panels (the end nodes: their panel's).
-    let mut diff = |p: usize, lo: usize, hi: usize| {
+    // The body's: σ = −(q_hi − q_lo)/ds, q = sgn m.
+    for (p, lo, hi) in half_panel_differences(n) {
         let ds = body_s[hi] - body_s[lo];
         cols[lo].push((p, sgn[lo] / ds));
         cols[hi].push((p, -sgn[hi] / ds));
-    };
-    for j in 0..n - 1 {
-        diff(j, j, j + 1);
     }
-    for j in 0..n {
-        diff(n - 1 + j, j.saturating_sub(1), (j + 1).min(n - 1));
-    }
-    let nb = body_sources(n);
+    let nb = half_panel_unknowns(n);
     // The wake's columns are its stations' own (see `wake_sigma_of_mass`).
     for k in 0..nw {
         cols[n + k].push((nb + k, 1.0));
@@ -328,22 +323,15 @@ pub fn sigma_of_mass(body_s: &[f64], wake_s: &[f64], sgn: &[f64]) -> Vec<Vec<(us
     cols
 }
 
-/// The wake's source unknowns (midpoints' densities, then nodes') from its stations' mass
-/// defects: `(2 Nw − 1) × Nw`; a midpoint's the difference over its panel, a node's over its
-/// two panels (the end nodes: their panel's).
+/// The wake's source unknowns ([`half_panel_unknowns`]) from its stations' mass defects,
+/// `(2 Nw − 1) × Nw` ([`half_panel_differences`]).
 fn wake_sigma_of_mass(wake_s: &[f64]) -> DMatrix<f64> {
     let nw = wake_s.len();
-    let mut m = DMatrix::<f64>::zeros(2 * nw - 1, nw);
-    let mut diff = |p: usize, lo: usize, hi: usize| {
+    let mut m = DMatrix::<f64>::zeros(half_panel_unknowns(nw), nw);
+    for (p, lo, hi) in half_panel_differences(nw) {
         let ds = wake_s[hi] - wake_s[lo];
         m[(p, lo)] -= 1.0 / ds;
         m[(p, hi)] += 1.0 / ds;
-    };
-    for k in 0..nw - 1 {
-        diff(k, k, k + 1);
-    }
-    for k in 0..nw {
-        diff(nw - 1 + k, k.saturating_sub(1), (k + 1).min(nw - 1));
     }
     m
 }
