@@ -449,7 +449,7 @@ impl<'d, 'a> Search<'d, 'a> {
     /// Grow from one patch until the tolerance holds, then remove breaks while it holds.
     /// `bound`: the fewest stored scalars a family run before met the tolerance with; a
     /// growing family stops (pruned) once its layout has as many.
-    pub(super) fn run(&self, fam: Family, bound: usize) -> (Option<Cand>, Option<Cand>, SurfaceFamilyTrace) {
+    pub(super) fn run(&self, fam: Family, bound: usize) -> Searched {
         let mut trace = SurfaceFamilyTrace {
             family: fam.name(),
             fits: 0,
@@ -462,14 +462,17 @@ impl<'d, 'a> Search<'d, 'a> {
         let mut closest: Option<Cand> = None;
         if fam.bulk() {
             let winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
-            return self.finish(fam, winner, closest, nfits, trace);
+            // Kept for a second sweep, span breaks first ([`super::run_families`]).
+            let grown = if fam.te() { winner.clone() } else { None };
+            let (w, c, t) = self.finish(fam, winner, closest, nfits, trace);
+            return Searched(w, c, t, grown);
         }
         let mut cur = match self.fit(&mut nfits, &fam, &[0.0, 1.0], &[0.0, 1.0], self.data.u0(fam.te())) {
             Some(c) => c,
             None => {
                 trace.outcome = "the first layout could not be fitted".into();
                 trace.fits = nfits;
-                return (None, None, trace);
+                return Searched(None, None, trace, None);
             }
         };
         let mut stall = 0;
@@ -582,10 +585,12 @@ impl<'d, 'a> Search<'d, 'a> {
             }
             cur = next;
         };
-        self.finish(fam, winner, closest, nfits, trace)
+        let (w, c, t) = self.finish(fam, winner, closest, nfits, trace);
+        Searched(w, c, t, None)
     }
 
-    /// A bulk family's reduction: one sweep over the breaks, u first, each tried once (the
+    /// A bulk family's reduction: one sweep over the breaks, one direction after the other as
+    /// `order` says (u first in every family's own reduction), each tried once (the
     /// greedy families' repeated sweeps took 100 s on the IEA 15 MW cloud), the most
     /// removable first: the break whose two neighbouring segments (spans) hold the smallest
     /// largest offset of the current layout, found again after every try. A removal is kept
@@ -595,8 +600,8 @@ impl<'d, 'a> Search<'d, 'a> {
     /// 1,194, 1,051 and 471 (`benches/peers/README.md`). The tries between two kept removals
     /// run in their order on this thread, and ahead of it on idle ones ([`first_in_order`]):
     /// the same result as one after another.
-    pub(super) fn sweep_bulk(&self, fam: &Family, mut w: Cand, nfits: &mut usize) -> Cand {
-        for along_v in [false, true] {
+    pub(super) fn sweep_bulk(&self, fam: &Family, mut w: Cand, nfits: &mut usize, order: SweepOrder) -> Cand {
+        for along_v in order.along_v() {
             let breaks = |c: &Cand| if along_v { c.bv.clone() } else { c.bu.clone() };
             let mut untried: Vec<f64> = {
                 let b = breaks(&w);
@@ -675,7 +680,7 @@ impl<'d, 'a> Search<'d, 'a> {
     ) -> (Option<Cand>, Option<Cand>, SurfaceFamilyTrace) {
         let winner = winner.map(|mut w| {
             if fam.bulk() {
-                w = self.sweep_bulk(&fam, w, &mut nfits);
+                w = self.sweep_bulk(&fam, w, &mut nfits, SweepOrder::UFirst);
                 trace.outcome = "met".into();
                 trace.best_scalars = Some(w.scalars);
                 return w;
@@ -720,12 +725,33 @@ impl<'d, 'a> Search<'d, 'a> {
     }
 }
 
-/// A family's search as [`Search::run`] ends it: its winner, its closest layout, its trace; a
+/// The order of a bulk family's break removal ([`Search::sweep_bulk`]): the u breaks first
+/// (every family's), or the span breaks first (a trailing-edge winner's second sweep,
+/// [`super::run_families`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum SweepOrder {
+    UFirst,
+    VFirst,
+}
+
+impl SweepOrder {
+    /// For each direction in turn: true along v.
+    fn along_v(self) -> [bool; 2] {
+        match self {
+            SweepOrder::UFirst => [false, true],
+            SweepOrder::VFirst => [true, false],
+        }
+    }
+}
+
+/// A family's search as [`Search::run`] ends it: its winner, its closest layout, its trace,
+/// and a trailing-edge family's grown layout that its winner's break removal started from; a
 /// [`Record`] so that a family searched on another rank arrives as the same bits.
 pub(super) struct Searched(
     pub(super) Option<Cand>,
     pub(super) Option<Cand>,
     pub(super) SurfaceFamilyTrace,
+    pub(super) Option<Cand>,
 );
 
 impl Cand {
@@ -780,6 +806,7 @@ impl Record for Searched {
             .one(t.best_measure)
             .put(t.outcome.as_bytes())
             .one(t.seconds);
+        Cand::write(self.3.as_ref(), out);
     }
 
     fn read(from: &mut Reader<'_>) -> Result<Self> {
@@ -798,6 +825,7 @@ impl Record for Searched {
                 outcome: text(from)?,
                 seconds: from.one()?,
             },
+            Cand::read(from)?,
         ))
     }
 }
