@@ -694,25 +694,31 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 /// The README's blade table on the two shipped blades (`adapt-surface FILE --tol 1e-3 --relative
 /// --points-per-section 160`): the IEA 15 MW windIO v2 definition meets 1e-3 of its largest
 /// chord in at most half the 1,960 coefficients of three scipy `RectBivariateSpline`s on its
-/// stations' cloud (measured 861), held out within 3 tolerances, without folds or overhangs.
+/// stations' cloud, held out within 3 tolerances, without folds or overhangs. Its winner is
+/// polished (breaks merged in pairs, then swept once more): 713 stored scalars measured, 861
+/// before the polish, so held to 0.4 of scipy's.
 #[test]
-#[ignore = "ten seconds in release; run with --release -- --ignored"]
+#[ignore = "fifteen seconds in release; run with --release -- --ignored"]
 fn the_iea_15mw_definition_meets_1e3_in_half_the_scipy_coefficients() {
     let path = "data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml";
-    let r = definition_meets_1e3(path, 1960, 0.5);
-    assert!(r.surface.encoding.te_term, "{}", r.surface.family);
+    let r = definition_meets_1e3(path, 1960, 0.4);
+    let s = &r.surface;
+    assert!(s.encoding.te_term, "{}", s.family);
+    let won = s.trace.iter().find(|t| t.family == s.family).unwrap();
+    assert!(won.outcome.ends_with(" and polished"), "{won:?}");
+    assert_eq!(won.best_scalars, Some(s.count.total));
 }
 
 /// The IEA 3.4 MW AeroDyn 15 definition (30 stations): its thick flat-back root sections defeat
 /// the chord rule's law, and a plain bulk family meets 1e-3 of its largest chord (the second
 /// search, after sections lofted between stations joined, without the chord rule). Half of
-/// scipy's 2,611 coefficients is the aim and is missed (1,390 measured, 0.53 of them:
-/// the README says so); held to the measured 0.55.
+/// scipy's 2,611 coefficients is the aim and is missed (1,341 measured, 0.51 of them,
+/// after the winner's polish; 1,390 before it: the README says so); held to 0.53.
 #[test]
 #[ignore = "half a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_definition_meets_1e3_in_about_half_the_scipy_coefficients() {
     let path = "data/blades/iea-3.4-130-rwt/openfast/IEA-3.4-130-RWT_AeroDyn15.dat";
-    let r = definition_meets_1e3(path, 2611, 0.55);
+    let r = definition_meets_1e3(path, 2611, 0.53);
     assert!(r.surface.family.ends_with(" bulk"), "{}", r.surface.family);
     // The first search's chord-rule families met nothing, so the second searches the plain
     // families alone: no trailing-edge family in its trace.
@@ -749,7 +755,7 @@ fn the_iea_3_4mw_windio_v1_definition_meets_1e3_with_smooth_sections_added() {
 /// The IEA 15 MW definition at 80 points a section, 1e-3 of its largest chord: the winning
 /// trailing-edge layout, swept a second time with the span breaks first, keeps fewer stored
 /// scalars than its first sweep (u breaks first) left: 1,311 against 1,396 measured. The
-/// search keeps the second.
+/// search keeps the second (and then polishes it, where that keeps fewer still).
 #[test]
 #[ignore = "fifteen seconds in release; run with --release -- --ignored"]
 fn a_trailing_edge_winner_swept_span_breaks_first_keeps_fewer_scalars() {
@@ -757,7 +763,10 @@ fn a_trailing_edge_winner_swept_span_breaks_first_keeps_fewer_scalars() {
     let r = definition_meets_1e3_at(path, 80, usize::MAX, 1.0);
     let s = &r.surface;
     let won = s.trace.iter().find(|t| t.family == s.family).unwrap();
-    assert_eq!(won.outcome, "met (span breaks removed first)", "{won:?}");
+    assert!(
+        won.outcome.starts_with("met (span breaks removed first)"),
+        "{won:?}"
+    );
     assert_eq!(won.best_scalars, Some(s.count.total));
     assert!(s.count.total < 1396, "{} stored scalars", s.count.total);
 }

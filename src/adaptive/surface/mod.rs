@@ -635,6 +635,20 @@ fn run_families(
                 *w = c;
             }
         }
+        // Every bulk winner is then polished ([`Search::polish`]).
+        let (_, (fam, w, _, trace), _) = &mut results[i];
+        if let (true, Some(w)) = (fam.bulk(), w.as_mut()) {
+            let started = Instant::now();
+            let mut n = 0;
+            let c = search.polish(fam, w.clone(), &mut n);
+            trace.fits += n;
+            trace.seconds += started.elapsed().as_secs_f64();
+            if c.scalars < w.scalars {
+                trace.outcome = format!("{} and polished", trace.outcome);
+                trace.best_scalars = Some(c.scalars);
+                *w = c;
+            }
+        }
     }
     let fits = results.iter().map(|(_, r, _)| r.3.fits).sum();
     Ok((results.into_iter().map(|(_, r, _)| r).collect(), fits))
