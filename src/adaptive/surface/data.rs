@@ -223,6 +223,14 @@ impl<'a> Data<'a> {
         }
     }
 
+    /// The middles between every two neighbouring sections' `v`, increasing: where the bulk
+    /// families put their span breaks.
+    pub(super) fn mid_v(&self) -> Vec<f64> {
+        let mut sorted = self.v.clone();
+        sorted.sort_by(f64::total_cmp);
+        sorted.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect()
+    }
+
     /// The span parameter `v_k` of every point.
     pub(super) fn point_v(&self) -> Vec<f64> {
         (0..self.points.len()).map(|p| self.v[p / self.per]).collect()

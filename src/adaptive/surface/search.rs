@@ -351,14 +351,11 @@ impl<'d, 'a> Search<'d, 'a> {
     ) -> Option<Cand> {
         let data = self.data;
         let tol = self.opts.tol;
-        let mut order: Vec<usize> = (0..data.sections).collect();
-        order.sort_by(|&a, &b| data.v[a].total_cmp(&data.v[b]));
-        let sorted: Vec<f64> = order.iter().map(|&k| data.v[k]).collect();
         // Along the span a break half-way between every two neighbouring sections: each span
         // holds one section, at the middle row of the checker's seeds where the sections
         // are evenly spaced.
         let mut bv = vec![0.0];
-        bv.extend(sorted.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+        bv.extend(data.mid_v());
         bv.push(1.0);
         let bv = bv;
         let mut bu: Vec<f64> = (0..=BULK_START).map(|k| k as f64 / BULK_START as f64).collect();
@@ -688,9 +685,10 @@ impl<'d, 'a> Search<'d, 'a> {
     /// stored scalars to 713 (16.3 s instead of 14.4) and the IEA 3.4 MW AeroDyn blade from
     /// 1,390 to 1,341 (27.8 s instead of 26.8), and left the NREL 5 MW (514) and the IEA 10
     /// MW (883) as they were (0.9 and 1.0 s more). Repeating it while a round gains took the
-    /// IEA 15 MW on to 691 for 2.8 s more. Trying each pair of u breaks also at 0.3 and 0.7 of the way between
-    /// them took the IEA 10 MW from 883 to 851 and left the other three as they were, but
-    /// took the NREL 5 MW from 18.3 to 19.8 s against the 20 s its search is held to.
+    /// IEA 15 MW on to 691 for 2.8 s more. Trying each pair of u breaks also at 0.3 and 0.7
+    /// of the way between them took the IEA 10 MW from 883 to 851 and left the other three
+    /// as they were, but took the NREL 5 MW from 18.3 to 19.8 s against the 20 s its search
+    /// is held to.
     pub(super) fn polish(&self, fam: &Family, w: Cand, nfits: &mut usize) -> Cand {
         let opts = SurfaceAdaptOptions {
             span_checks: true,
@@ -713,9 +711,7 @@ impl<'d, 'a> Search<'d, 'a> {
     /// merge is kept when the layout has fewer stored scalars and still meets the tolerance
     /// ([`Search::met`]).
     pub(super) fn merge(&self, fam: &Family, mut w: Cand, nfits: &mut usize, along_v: bool) -> Cand {
-        let mut sorted = self.data.v.clone();
-        sorted.sort_by(f64::total_cmp);
-        let mids: Vec<f64> = sorted.windows(2).map(|p| 0.5 * (p[0] + p[1])).collect();
+        let mids = self.data.mid_v();
         loop {
             let b = if along_v { w.bv.clone() } else { w.bu.clone() };
             if b.len() < 4 {
