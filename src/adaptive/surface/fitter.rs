@@ -49,11 +49,6 @@ pub(super) const POLISH_NEWTON: usize = 4;
 /// to 52.0 s.
 pub(super) const POLISH_STALE: usize = 4;
 
-/// The parameter correction stops once a Newton step would move a foot point by less than
-/// this many tolerances along the surface (the distance then changes by its square over the
-/// curvature radius).
-pub(super) const FOOT_TOL: f64 = 1e-3;
-
 impl<'p> Fitter<'p> {
     /// The fits of `lu` x `lv` to `points` (a subset of the data's, section `k` at `v[j]`).
     pub(super) fn new(
@@ -156,11 +151,6 @@ impl<'p> Fitter<'p> {
     /// the minimax fit (at most 16 rounds, until [`POLISH_STALE`] rounds gain nothing).
     pub(super) fn fit(&mut self, u0: &[f64], opts: &SurfaceAdaptOptions) -> Option<Fitted> {
         let n = u0.len();
-        let foot = FootOptions {
-            tolerance: FOOT_TOL * opts.tol,
-            ..*self.problem.foot_options()
-        };
-        self.problem.set_foot_options(foot).ok()?;
         let rounds = LsqOptions {
             max_iterations: 12,
             method: LsqMethod::Alternate,
