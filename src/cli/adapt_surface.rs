@@ -187,7 +187,9 @@ pub fn run(args: Args) -> Result<()> {
             outs.say(&format!(
                 "note: {name}: {added} section(s) lofted between stations joined the data where the surface \
                  (or, before any layout met the stations, a smooth interpolation of them) left the definition \
-                 between them ({rounds} searches)\n"
+                 between them ({rounds} searches); they are held to {} tolerances, as the surface is between \
+                 the stations\n",
+                bezchain::adaptive::BETWEEN_FACTOR
             ));
         }
         if tols.len() == 1 {

@@ -6,7 +6,7 @@
 
 use crate::adaptive::encoding::{Encoding, ScalarCount};
 use crate::adaptive::surface::{
-    AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, SpanFairness,
+    AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, JoinedSections, SpanFairness,
     SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, Follows, HeldOut, Norm, SignChanges};
@@ -171,6 +171,10 @@ pub struct SurfaceAdaptBlock {
     /// below what it allows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scatter: Option<DataScatter>,
+    /// A blade definition's sections joined between its stations (held to three
+    /// tolerances), and the stations' largest offset.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joined_sections: Option<JoinedSections>,
     /// Candidate fits run by the search.
     pub fits: usize,
     /// Every family of the outer search.
@@ -204,6 +208,7 @@ impl SurfaceAdaptReport {
                 fairness: r.fairness.clone(),
                 between_sections: r.between.clone(),
                 scatter: r.scatter.clone(),
+                joined_sections: r.joined,
                 fits: r.fits,
                 search: r.trace.clone(),
             },

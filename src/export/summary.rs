@@ -437,6 +437,19 @@ pub fn adapted_surface(name: &str, points: usize, tol: f64, norm: Norm, r: &Adap
             b.points
         );
     }
+    if let Some(j) = &r.joined {
+        let _ = writeln!(
+            s,
+            "  joined         {} section(s) lofted between stations, held to {} tol: max {:.3e} ({:.2} tol) at span {:.4}; the stations' max {:.3e} ({:.2} tol)",
+            j.sections,
+            crate::adaptive::BETWEEN_FACTOR,
+            j.max,
+            j.max / tol,
+            j.span,
+            j.stations_max,
+            j.stations_max / tol
+        );
+    }
     if let Some(sc) = &r.scatter {
         let _ = writeln!(
             s,

@@ -334,17 +334,22 @@ pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
 }
 
 /// Whether every point's offset by the checker's search ([`sampled_offsets`]) is within
-/// `tol` (a NaN offset passes, as the max of [`sampled_offsets`] by `f64::max` skips it):
-/// the same answer as comparing their max with `tol`, for less work. A point's offset is the
+/// its tolerance, `tol(p)` for point `p` (a NaN offset passes, as the max of [`sampled_offsets`] by `f64::max` skips it):
+/// the same answer as comparing each offset with its tolerance, for less work. A point's offset is the
 /// least over its four seeds, so once one seed's refinement ends within `tol` the others
 /// cannot take the point out of it and are not refined; the scan stops at the first point
 /// beyond it.
 #[must_use]
-pub fn sampled_within(grid: &PatchGrid<DVec3>, points: &[DVec3], tol: f64) -> bool {
+pub fn sampled_within(
+    grid: &PatchGrid<DVec3>,
+    points: &[DVec3],
+    tol: &(dyn Fn(usize) -> f64 + Sync),
+) -> bool {
     let search = Sampled::new(grid);
-    points
-        .par_iter()
-        .all(|&q| !(search.offset(q, Some(tol)).sqrt() > tol))
+    points.par_iter().enumerate().all(|(p, &q)| {
+        let tol = tol(p);
+        !(search.offset(q, Some(tol)).sqrt() > tol)
+    })
 }
 
 /// The checker's search prepared on one grid: its patches, their samples and the k-d tree
@@ -570,9 +575,22 @@ mod tests {
             max * (1.0 + 1e-12),
             2.0 * max,
         ] {
-            assert_eq!(sampled_within(&g, &pts, tol), max <= tol, "tol {tol}, max {max}");
+            assert_eq!(
+                sampled_within(&g, &pts, &|_| tol),
+                max <= tol,
+                "tol {tol}, max {max}"
+            );
         }
-        assert!(sampled_within(&g, &[], 0.0));
+        assert!(sampled_within(&g, &[], &|_| 0.0));
+        // Each point against its own tolerance: the farthest point alone held looser.
+        let far = d.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+        let each = |p: usize| if p == far { max } else { sorted[298] };
+        assert!(sampled_within(&g, &pts, &each));
+        assert!(!sampled_within(&g, &pts, &|p| if p == far {
+            0.5 * max
+        } else {
+            max
+        }));
     }
 
     /// Samples on a coarse lattice (many exact ties, repeated samples as on shared patch

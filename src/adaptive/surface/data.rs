@@ -29,6 +29,10 @@ pub(super) struct Data<'a> {
     pub(super) stations: Option<Stations>,
     /// Sections lofted between the data's, from a blade definition ([`Data::with_between`]).
     pub(super) between: Option<Between>,
+    /// Per section, the tolerances its points are held to: 1 at the data's own sections,
+    /// [`super::BETWEEN_FACTOR`] at sections a blade definition lofted between its stations
+    /// ([`Data::with_joined`]).
+    pub(super) slack: Vec<f64>,
 }
 
 pub(super) fn chord_params(pts: &[DVec3]) -> Option<Vec<f64>> {
@@ -186,6 +190,7 @@ impl<'a> Data<'a> {
             blade,
             stations,
             between: None,
+            slack: vec![1.0; sections],
         })
     }
 
@@ -213,6 +218,25 @@ impl<'a> Data<'a> {
             v,
         });
         Some(self)
+    }
+
+    /// With the sections `joined` (lofted from a blade definition between its stations) held
+    /// to [`super::BETWEEN_FACTOR`] tolerances, as the surface is between the stations.
+    pub(super) fn with_joined(mut self, joined: &[usize]) -> Option<Self> {
+        for &k in joined {
+            *self.slack.get_mut(k)? = super::BETWEEN_FACTOR;
+        }
+        Some(self)
+    }
+
+    /// Per point of `points` (indices into the data's), the share of the tolerance its offset
+    /// is measured against: its offset times this is held to the tolerance. `None` when every
+    /// point is held to the tolerance itself.
+    pub(super) fn scale_of(&self, points: impl Iterator<Item = usize>) -> Option<Vec<f64>> {
+        self.slack
+            .iter()
+            .any(|&s| s != 1.0)
+            .then(|| points.map(|p| 1.0 / self.slack[p / self.per]).collect())
     }
 
     /// The initial `u` of every point, for a trailing-edge family (`te`) or another.

@@ -9,7 +9,7 @@ use crate::chain::{ChainLayout, GridLayout, GridShape, PatchGrid};
 use crate::closest::FootOptions;
 use crate::error::Result;
 use crate::optim::{lsq, LsqHooks, LsqIterate, LsqMethod, LsqOptions, Start};
-use crate::problem::{shape_offsets, Constraint, CoordRule, FitProblem, GridProblem, Metric, OffsetStats};
+use crate::problem::{shape_offsets, Constraint, CoordRule, FitProblem, GridProblem, Metric};
 use glam::DVec3;
 
 /// A fitted candidate: design net, point parameters and the fit's own offsets.
@@ -33,6 +33,10 @@ pub(super) struct Fitter<'p> {
     pub(super) problem: GridProblem<'p, DVec3>,
     /// `v_k` of every point fitted.
     pub(super) v: Vec<f64>,
+    /// Per point fitted, the share of the tolerance it is held to ([`Data::scale_of`]): its
+    /// offsets count times this in the fit's measure and in the minimax polish (the
+    /// least-squares rounds weigh every point alike). `None`: 1 for all.
+    scale: Option<Vec<f64>>,
 }
 
 /// Newton steps of each point's parameter correction in a round of the fit, and in a round of
@@ -57,6 +61,7 @@ impl<'p> Fitter<'p> {
         lv: ChainLayout,
         points: &'p [DVec3],
         v: Vec<f64>,
+        scale: Option<Vec<f64>>,
         te_ends: Option<&[(usize, f64)]>,
     ) -> Option<Self> {
         let (nu, nv) = (lu.design_count(), lv.design_count());
@@ -125,7 +130,7 @@ impl<'p> Fitter<'p> {
             }
             _ => problem,
         };
-        Some(Fitter { problem, v })
+        Some(Fitter { problem, v, scale })
     }
 
     /// Every point's `(u, v_k)` for `u`.
@@ -135,7 +140,10 @@ impl<'p> Fitter<'p> {
 
     /// The fitted state of a design at its (corrected) parameters.
     pub(super) fn fitted(&self, design: Vec<DVec3>, params: &[[f64; 2]], norm: Norm) -> Fitted {
-        let err = self.problem.distances(&design, params);
+        let mut err = self.problem.distances(&design, params);
+        if let Some(s) = &self.scale {
+            err.iter_mut().zip(s).for_each(|(e, s)| *e *= s);
+        }
         Fitted {
             measure: norm_of(&err, norm),
             design,
@@ -156,14 +164,23 @@ impl<'p> Fitter<'p> {
             method: LsqMethod::Alternate,
             ..LsqOptions::default()
         };
-        let measure = |it: &LsqIterate| match opts.norm {
-            Norm::Max => it.max,
-            Norm::Rms => (it.sum_sq / n.max(1) as f64).sqrt(),
+        // Where the points' shares of the tolerance differ, the measure takes one more pass
+        // over the points.
+        let problem = &self.problem;
+        let scale = self.scale.as_deref();
+        let measure = |it: &LsqIterate, design: &[DVec3], params: &[[f64; 2]]| match (opts.norm, scale) {
+            (Norm::Max, None) => it.max,
+            (Norm::Rms, None) => (it.sum_sq / n.max(1) as f64).sqrt(),
+            (norm, Some(s)) => {
+                let mut e = problem.distances(design, params);
+                e.iter_mut().zip(s).for_each(|(e, s)| *e *= s);
+                norm_of(&e, norm)
+            }
         };
         let mut best: Option<(f64, Vec<DVec3>, Vec<[f64; 2]>)> = None;
         let mut last = f64::INFINITY;
         let mut observe = |it: &LsqIterate, design: &[DVec3], params: &[[f64; 2]]| {
-            let m = measure(it);
+            let m = measure(it, design, params);
             if best.as_ref().is_none_or(|b| m < b.0) {
                 best = Some((m, design.to_vec(), params.to_vec()));
             }
@@ -257,18 +274,18 @@ pub(super) fn norm_of(err: &[f64], norm: Norm) -> f64 {
     }
 }
 
-/// Closest-point offsets of `points` from `grid`: every point's distance to the nearest of
-/// the surface points found by the library's global search
+/// The squared closest-point offsets of `points` from `grid`: every point's distance to the
+/// nearest of the surface points found by the library's global search
 /// ([`crate::problem::grid_offset_stats`]'s), by the checker's (`checked`, from
 /// [`sampled_offsets`]) and, when given, the fit's own foot points (`own`). Each search ends
 /// on a point of the surface, so each is an upper bound of the true distance and so is their
 /// minimum; near a collapsed edge (a blade tip) any one of them can stop in a local minimum.
-pub(super) fn closest_offsets(
+pub(super) fn closest_dist_sq(
     grid: &PatchGrid<DVec3>,
     points: &[DVec3],
     checked: &[f64],
     own: Option<&[f64]>,
-) -> Result<OffsetStats<DVec3>> {
+) -> Result<Vec<f64>> {
     let shape = GridShape::<DVec3>::new(grid.layout().clone());
     let opts = FootOptions {
         samples: 12,
@@ -286,5 +303,5 @@ pub(super) fn closest_offsets(
             d
         })
         .collect();
-    Ok(OffsetStats::from_dist_sq(Metric::Closest, &d2, points))
+    Ok(d2)
 }
