@@ -233,10 +233,17 @@ impl<'a> Data<'a> {
     /// is measured against: its offset times this is held to the tolerance. `None` when every
     /// point is held to the tolerance itself.
     pub(super) fn scale_of(&self, points: impl Iterator<Item = usize>) -> Option<Vec<f64>> {
-        self.slack
-            .iter()
-            .any(|&s| s != 1.0)
-            .then(|| points.map(|p| 1.0 / self.slack[p / self.per]).collect())
+        (self.joined() > 0).then(|| points.map(|p| 1.0 / self.slack_at(p)).collect())
+    }
+
+    /// The tolerances point `p` is held to ([`Data::slack`]).
+    pub(super) fn slack_at(&self, p: usize) -> f64 {
+        self.slack[p / self.per]
+    }
+
+    /// The sections held to more than the tolerance ([`Data::with_joined`]).
+    pub(super) fn joined(&self) -> usize {
+        self.slack.iter().filter(|&&s| s != 1.0).count()
     }
 
     /// The initial `u` of every point, for a trailing-edge family (`te`) or another.

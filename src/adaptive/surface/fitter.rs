@@ -142,7 +142,7 @@ impl<'p> Fitter<'p> {
     pub(super) fn fitted(&self, design: Vec<DVec3>, params: &[[f64; 2]], norm: Norm) -> Fitted {
         let mut err = self.problem.distances(&design, params);
         if let Some(s) = &self.scale {
-            err.iter_mut().zip(s).for_each(|(e, s)| *e *= s);
+            scale_by(&mut err, s);
         }
         Fitted {
             measure: norm_of(&err, norm),
@@ -173,7 +173,7 @@ impl<'p> Fitter<'p> {
             (Norm::Rms, None) => (it.sum_sq / n.max(1) as f64).sqrt(),
             (norm, Some(s)) => {
                 let mut e = problem.distances(design, params);
-                e.iter_mut().zip(s).for_each(|(e, s)| *e *= s);
+                scale_by(&mut e, s);
                 norm_of(&e, norm)
             }
         };
@@ -265,6 +265,11 @@ pub(super) fn span_maxima(breaks: &[f64], points: impl Iterator<Item = (f64, f64
 pub(super) fn fold_at(grid: &PatchGrid<DVec3>) -> Option<f64> {
     let f = fold_check(grid, FOLD_SAMPLES);
     (!f.passes).then_some(f.at[0])
+}
+
+/// Every offset of `err` times its point's share of the tolerance ([`Data::scale_of`]).
+pub(super) fn scale_by(err: &mut [f64], scale: &[f64]) {
+    err.iter_mut().zip(scale).for_each(|(e, s)| *e *= s);
 }
 
 pub(super) fn norm_of(err: &[f64], norm: Norm) -> f64 {

@@ -54,7 +54,7 @@ mod span;
 use data::Data;
 pub use definition::{adapt_blade, AdaptedBlade, MAX_ROUNDS};
 pub use encoding::{SurfaceCount, SurfaceEncoding};
-use fitter::{closest_dist_sq, norm_of, Fitter};
+use fitter::{closest_dist_sq, norm_of, scale_by, Fitter};
 use search::{encode, store, Cand, Family, Growth, Search, Searched, SweepOrder};
 pub use span::{
     BetweenSections, DataScatter, SpanFairness, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE, SCATTER_FACTOR,
@@ -407,25 +407,27 @@ pub fn adapt_surface_with(
     let d2 = closest_dist_sq(&grid_fit, points, &checked, Some(&own))?;
     let offset = OffsetStats::from_dist_sq(Metric::Closest, &d2, points);
     // Each point's offset against its own share of the tolerance (joined sections are held
-    // to [`BETWEEN_FACTOR`] of it).
+    // to [`BETWEEN_FACTOR`] of it), as the search measured it.
+    let scale = data.scale_of(0..points.len());
     let scaled = |e: &[f64]| -> Vec<f64> {
-        e.iter()
-            .enumerate()
-            .map(|(p, e)| e / data.slack[p / data.per])
-            .collect()
+        let mut e = e.to_vec();
+        if let Some(s) = &scale {
+            scale_by(&mut e, s);
+        }
+        e
     };
     let exact: Vec<f64> = d2.iter().map(|d| d.sqrt()).collect();
-    let joined = data.slack.iter().any(|&s| s != 1.0).then(|| {
+    let joined = (data.joined() > 0).then(|| {
         let (mut at, mut max, mut stations_max) = (0, 0.0_f64, 0.0_f64);
         for (p, &e) in exact.iter().enumerate() {
-            if data.slack[p / data.per] == 1.0 {
+            if data.slack_at(p) == 1.0 {
                 stations_max = stations_max.max(e);
             } else if e >= max {
                 (at, max) = (p / data.per, e);
             }
         }
         JoinedSections {
-            sections: data.slack.iter().filter(|&&s| s != 1.0).count(),
+            sections: data.joined(),
             max,
             span: span::span_at(&data, data.v[at]),
             stations_max,

@@ -6,7 +6,7 @@ use super::super::encoding::Breaks;
 use super::super::Norm;
 use super::data::Data;
 use super::encoding::SurfaceEncoding;
-use super::fitter::{fold_at, norm_of, span_maxima, Fitted, Fitter};
+use super::fitter::{fold_at, norm_of, scale_by, span_maxima, Fitted, Fitter};
 use super::span;
 use super::{sampled_offsets, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
 use crate::chain::{ChainLayout, PatchGrid};
@@ -204,9 +204,7 @@ impl<'d, 'a> Search<'d, 'a> {
             lv,
             self.data.points,
             self.data.point_v(),
-            self.loose
-                .then(|| self.data.scale_of(0..self.data.points.len()))
-                .flatten(),
+            self.scale(),
             ends.as_deref(),
         )?;
         let fit = f.fit(u0, self.opts)?;
@@ -239,18 +237,26 @@ impl<'d, 'a> Search<'d, 'a> {
             Norm::Max => sampled_within(grid, self.data.points, &|p| self.opts.tol * self.slack(p)),
             Norm::Rms => {
                 let mut d = sampled_offsets(grid, self.data.points);
-                for (p, e) in d.iter_mut().enumerate() {
-                    *e /= self.slack(p);
+                if let Some(s) = self.scale() {
+                    scale_by(&mut d, &s);
                 }
                 norm_of(&d, Norm::Rms) <= self.opts.tol
             }
         }
     }
 
+    /// Every point's share of the tolerance when it differs from 1 ([`Search::loose`],
+    /// [`Data::scale_of`]).
+    fn scale(&self) -> Option<Vec<f64>> {
+        self.loose
+            .then(|| self.data.scale_of(0..self.data.points.len()))
+            .flatten()
+    }
+
     /// The tolerances point `p` is held to ([`Search::loose`]).
     fn slack(&self, p: usize) -> f64 {
         if self.loose {
-            self.data.slack[p / self.data.per]
+            self.data.slack_at(p)
         } else {
             1.0
         }
@@ -733,12 +739,12 @@ impl<'d, 'a> Search<'d, 'a> {
         }
         let c = held.polish_round(fam, w, nfits);
         // Then with a blade definition's joined sections held to their own share.
-        let Some(scale) = self.data.scale_of(0..self.data.points.len()) else {
+        let loose = Search { loose: true, ..held };
+        let Some(scale) = loose.scale() else {
             return c;
         };
-        let loose = Search { loose: true, ..held };
         let mut c = c;
-        c.fit.err.iter_mut().zip(&scale).for_each(|(e, s)| *e *= s);
+        scale_by(&mut c.fit.err, &scale);
         c.fit.measure = norm_of(&c.fit.err, self.opts.norm);
         loose.polish_round(fam, c, nfits)
     }
