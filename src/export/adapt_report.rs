@@ -116,13 +116,7 @@ impl AdaptReport {
             adapt: AdaptBlock {
                 outcome: outcome!(opts, r, COUNTING),
                 held_out: r.held_out,
-                held_out_ratio: r.held_out.map(|h| {
-                    let m = match opts.norm {
-                        Norm::Max => h.max,
-                        Norm::Rms => h.rms,
-                    };
-                    m / opts.tol
-                }),
+                held_out_ratio: r.held_out.map(|h| h.measure(opts.norm) / opts.tol),
                 sign_changes: r.sign_changes,
                 follows: r.follows,
                 fits: r.fits,

@@ -296,10 +296,7 @@ pub fn adapted_curve(name: &str, points: usize, tol: f64, norm: Norm, r: &Adapte
         r.offset.max, r.offset.max_at.x, r.offset.max_at.y, r.offset.rms
     );
     if let Some(h) = &r.held_out {
-        let m = match norm {
-            Norm::Max => h.max,
-            Norm::Rms => h.rms,
-        };
+        let m = h.measure(norm);
         let _ = writeln!(
             s,
             "  held-out ratio {:.2} tolerances ({norm}; at most {})",

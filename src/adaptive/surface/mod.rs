@@ -61,7 +61,7 @@ pub use span::{
 };
 
 use super::blade::TE_DEGREE;
-use super::{HeldOut, Norm};
+use super::{HeldOut, Norm, HELD_OUT_FACTOR};
 use crate::chain::PatchGrid;
 use crate::error::{Error, Result};
 pub use crate::problem::checker::{fold_check, sampled_offsets, FoldCheck};
@@ -260,8 +260,10 @@ pub struct AdaptedSurface {
     pub faults: Vec<f64>,
     /// True when the tolerance holds (at a blade definition's joined sections,
     /// [`BETWEEN_FACTOR`] tolerances), by the true closest-point offsets and by the checker's,
-    /// the mid-stations' cuts are fair and, against a blade definition, the surface is within
-    /// [`BETWEEN_FACTOR`] tolerances of it between the sections.
+    /// the mid-stations' cuts are fair, against a blade definition the surface is within
+    /// [`BETWEEN_FACTOR`] tolerances of it between the sections, and (with
+    /// [`SurfaceAdaptOptions::held_out`]) the held-out check is within [`HELD_OUT_FACTOR`]
+    /// tolerances.
     pub met: bool,
     /// Why not, when it does not.
     pub message: Option<String>,
@@ -464,7 +466,16 @@ pub fn adapt_surface_with(
         .iter()
         .map(|&v| span::span_at(&data, v))
         .collect();
-    let met = at_sections && fair && lofted;
+    // Refitted on every other point of each section, the others within
+    // [`HELD_OUT_FACTOR`] tolerances, as a chain's are.
+    let held_out = if opts.held_out {
+        held_out_check(&data, &fam, &cand, opts)
+    } else {
+        None
+    };
+    let held_measure = held_out.map(|h| h.measure(opts.norm));
+    let held_ok = HeldOut::passes(held_out.as_ref(), opts.held_out, opts.norm, opts.tol);
+    let met = at_sections && fair && lofted && held_ok;
     let scatter = DataScatter::of(points, grid, opts.tol);
     // Said with every message when the tolerance is below the data's own scatter.
     let noisy = scatter
@@ -478,6 +489,23 @@ pub fn adapt_surface_with(
             )
         });
     let message = (!met).then(|| {
+        if at_sections && fair && lofted {
+            return match held_measure {
+                Some(m) => format!(
+                    "tolerance {:e} met at every point but not held out: refitted on every other point \
+                     of each section, the others are {} {m:.3e} away, {:.2} tolerances (at most \
+                     {HELD_OUT_FACTOR}){noisy}",
+                    opts.tol,
+                    opts.norm,
+                    m / opts.tol
+                ),
+                None => format!(
+                    "tolerance {:e} met at every point, but the held-out check is not possible: every \
+                     other point of each section does not determine the layout{noisy}",
+                    opts.tol
+                ),
+            };
+        }
         if at_sections {
             let mut why = Vec::new();
             if let Some(f) = fairness.as_ref().filter(|f| !f.passes) {
@@ -520,11 +548,6 @@ pub fn adapt_surface_with(
             count.total
         )
     });
-    let held_out = if opts.held_out {
-        held_out_check(&data, &fam, &cand, opts)
-    } else {
-        None
-    };
     Ok(AdaptedSurface {
         encoding,
         count,
