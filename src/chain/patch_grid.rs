@@ -1,7 +1,7 @@
 //! `PatchGrid`: a grid of tensor-product Bezier patches chained in both directions.
 
 use super::layout::{ChainLayout, Continuity};
-use crate::bezier::{bernstein_jet, combine, BezierPatch, Vector};
+use crate::bezier::{bernstein_jet, bernstein_levels, combine, BezierPatch, Vector};
 use crate::error::{Error, Result};
 
 /// The shape of a patch grid: one chain layout along u (rows) and one along v (columns).
@@ -182,6 +182,21 @@ impl<P: Vector> PatchGrid<P> {
         self.patch(i, j).eval(a, b)
     }
 
+    /// The cut `S(·, v)` as a chain along u: every net row combined along v, the control net
+    /// of the u layout's chain (its point at `u` is [`PatchGrid::eval`]'s at `(u, v)`, to
+    /// rounding).
+    #[must_use]
+    pub fn cut_net(&self, v: f64) -> Vec<P> {
+        let dv = self.layout.v.degree();
+        let mv = self.layout.net_shape().1;
+        let (j, b) = self.layout.v.locate(v);
+        let [w] = bernstein_levels::<33, 1>(dv, b);
+        self.net
+            .chunks(mv)
+            .map(|row| combine(&row[j * dv..=(j + 1) * dv], &w))
+            .collect()
+    }
+
     /// Point and partial derivatives with respect to the global parameters at `(u, v)`.
     #[must_use]
     pub fn partials(&self, u: f64, v: f64) -> (P, P, P) {
@@ -355,6 +370,23 @@ mod tests {
             // And the surface itself: the cross-border derivative from both sides agrees.
             let (p0, _, _) = grid.partials(0.37, 0.61);
             prop_assert!((p0 - grid.eval(0.37, 0.61)).length() < 1e-14);
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn a_cut_net_evaluates_as_the_grid((deg, patches, seed, warp) in grid_cases(2..6, 1..4, 300)) {
+            let grid = random_grid(deg, patches, [Continuity::C1, Continuity::C1], warp, &seed);
+            let u = &grid.layout().u;
+            for v in [0.0, 0.23, 0.5, 0.91, 1.0] {
+                let net = grid.cut_net(v);
+                prop_assert_eq!(net.len(), grid.layout().net_shape().0);
+                for t in [0.0, 0.11, 0.5, 0.77, 1.0] {
+                    let (i, a) = u.locate(t);
+                    let p = crate::bezier::BezierCurve::new(net[i * u.degree()..=(i + 1) * u.degree()].to_vec()).eval(a);
+                    prop_assert!((p - grid.eval(t, v)).length() < 1e-13, "at ({t}, {v})");
+                }
+            }
         }
     }
 

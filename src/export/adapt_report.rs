@@ -6,8 +6,8 @@
 
 use crate::adaptive::encoding::{Encoding, ScalarCount};
 use crate::adaptive::surface::{
-    AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, JoinedSections, SpanFairness,
-    SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+    AdaptedSurface, BetweenSections, CheckedOffsets, DataScatter, FoldCheck, JoinedSections, SectionEnds,
+    SpanFairness, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
 };
 use crate::adaptive::{AdaptOptions, AdaptedCurve, FamilyTrace, Follows, HeldOut, Norm, SignChanges};
 use crate::fit::report::{CurveReport, FitInfo, InputInfo, OffsetReport, SurfaceReport};
@@ -150,6 +150,11 @@ pub struct SurfaceAdaptBlock {
     /// The fold check: the largest turn of the surface normal between neighbouring samples.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fold: Option<FoldCheck>,
+    /// The sections' ends: how far a cut's end doubles back beyond its neighbouring
+    /// sections' (`passes` at most [`crate::adaptive::surface::END_SLACK`] tolerances;
+    /// reported, not part of `met`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub section_ends: Option<SectionEnds>,
     /// The checker's max over the exact max (the projection check agrees within 10 % when at
     /// most 1.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -198,6 +203,7 @@ impl SurfaceAdaptReport {
                 checked: r.checked,
                 held_out: r.held_out,
                 fold: Some(r.fold),
+                section_ends: r.ends,
                 projection_agreement: Some(r.agreement),
                 fairness: r.fairness.clone(),
                 between_sections: r.between.clone(),

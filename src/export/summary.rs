@@ -395,6 +395,29 @@ pub fn adapted_surface(name: &str, points: usize, tol: f64, norm: Norm, r: &Adap
         if r.fold.passes { "no fold" } else { "FOLDS" },
         r.agreement
     );
+    if let Some(e) = &r.ends {
+        let _ = writeln!(
+            s,
+            "  section ends   {} cuts: {}",
+            e.cuts,
+            if e.excess > 0.0 {
+                format!(
+                    "worst doubles back {:.3e} ({:.2} tol) beyond its neighbouring sections at span {:.4}, end {}: {}",
+                    e.excess,
+                    e.excess / tol,
+                    e.span,
+                    e.end,
+                    if e.passes {
+                        "within the allowance".to_string()
+                    } else {
+                        format!("DOUBLES BACK (more than {} tol; reported, not part of met)", crate::adaptive::surface::END_SLACK)
+                    }
+                )
+            } else {
+                "none doubles back beyond its neighbouring sections".to_string()
+            }
+        );
+    }
     match &r.fairness {
         Some(f) => {
             let _ = writeln!(

@@ -47,6 +47,7 @@
 mod data;
 mod definition;
 mod encoding;
+mod ends;
 mod fitter;
 mod search;
 mod span;
@@ -54,6 +55,7 @@ mod span;
 use data::Data;
 pub use definition::{adapt_blade, AdaptedBlade, MAX_ROUNDS};
 pub use encoding::{SurfaceCount, SurfaceEncoding};
+pub use ends::{SectionEnds, END_SLACK, END_WINDOWS};
 use fitter::{closest_dist_sq, norm_of, scale_by, Fitter};
 use search::{encode, store, Cand, Family, Growth, Search, Searched, SweepOrder};
 pub use span::{
@@ -235,6 +237,9 @@ pub struct AdaptedSurface {
     pub held_out: Option<HeldOut>,
     /// The fold check of the grid ([`fold_check`], [`FOLD_SAMPLES`] samples a patch).
     pub fold: FoldCheck,
+    /// The check of the sections' ends ([`SectionEnds`]; `None` where the sections are not
+    /// planes of one axis): reported, not part of `met`.
+    pub ends: Option<SectionEnds>,
     /// The fairness of the surface's cuts at the mid-stations ([`SpanFairness`]; `None`
     /// where the sections are not planes of one axis).
     pub fairness: Option<SpanFairness>,
@@ -475,6 +480,8 @@ pub fn adapt_surface_with(
     };
     let held_measure = held_out.map(|h| h.measure(opts.norm));
     let held_ok = HeldOut::passes(held_out.as_ref(), opts.held_out, opts.norm, opts.tol);
+    // Reported, not part of `met` (see `ends`).
+    let ends = ends::check(&data, &grid_fit, opts.tol);
     let met = at_sections && fair && lofted && held_ok;
     let scatter = DataScatter::of(points, grid, opts.tol);
     // Said with every message when the tolerance is below the data's own scatter.
@@ -556,6 +563,7 @@ pub fn adapt_surface_with(
         checked,
         held_out,
         fold,
+        ends,
         fairness,
         between,
         scatter,
