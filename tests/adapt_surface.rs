@@ -696,7 +696,7 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 /// chord in at most half the 1,960 coefficients of three scipy `RectBivariateSpline`s on its
 /// stations' cloud, held out within 3 tolerances, without folds or overhangs. Its winner is
 /// polished (breaks merged in pairs, then swept once more): 713 stored scalars measured, 861
-/// before the polish, so held to 0.4 of scipy's. Its end 1 runs 2.5 tolerances back along its
+/// before the polish, so held to 0.4 of scipy's. Its end 1 runs 3.0 tolerances back along its
 /// closed trailing edge at 11 m span, which the report's `section_ends` measures as the test's
 /// own walk does (not part of `met`).
 #[test]

@@ -5,18 +5,18 @@
 //! to it meets the tolerance, as long as the excursion lies near the data: at a closed, round
 //! trailing edge the two ends of a section meet, and one end of the cut can run a few
 //! tolerances along the start of the other and turn back (on the IEA 15 MW blade at 1e-3 of
-//! the chord, 17 mm at 11 m span, 2.5 tolerances, between two stations), with its normal
+//! the chord, 17 mm at 11 m span, 3.0 tolerances, between two stations), with its normal
 //! turning over several samples, so the fold check passes it too. A CAD user gets a seam that
 //! overlaps itself.
 //!
 //! The check walks back from each end of the cut `S(·, v)` over each of the arc lengths
-//! [`END_WINDOWS`] (in tolerances, at most [`END_REACH`] of the half section's arc) and measures its **backtrack**: how far the walk falls back
-//! along the direction from the window's start to the end point (the running maximum of the
-//! projection on it, minus the projection), zero for an end that never turns back; the
-//! largest over the windows (a window shorter than a hook's return leg, or long enough to
-//! round a whole trailing edge, sees less of it). The data's sections are
-//! measured the same way along their points; a section whose end point is not its outermost
-//! point (a round end that bulges past it) backtracks too. A cut passes when its backtrack is
+//! [`END_WINDOWS`] (in tolerances, at most [`END_REACH`] of the half section's arc) and
+//! measures its **backtrack**: how far the walk falls back along the direction from the
+//! window's start to the end point (the running maximum of the projection on it, minus the
+//! projection), zero for an end that never turns back; the largest over the windows (a window
+//! shorter than a hook's return leg, or long enough to round a whole trailing edge, sees less
+//! of it). The data's sections are measured the same way along their points; a section whose
+//! end point is not its outermost point (a round end that bulges past it) backtracks too. A cut passes when its backtrack is
 //! at most its two neighbouring data sections' (the larger, at that end) plus [`END_SLACK`]
 //! tolerances. Cuts are taken [`V_SAMPLES`] a patch along v, each end sampled [`U_SAMPLES`]
 //! a patch along u.
