@@ -491,6 +491,7 @@ fn check_adapt_surface(rep: &Value) {
             "message",
             "held_out",
             "fold",
+            "section_ends",
             "projection_agreement",
             "fairness",
             "between_sections",
@@ -498,6 +499,14 @@ fn check_adapt_surface(rep: &Value) {
         ],
         "adapt-surface block",
     );
+    if let Some(e) = a.get("section_ends") {
+        assert_keys(
+            e,
+            &["cuts", "excess", "span", "end", "passes"],
+            &[],
+            "section_ends",
+        );
+    }
     if let Some(f) = a.get("fairness") {
         assert_keys(
             f,
