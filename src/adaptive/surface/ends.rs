@@ -16,10 +16,10 @@
 //! projection), zero for an end that never turns back; the largest over the windows (a window
 //! shorter than a hook's return leg, or long enough to round a whole trailing edge, sees less
 //! of it). The data's sections are measured the same way along their points; a section whose
-//! end point is not its outermost point (a round end that bulges past it) backtracks too. A cut passes when its backtrack is
-//! at most its two neighbouring data sections' (the larger, at that end) plus [`END_SLACK`]
-//! tolerances. Cuts are taken [`V_SAMPLES`] a patch along v, each end sampled [`U_SAMPLES`]
-//! a patch along u.
+//! end point is not its outermost point (a round end that bulges past it) backtracks too. A
+//! cut passes when its backtrack is at most its two neighbouring data sections' (the larger,
+//! at that end) plus [`END_SLACK`] tolerances. Cuts are taken [`V_SAMPLES`] a patch along v,
+//! each end sampled [`U_SAMPLES`] a patch along u.
 //!
 //! The check is reported (`section_ends`), not part of `met`, and the search does not hold
 //! it. Held by every bulk family's layouts (as the fold check is), at 1e-3 of the chord and

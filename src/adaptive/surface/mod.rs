@@ -495,23 +495,25 @@ pub fn adapt_surface_with(
                 s.sigma, s.relative, s.section
             )
         });
+    // Why the held-out check fails, when it does.
+    let held_why = (!held_ok).then(|| match held_measure {
+        Some(m) => format!(
+            "refitted on every other point of each section, the others are {} {m:.3e} away, {:.2} \
+             tolerances (at most {HELD_OUT_FACTOR})",
+            opts.norm,
+            m / opts.tol
+        ),
+        None => "the held-out check is not possible: every other point of each section does not \
+                 determine the layout"
+            .to_string(),
+    });
     let message = (!met).then(|| {
         if at_sections && fair && lofted {
-            return match held_measure {
-                Some(m) => format!(
-                    "tolerance {:e} met at every point but not held out: refitted on every other point \
-                     of each section, the others are {} {m:.3e} away, {:.2} tolerances (at most \
-                     {HELD_OUT_FACTOR}){noisy}",
-                    opts.tol,
-                    opts.norm,
-                    m / opts.tol
-                ),
-                None => format!(
-                    "tolerance {:e} met at every point, but the held-out check is not possible: every \
-                     other point of each section does not determine the layout{noisy}",
-                    opts.tol
-                ),
-            };
+            return format!(
+                "tolerance {:e} met at every point but not held out: {}{noisy}",
+                opts.tol,
+                held_why.as_deref().unwrap_or_default()
+            );
         }
         if at_sections {
             let mut why = Vec::new();
@@ -528,8 +530,11 @@ pub fn adapt_surface_with(
                     b.max, b.span
                 ));
             }
+            let held = held_why
+                .as_ref()
+                .map_or(String::new(), |h| format!("; nor held out: {h}"));
             return format!(
-                "tolerance {:e} met at the sections but not between them: {}{noisy}",
+                "tolerance {:e} met at the sections but not between them: {}{held}{noisy}",
                 opts.tol,
                 why.join("; ")
             );
