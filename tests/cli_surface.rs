@@ -547,6 +547,15 @@ fn a_station_point_cloud_with_text_columns_fits_and_adapts_like_the_blade_cloud(
     assert!(String::from_utf8_lossy(&out.stdout).contains("met            yes"));
     let rep: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(rep["adapt"]["met"], true);
+    // The command warns exactly when the report's section ends double back.
+    let ends = &rep["adapt"]["section_ends"];
+    assert!(ends["passes"].is_boolean(), "{ends}");
+    assert_eq!(
+        stderr(&out).contains("doubles back on itself"),
+        ends["passes"] == false,
+        "{}",
+        stderr(&out)
+    );
     let o = check_surface_report(&rep, &points, 1e-6);
     assert!(
         o.max <= rep["adapt"]["tol"].as_f64().unwrap(),

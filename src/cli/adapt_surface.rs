@@ -201,6 +201,9 @@ pub fn run(args: Args) -> Result<()> {
                 &r,
             ));
         }
+        if let Some(w) = summary::ends_warning(r.ends.as_ref(), opts.tol) {
+            super::warn(&args.cloud, &w);
+        }
         let input = InputInfo {
             points: fitted.len(),
             ..input.clone()

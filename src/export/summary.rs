@@ -4,6 +4,7 @@
 use super::adapt_report::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
 use super::bspline::CadShape;
 use super::stamp::Schema;
+use crate::adaptive::surface::SectionEnds;
 use crate::adaptive::{AdaptedCurve, AdaptedSurface, Breaks, HeldOut, Norm, XStore};
 use crate::error::Result;
 use crate::fit::report::{FitInfo, OffsetReport};
@@ -135,6 +136,25 @@ pub fn fold_warning(fit: &CurveFit<DVec2>) -> Option<String> {
              small but neighbouring data points are far apart along the chain; try another degree or \
              number of segments",
             fit.span_ratio
+        )
+    })
+}
+
+/// The warning for an adapted surface whose section ends double back beyond its neighbouring
+/// sections' ([`SectionEnds::passes`] false) at tolerance `tol`, if they do: no offset sees
+/// it, and the CAD files written from the surface carry it.
+#[must_use]
+pub fn ends_warning(ends: Option<&SectionEnds>, tol: f64) -> Option<String> {
+    ends.filter(|e| !e.passes).map(|e| {
+        format!(
+            "at tolerance {tol:.3e} the surface doubles back on itself at its sections' end {} near span \
+             {:.4}: {:.3e} ({:.2} tol) beyond its neighbouring sections, so the seam overlaps itself there, \
+             which no offset sees and a mesher may refuse; the report's `section_ends` has it, and `met` \
+             does not hold it",
+            e.end,
+            e.span,
+            e.excess,
+            e.excess / tol
         )
     })
 }
@@ -628,6 +648,25 @@ impl Adapted for SurfaceAdaptReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only section ends beyond the allowance warn, with where and how far in tolerances.
+    #[test]
+    fn only_ends_that_double_back_warn() {
+        let ends = |excess: f64, passes: bool| SectionEnds {
+            cuts: 465,
+            excess,
+            span: 11.341_836,
+            end: 1,
+            passes,
+        };
+        assert_eq!(ends_warning(None, 1e-3), None);
+        assert_eq!(ends_warning(Some(&ends(3e-4, true)), 1e-3), None);
+        let w = ends_warning(Some(&ends(1.729e-2, false)), 5.765e-3).unwrap();
+        assert!(
+            w.contains("end 1 near span 11.3418: 1.729e-2 (3.00 tol)") && w.contains("section_ends"),
+            "{w}"
+        );
+    }
 
     /// The sweep table lines its columns up and says where a tolerance is not met.
     #[test]
