@@ -149,8 +149,9 @@ pub fn ends_warning(ends: Option<&SectionEnds>, tol: f64) -> Option<String> {
         format!(
             "at tolerance {tol:.3e} the surface doubles back on itself at its sections' end {} near span \
              {:.4}: {:.3e} ({:.2} tol) beyond its neighbouring sections, so the seam overlaps itself there, \
-             which no offset sees and a mesher may refuse; the report's `section_ends` has it, and `met` \
-             does not hold it",
+             which no offset sees and a mesher may refuse (the report's `section_ends`; not part of `met`); \
+             points closer together at the sections' ends narrow it (for a blade definition, more \
+             --points-per-section)",
             e.end,
             e.span,
             e.excess,
@@ -663,7 +664,9 @@ mod tests {
         assert_eq!(ends_warning(Some(&ends(3e-4, true)), 1e-3), None);
         let w = ends_warning(Some(&ends(1.729e-2, false)), 5.765e-3).unwrap();
         assert!(
-            w.contains("end 1 near span 11.3418: 1.729e-2 (3.00 tol)") && w.contains("section_ends"),
+            w.contains("end 1 near span 11.3418: 1.729e-2 (3.00 tol)")
+                && w.contains("section_ends")
+                && w.contains("--points-per-section"),
             "{w}"
         );
     }
