@@ -502,7 +502,7 @@ fn check_adapt_surface(rep: &Value) {
     if let Some(e) = a.get("section_ends") {
         assert_keys(
             e,
-            &["cuts", "excess", "span", "end", "passes"],
+            &["cuts", "excess", "span", "end", "at", "passes"],
             &[],
             "section_ends",
         );

@@ -211,10 +211,11 @@ pub fn run(args: Args) -> Result<()> {
         let report = SurfaceAdaptReport::new(&r, &opts, input);
         // The surface, and for a blade definition the cloud it was fitted to (the input's
         // otherwise), for the picture.
-        last = Some((r.grid, refined.map(|c| c.0)));
+        let remark = summary::ends_remark(r.ends.as_ref(), opts.tol);
+        last = Some((r.grid, refined.map(|c| c.0), remark));
         Ok(report)
     })?;
-    if let (true, Some((surface, cloud))) = (pictures.wanted(), &last) {
+    if let (true, Some((surface, cloud, remark))) = (pictures.wanted(), &last) {
         let (points, grid) = match cloud {
             Some(c) => (&c.points[..], c.grid.unwrap_or(grid)),
             None => (&points[..], grid),
@@ -226,7 +227,10 @@ pub fn run(args: Args) -> Result<()> {
         // The span axis fit-surface draws a sectioned cloud along.
         let (_, axis) = section_params(points, grid, None)?;
         let [w, h] = pictures.size();
-        let ropts = RenderOptions::of_surface(surface, &params, axis.dir, points, Some(grid), w, h);
+        let ropts = RenderOptions {
+            remarks: remark.iter().cloned().collect(),
+            ..RenderOptions::of_surface(surface, &params, axis.dir, points, Some(grid), w, h)
+        };
         pictures.put(&mut outs, surface, &ropts)?;
     }
     finish(

@@ -124,6 +124,16 @@ pub fn stations(points: &[DVec3], grid: Grid) -> Vec<Station> {
         .collect()
 }
 
+/// A point the picture rings for a reason of its own, not an offset (a section's end that
+/// doubles back, [`crate::adaptive::surface::SectionEnds`]): where, and the label beside it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Remark {
+    /// The point, model units.
+    pub position: DVec3,
+    /// The label beside its ring.
+    pub label: String,
+}
+
 /// A ringed point: which data point, its offset, its % of local chord (when known), its
 /// section, and whether it is the worst relative to its local chord or in data units.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,10 +6,12 @@
 //! sections ([`super::offset_map`] says what and why), with a colour bar of two scales, the
 //! worst points ringed, the stations drawn across the surface and a caption.
 
+mod marks;
 mod svg;
+use marks::{draw_ring, place_label, ring_boxes, Mark};
 
 use super::mesh::SurfaceMesh;
-pub use super::offset_map::{offset_colour, OffsetPoint, Rgb, Station};
+pub use super::offset_map::{offset_colour, OffsetPoint, Remark, Rgb, Station};
 use super::offset_map::{offset_label, stations, Colouring, Marked};
 use super::raster::{draw_boxed_text, draw_disc, draw_line, draw_text, fill_triangle, Canvas};
 pub use super::raster::{Image, BACKGROUND, NET};
@@ -69,6 +71,9 @@ pub struct RenderOptions {
     /// The data's sections (stations), which [`OffsetPoint::section`] indexes: drawn as lines
     /// across the surface and numbered under it. Default none.
     pub stations: Vec<Station>,
+    /// Points ringed with a dotted ring and labelled, when the picture is coloured by offsets
+    /// (a section's end that doubles back). Default none.
+    pub remarks: Vec<Remark>,
 }
 
 impl Default for RenderOptions {
@@ -91,6 +96,7 @@ impl Default for RenderOptions {
             cloud: Vec::new(),
             offsets: Vec::new(),
             stations: Vec::new(),
+            remarks: Vec::new(),
         }
     }
 }
@@ -267,37 +273,6 @@ fn draw_colour_bar(canvas: &mut Canvas, x: i64, top: i64, bottom: i64, colouring
     }
 }
 
-/// A ring around a marked point: a solid black ring with a white halo for the primary mark,
-/// a thinner dashed one for the other; half as opaque where the surface hides the point.
-fn draw_ring(canvas: &mut Canvas, at: (f64, f64), radius: f64, scale: f64, primary: bool, hidden: bool) {
-    let alpha = if hidden { 0.5 } else { 1.0 };
-    let steps = (2.0 * std::f64::consts::PI * radius * 2.0).ceil().max(16.0) as usize;
-    let (halo, line) = if primary {
-        (1.4 * scale, 0.7 * scale)
-    } else {
-        (0.9 * scale, 0.4 * scale)
-    };
-    for (width, colour) in [(halo, BACKGROUND), (line, [0, 0, 0])] {
-        for s in 0..steps {
-            let a = 2.0 * std::f64::consts::PI * s as f64 / steps as f64;
-            if !primary && (a / (std::f64::consts::PI / 8.0)) as usize % 2 == 1 {
-                continue;
-            }
-            let (x, y) = (at.0 + radius * a.cos(), at.1 + radius * a.sin());
-            let r = width.ceil() as i64;
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
-                    let d = ((px as f64 - x).powi(2) + (py as f64 - y).powi(2)).sqrt();
-                    if d <= width {
-                        canvas.blend(px, py, colour, alpha);
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// Where a station is numbered under a panel: the screen x of every station's centroid, and
 /// the ones to label (no two labels closer than `gap`; the first and the last always).
 fn station_ticks(xs: &[f64], gap: f64) -> Vec<bool> {
@@ -346,65 +321,6 @@ fn value_points(opts: &RenderOptions, c: &Colouring) -> Vec<([f64; 2], f64)> {
         .collect()
 }
 
-/// The label of a ring, noting when the surface hides its point in this view.
-fn marker_label(m: &Marked, relative: bool, hidden: bool) -> String {
-    let mut text = m.label(relative);
-    if hidden {
-        text.push_str(" (far side)");
-    }
-    text
-}
-
-/// The top-left corner of a label beside a ring at `p` of `radius`: right of it, or left of it
-/// when that runs out of the panel, kept in the panel, and below the labels `placed` before it
-/// (their boxes) when it would overlap one.
-fn place_label(
-    p: (f64, f64, f64),
-    radius: f64,
-    text: &str,
-    scale: f64,
-    panel: (f64, f64, f64, f64),
-    placed: &mut Vec<(f64, f64, f64, f64)>,
-) -> (f64, f64) {
-    let (px, py, pw, ph) = panel;
-    let (bw, bh) = (text.chars().count() as f64 * 6.0 * scale, 10.0 * scale);
-    let gap = radius + 2.0 * scale;
-    let (mut x, mut y) = (p.0 + gap, p.1 - 3.5 * scale);
-    if x + bw > px + pw {
-        x = p.0 - gap - bw;
-    }
-    if x < px {
-        // Neither side has room: centred under the ring (over it near the panel's bottom).
-        x = p.0 - 0.5 * bw;
-        y = if p.1 + gap + bh < py + ph {
-            p.1 + gap
-        } else {
-            p.1 - gap - bh
-        };
-    }
-    x = x.clamp(px + scale, (px + pw - bw - scale).max(px + scale));
-    y = y.clamp(py + scale, (py + ph - bh).max(py + scale));
-    while placed
-        .iter()
-        .any(|&(ox, oy, ow, oh)| x < ox + ow && ox < x + bw && y < oy + oh && oy < y + bh)
-    {
-        y += bh;
-    }
-    placed.push((x, y, bw, bh));
-    (x, y)
-}
-
-/// The boxes of the rings around `marked` in `cam`'s view, which labels keep clear of.
-fn ring_boxes(cam: &Camera, marked: &[Marked], radius: f64) -> Vec<(f64, f64, f64, f64)> {
-    marked
-        .iter()
-        .map(|m| {
-            let p = cam.project(m.position);
-            (p.0 - radius, p.1 - radius, 2.0 * radius, 2.0 * radius)
-        })
-        .collect()
-}
-
 /// The screen x of a station (its centroid's), for its number under the panel.
 fn station_x(cam: &Camera, st: &Station) -> f64 {
     let n = st.points.len().max(1) as f64;
@@ -444,7 +360,7 @@ fn text_scale(h: usize, ss: usize) -> i64 {
 /// lines, wrapped at words to the picture's width.
 fn bar_and_caption(
     colouring: Option<&Colouring>,
-    stations: bool,
+    opts: &RenderOptions,
     w: f64,
     scale: f64,
 ) -> (f64, f64, Vec<String>) {
@@ -454,7 +370,7 @@ fn bar_and_caption(
     let bar = if c.relative { 126.0 } else { 62.0 } * scale;
     let width = ((w / (6.0 * scale)) as usize).saturating_sub(2).max(20);
     let mut lines = Vec::new();
-    for text in c.caption(stations) {
+    for text in caption(c, opts) {
         let mut line = String::new();
         for word in text.split(' ') {
             if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
@@ -468,6 +384,18 @@ fn bar_and_caption(
         lines.push(line);
     }
     (bar.min(0.4 * w), (lines.len() as f64 * 10.0 + 4.0) * scale, lines)
+}
+
+/// The caption's lines of a picture coloured by `c` ([`Colouring::caption`]), with a line for
+/// the remarks' rings when there are any.
+fn caption(c: &Colouring, opts: &RenderOptions) -> Vec<String> {
+    let mut lines = c.caption(!opts.stations.is_empty());
+    if !opts.remarks.is_empty() {
+        lines.push(
+            "dotted ring: where a section's end doubles back on itself (the report's section_ends)".into(),
+        );
+    }
+    lines
 }
 
 impl RenderOptions {
@@ -613,12 +541,7 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
     };
     // Room for the colour bar on the right and the caption at the bottom.
     let tscale = text_scale(h, ss);
-    let (bar_room, caption_h, caption) = bar_and_caption(
-        colouring.as_ref(),
-        !opts.stations.is_empty(),
-        w as f64,
-        tscale as f64,
-    );
+    let (bar_room, caption_h, caption) = bar_and_caption(colouring.as_ref(), opts, w as f64, tscale as f64);
     let panel_w = w as f64 - bar_room;
     let panel_h = (h as f64 - caption_h) / opts.views.len() as f64;
     for (k, view) in opts.views.iter().enumerate() {
@@ -780,13 +703,14 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
         if let Some(c) = &colouring {
             let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
             let radius = 6.0 * tscale as f64;
-            let mut placed = ring_boxes(&cam, &c.marked, radius);
-            for m in &c.marked {
-                let p = cam.project(m.position);
+            let mut placed = ring_boxes(&cam, &c.marked, &opts.remarks, radius);
+            let marks = c.marked.iter().map(|m| Mark::of(m, c.relative, radius));
+            for m in marks.chain(opts.remarks.iter().map(|r| Mark::remark(r, radius))) {
+                let p = cam.project(m.at);
                 let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
-                draw_ring(&mut canvas, (p.0, p.1), radius, ss as f64, m.primary, hidden);
-                let text = marker_label(m, c.relative, hidden);
-                let (x, y) = place_label(p, radius, &text, tscale as f64, panel, &mut placed);
+                draw_ring(&mut canvas, (p.0, p.1), m.radius, ss as f64, m.ring, hidden);
+                let text = m.label(hidden);
+                let (x, y) = place_label(p, m.radius, &text, tscale as f64, panel, &mut placed);
                 draw_boxed_text(&mut canvas, x as i64, y as i64, &text, tscale);
             }
         }
@@ -1060,6 +984,30 @@ mod tests {
         );
         assert!(svg.contains(r#"class="station-numbers""#) && svg.contains(">20</text>"));
         assert!(svg.contains("lines: the data's stations"));
+    }
+
+    #[test]
+    fn a_remark_is_ringed_dotted_labelled_and_captioned() {
+        let (grid, mut opts) = sectioned_square();
+        let plain = render(&grid, &opts).unwrap();
+        opts.remarks = vec![Remark {
+            position: grid.eval(1.0, 0.3),
+            label: "end 1 doubles back 1.73e-2 (3.00 tol), span 0.30".into(),
+        }];
+        let svg = render_svg(&grid, &opts).unwrap();
+        assert_eq!(
+            svg.matches(r#"<g class="section-end""#).count(),
+            opts.views.len(),
+            "one dotted ring a view"
+        );
+        let ring = &svg[svg.find(r#"<g class="section-end""#).unwrap()..];
+        assert!(ring.contains(r#"stroke-dasharray="1,3""#) && ring.contains("end 1 doubles back 1.73e-2"));
+        assert!(svg.contains("dotted ring: where a section's end doubles back"));
+        // The PNG draws it: some pixels change, and the caption grows by a line.
+        let marked = render(&grid, &opts).unwrap();
+        assert_ne!(plain.to_png().unwrap(), marked.to_png().unwrap());
+        let c = Colouring::new(&opts.offsets, &opts.stations).unwrap();
+        assert_eq!(caption(&c, &opts).len(), c.caption(true).len() + 1);
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 use super::adapt_report::{AdaptOutcome, AdaptReport, SurfaceAdaptReport};
 use super::bspline::CadShape;
+use super::offset_map::{offset_label, Remark};
 use super::stamp::Schema;
 use crate::adaptive::surface::SectionEnds;
 use crate::adaptive::{AdaptedCurve, AdaptedSurface, Breaks, HeldOut, Norm, XStore};
@@ -157,6 +158,23 @@ pub fn ends_warning(ends: Option<&SectionEnds>, tol: f64) -> Option<String> {
             e.excess,
             e.excess / tol
         )
+    })
+}
+
+/// The picture's remark for section ends that double back ([`ends_warning`]): a dotted ring
+/// where, labelled with how far.
+#[must_use]
+pub fn ends_remark(ends: Option<&SectionEnds>, tol: f64) -> Option<Remark> {
+    let e = ends.filter(|e| !e.passes)?;
+    Some(Remark {
+        position: DVec3::from_array(e.at?),
+        label: format!(
+            "end {} doubles back {} ({:.2} tol), span {:.2}",
+            e.end,
+            offset_label(e.excess),
+            e.excess / tol,
+            e.span
+        ),
     })
 }
 
@@ -658,11 +676,16 @@ mod tests {
             excess,
             span: 11.341_836,
             end: 1,
+            at: Some([0.886, 3.044, 11.342]),
             passes,
         };
         assert_eq!(ends_warning(None, 1e-3), None);
         assert_eq!(ends_warning(Some(&ends(3e-4, true)), 1e-3), None);
         let w = ends_warning(Some(&ends(1.729e-2, false)), 5.765e-3).unwrap();
+        let r = ends_remark(Some(&ends(1.729e-2, false)), 5.765e-3).unwrap();
+        assert_eq!(r.position, DVec3::new(0.886, 3.044, 11.342));
+        assert_eq!(r.label, "end 1 doubles back 1.73e-2 (3.00 tol), span 11.34");
+        assert_eq!(ends_remark(Some(&ends(3e-4, true)), 1e-3), None);
         assert!(
             w.contains("end 1 near span 11.3418: 1.729e-2 (3.00 tol)")
                 && w.contains("section_ends")

@@ -62,6 +62,10 @@ pub struct SectionEnds {
     pub span: f64,
     /// Its end: 0 (where the sections' points start) or 1.
     pub end: usize,
+    /// Where: the surface point at that end of that cut, model units (absent from reports
+    /// written before it was).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<[f64; 3]>,
     /// True when no cut's end backtracks more than [`END_SLACK`] tolerances beyond its
     /// neighbouring sections' (reported, not part of `met`).
     pub passes: bool,
@@ -180,6 +184,7 @@ pub(super) fn check(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Optio
         excess: worst.0.max(0.0),
         span: span_at(data, worst.1),
         end: worst.2,
+        at: Some(grid.eval(worst.2 as f64, worst.1).to_array()),
         passes: worst.0 <= END_SLACK * tol,
     })
 }

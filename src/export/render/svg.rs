@@ -202,7 +202,7 @@ fn coloured_svg(
     // One font pixel of the PNG's 5 x 7 glyphs: the same layout, in user units.
     let fp = (h / 450.0).max(1.0);
     let font = 8.5 * fp;
-    let (bar_room, caption_h, caption) = bar_and_caption(Some(colouring), !opts.stations.is_empty(), w, fp);
+    let (bar_room, caption_h, caption) = bar_and_caption(Some(colouring), opts, w, fp);
     let panel_w = w - bar_room;
     let panel_h = (h - caption_h) / opts.views.len() as f64;
     let mut svg = String::new();
@@ -214,7 +214,7 @@ fn coloured_svg(
     let _ = writeln!(
         svg,
         "<!-- {} -->",
-        escaped(&colouring.caption(!opts.stations.is_empty()).join(" | "))
+        escaped(&super::caption(colouring, opts).join(" | "))
     );
     for (k, view) in opts.views.iter().enumerate() {
         let cam = Camera::new(view, &everything, (0.0, k as f64 * panel_h, panel_w, panel_h))?;
@@ -349,17 +349,18 @@ fn coloured_svg(
         // The rings and their labels.
         let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
         let radius = 6.0 * fp;
-        let mut placed = ring_boxes(&cam, &colouring.marked, radius);
-        for m in &colouring.marked {
-            let p = cam.project(m.position);
+        let mut placed = ring_boxes(&cam, &colouring.marked, &opts.remarks, radius);
+        let marks = colouring
+            .marked
+            .iter()
+            .map(|m| Mark::of(m, colouring.relative, radius));
+        for m in marks.chain(opts.remarks.iter().map(|r| Mark::remark(r, radius))) {
+            let p = cam.project(m.at);
             let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
-            let text = marker_label(m, colouring.relative, hidden);
+            let text = m.label(hidden);
+            let radius = m.radius;
             let (x, y) = place_label(p, radius, &text, fp, panel, &mut placed);
-            let (class, width, dash) = if m.primary {
-                ("worst-point", 1.4, "")
-            } else {
-                ("largest-offset", 0.9, r#" stroke-dasharray="3,3""#)
-            };
+            let (class, (width, dash)) = (m.ring.class(), m.ring.svg());
             let opacity = if hidden { 0.5 } else { 1.0 };
             let _ = writeln!(svg, r#"<g class="{class}" opacity="{opacity}">"#);
             let _ = writeln!(
