@@ -8,7 +8,7 @@
 
 mod marks;
 mod svg;
-use marks::{draw_ring, place_label, ring_boxes, Mark};
+use marks::{draw_ring, marks, place_label, ring_boxes};
 
 use super::mesh::SurfaceMesh;
 pub use super::offset_map::{offset_colour, OffsetPoint, Remark, Rgb, Station};
@@ -703,9 +703,9 @@ pub fn render(grid: &PatchGrid<DVec3>, opts: &RenderOptions) -> Result<Image> {
         if let Some(c) = &colouring {
             let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
             let radius = 6.0 * tscale as f64;
-            let mut placed = ring_boxes(&cam, &c.marked, &opts.remarks, radius);
-            let marks = c.marked.iter().map(|m| Mark::of(m, c.relative, radius));
-            for m in marks.chain(opts.remarks.iter().map(|r| Mark::remark(r, radius))) {
+            let rings = marks(&c.marked, c.relative, &opts.remarks, radius);
+            let mut placed = ring_boxes(&cam, &rings);
+            for m in &rings {
                 let p = cam.project(m.at);
                 let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
                 draw_ring(&mut canvas, (p.0, p.1), m.radius, ss as f64, m.ring, hidden);

@@ -34,7 +34,7 @@
 use super::data::{flat, Data};
 use super::span::span_at;
 use crate::bezier::{bernstein, combine};
-use crate::chain::PatchGrid;
+use crate::chain::{samples, PatchGrid};
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -154,13 +154,7 @@ pub(super) fn check(data: &Data<'_>, grid: &PatchGrid<DVec3>, tol: f64) -> Optio
         let i = own.partition_point(|s| s.0 <= v).clamp(1, own.len() - 1);
         own[i - 1].1[end].max(own[i].1[end])
     };
-    let lv = &grid.layout().v;
-    let mut vs: Vec<f64> = lv
-        .breaks()
-        .windows(2)
-        .flat_map(|b| (0..V_SAMPLES).map(move |s| b[0] + (b[1] - b[0]) * s as f64 / V_SAMPLES as f64))
-        .collect();
-    vs.push(1.0);
+    let vs = samples(grid.layout().v.breaks(), V_SAMPLES);
     let lu = &grid.layout().u;
     let (du, patches) = (lu.degree(), lu.segments());
     let worst = vs

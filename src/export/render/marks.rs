@@ -98,7 +98,7 @@ pub(super) struct Mark {
 }
 
 impl Mark {
-    pub(super) fn of(m: &Marked, relative: bool, radius: f64) -> Mark {
+    fn of(m: &Marked, relative: bool, radius: f64) -> Mark {
         Mark {
             at: m.position,
             ring: Ring::of(m),
@@ -107,7 +107,7 @@ impl Mark {
         }
     }
 
-    pub(super) fn remark(r: &Remark, radius: f64) -> Mark {
+    fn remark(r: &Remark, radius: f64) -> Mark {
         Mark {
             at: r.position,
             ring: Ring::Dotted,
@@ -165,22 +165,24 @@ pub(super) fn place_label(
     (x, y)
 }
 
-/// The boxes of the rings around `marked` and the remarks in `cam`'s view (the remarks' rings
-/// [`REMARK_RING`] times larger), which labels keep clear of.
-pub(super) fn ring_boxes(
-    cam: &Camera,
-    marked: &[Marked],
-    remarks: &[Remark],
-    radius: f64,
-) -> Vec<(f64, f64, f64, f64)> {
-    let at = |p: DVec3, r: f64| {
-        let p = cam.project(p);
-        (p.0 - r, p.1 - r, 2.0 * r, 2.0 * r)
-    };
+/// The rings of a picture: around the colouring's marked points (`radius`, `relative` as
+/// [`Marked::label`] takes it), then around the remarks ([`REMARK_RING`] times larger).
+pub(super) fn marks(marked: &[Marked], relative: bool, remarks: &[Remark], radius: f64) -> Vec<Mark> {
     marked
         .iter()
-        .map(|m| at(m.position, radius))
-        .chain(remarks.iter().map(|m| at(m.position, REMARK_RING * radius)))
+        .map(|m| Mark::of(m, relative, radius))
+        .chain(remarks.iter().map(|r| Mark::remark(r, radius)))
+        .collect()
+}
+
+/// The boxes of the rings `marks` in `cam`'s view, which labels keep clear of.
+pub(super) fn ring_boxes(cam: &Camera, marks: &[Mark]) -> Vec<(f64, f64, f64, f64)> {
+    marks
+        .iter()
+        .map(|m| {
+            let p = cam.project(m.at);
+            (p.0 - m.radius, p.1 - m.radius, 2.0 * m.radius, 2.0 * m.radius)
+        })
         .collect()
 }
 

@@ -349,12 +349,9 @@ fn coloured_svg(
         // The rings and their labels.
         let panel = (0.0, k as f64 * panel_h, panel_w, panel_h);
         let radius = 6.0 * fp;
-        let mut placed = ring_boxes(&cam, &colouring.marked, &opts.remarks, radius);
-        let marks = colouring
-            .marked
-            .iter()
-            .map(|m| Mark::of(m, colouring.relative, radius));
-        for m in marks.chain(opts.remarks.iter().map(|r| Mark::remark(r, radius))) {
+        let rings = marks(&colouring.marked, colouring.relative, &opts.remarks, radius);
+        let mut placed = ring_boxes(&cam, &rings);
+        for m in &rings {
             let p = cam.project(m.at);
             let hidden = hidden_by(&screen, &mesh.triangles, p, tol);
             let text = m.label(hidden);
