@@ -693,22 +693,23 @@ fn met_with_defaults(points: &[DVec3], grid: Grid, tol: f64, label: &str) -> Ada
 
 /// The README's blade table on the two shipped blades (`adapt-surface FILE --tol 1e-3 --relative
 /// --points-per-section 160`): the IEA 15 MW windIO v2 definition meets 1e-3 of its largest
-/// chord in at most half the 1,960 coefficients of three scipy `RectBivariateSpline`s on its
-/// stations' cloud, held out within 3 tolerances, without folds or overhangs. Its winner is
-/// polished (breaks merged in pairs, then swept once more): 713 stored scalars measured, 861
-/// before the polish, so held to 0.4 of scipy's. Its end 1 runs 3.0 tolerances back along its
-/// closed trailing edge at 11 m span, which the report's `section_ends` measures as the test's
-/// own walk does (not part of `met`).
+/// chord in at most half the 2,501 coefficients of three scipy `RectBivariateSpline`s on its
+/// stations' cloud, held out within 3 tolerances, without folds or overhangs: 608 stored
+/// scalars measured, so held to 0.3 of scipy's. Its sections' ends do not double back. Before
+/// the loft held its contours' end slopes monotone, its root sections closed in a notch 9 mm
+/// past their trailing edge, and the surface followed it: end 1 ran 3.0 tolerances back at 11
+/// m span (713 stored scalars, against scipy's 1,960 on that cloud).
 #[test]
 #[ignore = "fifteen seconds in release; run with --release -- --ignored"]
 fn the_iea_15mw_definition_meets_1e3_in_half_the_scipy_coefficients() {
     let path = "data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml";
-    let r = definition_meets_1e3(path, 1960, 0.4);
+    let r = definition_meets_1e3(path, 2501, 0.3);
     let s = &r.surface;
     assert!(s.encoding.te_term, "{}", s.family);
     let won = s.trace.iter().find(|t| t.family == s.family).unwrap();
-    assert!(won.outcome.ends_with(" and polished"), "{won:?}");
     assert_eq!(won.best_scalars, Some(s.count.total));
+    let ends = s.ends.expect("the sections' ends are measured");
+    assert!(ends.passes, "{ends:?}");
 }
 
 /// The IEA 3.4 MW AeroDyn 15 definition (30 stations): its thick flat-back root sections defeat
@@ -742,13 +743,14 @@ fn the_iea_3_4mw_definition_meets_1e3_in_half_the_scipy_coefficients() {
 /// where the layouts that follow the stations fold or overhang), so the sections a smooth
 /// interpolation of the stations misses join the data and a later search meets it, fair,
 /// within 3 tolerances of the definition between the sections, held out within 3, with fewer
-/// stored scalars than scipy's 2,973 coefficients on its stations' cloud (2,469 measured,
-/// 2,518 before the winner's polish).
+/// stored scalars than scipy's 3,416 coefficients on its stations' cloud (2,825 measured;
+/// 2,469 against scipy's 2,973 on the loft before its contours' end slopes were held
+/// monotone).
 #[test]
 #[ignore = "a minute in release; run with --release -- --ignored"]
 fn the_iea_3_4mw_windio_v1_definition_meets_1e3_with_smooth_sections_added() {
     let path = "data/blades/iea-3.4-130-rwt/windio/IEA-3.4-130-RWT.yaml";
-    let r = definition_meets_1e3(path, 2973, 1.0);
+    let r = definition_meets_1e3(path, 3416, 1.0);
     let stations = Blade::from_file(&crate_root().join(path)).unwrap().stations.len();
     assert!(
         r.radii.len() > stations && r.rounds >= 2,
@@ -757,23 +759,25 @@ fn the_iea_3_4mw_windio_v1_definition_meets_1e3_with_smooth_sections_added() {
     );
 }
 
-/// The IEA 15 MW definition at 80 points a section, 1e-3 of its largest chord: the winning
+/// The IEA 15 MW definition at 120 points a section, 1e-3 of its largest chord: the winning
 /// trailing-edge layout, swept a second time with the span breaks first, keeps fewer stored
-/// scalars than its first sweep (u breaks first) left: 1,311 against 1,396 measured. The
-/// search keeps the second (and then polishes it, where that keeps fewer still).
+/// scalars than its first sweep (u breaks first) left (701 measured), and the search keeps it
+/// (and then polishes it, where that keeps fewer still). On the loft before its contours' end
+/// slopes were held monotone, the same held at 80 points a section (1,311 against 1,396); on
+/// today's loft no layout meets 1e-3 at 80 points in four searches.
 #[test]
-#[ignore = "fifteen seconds in release; run with --release -- --ignored"]
+#[ignore = "twenty seconds in release; run with --release -- --ignored"]
 fn a_trailing_edge_winner_swept_span_breaks_first_keeps_fewer_scalars() {
     let path = "data/blades/iea-15-240-rwt/windio/IEA-15-240-RWT.yaml";
-    let r = definition_meets_1e3_at(path, 80, usize::MAX, 1.0);
+    let r = definition_meets_1e3_at(path, 120, usize::MAX, 1.0);
     let s = &r.surface;
     let won = s.trace.iter().find(|t| t.family == s.family).unwrap();
+    // The outcome says so only when the second sweep stored fewer numbers than the first.
     assert!(
         won.outcome.starts_with("met (span breaks removed first)"),
         "{won:?}"
     );
     assert_eq!(won.best_scalars, Some(s.count.total));
-    assert!(s.count.total < 1396, "{} stored scalars", s.count.total);
 }
 
 /// A shipped blade definition searched as `adapt-surface FILE --tol 1e-3 --relative
