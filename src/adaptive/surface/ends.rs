@@ -26,9 +26,9 @@
 //! it. Held by every bulk family's layouts (as the fold check is), at 1e-3 of the chord and
 //! 160 points a section, on that notched loft, it took the IEA 15 MW from 713 stored scalars
 //! to 595 and the IEA 10 MW from 851 to 828, and left the NREL 5 MW and the IEA 3.4 MW
-//! AeroDyn blade as they were; but the README's quick start (the IEA 15 MW at its aerofoils' own points) went from 579
-//! stored scalars in one search (24 s) to 784 in four (130 s), and the IEA 3.4 MW windIO v1
-//! met nothing. Mending a winner instead (its end segment split, or the section between the
+//! AeroDyn blade as they were; but the README's quick start (the IEA 15 MW at 257 points a
+//! section) went from 579 stored scalars in one search (24 s) to 784 in four (130 s), and
+//! the IEA 3.4 MW windIO v1 met nothing. Mending a winner instead (its end segment split, or the section between the
 //! stations around the hook joined to the data) left the IEA 10 and 15 MW unmet. Until the
 //! search can hold it without that, a result that doubles back says so.
 
