@@ -51,8 +51,7 @@ fn pchip_slopes(h: &[f64], d: &[f64]) -> Vec<f64> {
             m[k] = (w1 + w2) / (w1 / d[k - 1] + w2 / d[k]);
         }
     }
-    let end = |h0: f64, h1: f64, d0: f64, d1: f64| {
-        let m0 = ((2.0 * h0 + h1) * d0 - h0 * d1) / (h0 + h1);
+    [m[0], m[n - 1]] = end_slopes(h, d, |m0, d0, d1| {
         if m0.signum() != d0.signum() || d0 == 0.0 {
             0.0
         } else if d0.signum() != d1.signum() && m0.abs() > 3.0 * d0.abs() {
@@ -60,10 +59,21 @@ fn pchip_slopes(h: &[f64], d: &[f64]) -> Vec<f64> {
         } else {
             m0
         }
-    };
-    m[0] = end(h[0], h[1], d[0], d[1]);
-    m[n - 1] = end(h[n - 2], h[n - 3], d[n - 2], d[n - 3]);
+    });
     m
+}
+
+/// The slopes at the first and the last knot: the end parabola's (through the end knot and its
+/// two neighbours), `m0`, passed through `limit(m0, d0, d1)` with `d0` the end secant and `d1`
+/// the next one in.
+fn end_slopes(h: &[f64], d: &[f64], limit: impl Fn(f64, f64, f64) -> f64) -> [f64; 2] {
+    let n = h.len() + 1;
+    let end =
+        |h0: f64, h1: f64, d0: f64, d1: f64| limit(((2.0 * h0 + h1) * d0 - h0 * d1) / (h0 + h1), d0, d1);
+    [
+        end(h[0], h[1], d[0], d[1]),
+        end(h[n - 2], h[n - 3], d[n - 2], d[n - 3]),
+    ]
 }
 
 /// Bessel slopes from the spacings `h` and secants `d`: the derivative of the parabola through
@@ -85,16 +95,13 @@ fn bessel_slopes(h: &[f64], d: &[f64]) -> Vec<f64> {
     for k in 1..n - 1 {
         m[k] = (h[k] * d[k - 1] + h[k - 1] * d[k]) / (h[k - 1] + h[k]);
     }
-    let end = |h0: f64, h1: f64, d0: f64, d1: f64| {
-        let m0 = ((2.0 * h0 + h1) * d0 - h0 * d1) / (h0 + h1);
+    [m[0], m[n - 1]] = end_slopes(h, d, |m0, d0, _| {
         if m0 * d0 <= 0.0 {
             0.0
         } else {
             m0.clamp(-3.0 * d0.abs(), 3.0 * d0.abs())
         }
-    };
-    m[0] = end(h[0], h[1], d[0], d[1]);
-    m[n - 1] = end(h[n - 2], h[n - 3], d[n - 2], d[n - 3]);
+    });
     for (k, (a, b)) in [(1, (d[0], d[1])), (n - 2, (d[n - 3], d[n - 2]))] {
         if a * b > 0.0 {
             let cap = 3.0 * a.abs().min(b.abs());

@@ -28,9 +28,10 @@
 //! to 595 and the IEA 10 MW from 851 to 828, and left the NREL 5 MW and the IEA 3.4 MW
 //! AeroDyn blade as they were; but the README's quick start (the IEA 15 MW at 257 points a
 //! section) went from 579 stored scalars in one search (24 s) to 784 in four (130 s), and
-//! the IEA 3.4 MW windIO v1 met nothing. Mending a winner instead (its end segment split, or the section between the
-//! stations around the hook joined to the data) left the IEA 10 and 15 MW unmet. Until the
-//! search can hold it without that, a result that doubles back says so.
+//! the IEA 3.4 MW windIO v1 met nothing. Mending a winner instead (its end segment split, or
+//! the section between the stations around the hook joined to the data) left the IEA 10 and
+//! 15 MW unmet. Until the search can hold it without that, a result that doubles back says
+//! so.
 
 use super::data::{flat, Data};
 use super::span::span_at;
