@@ -7,7 +7,7 @@
 mod common;
 
 use bezchain::adaptive::{
-    adapt_surface, sampled_offsets, AdaptedSurface, Breaks, ChordRule, Norm, SurfaceAdaptOptions,
+    adapt_surface, sampled_offsets, AdaptedSurface, Breaks, ChordRule, Norm, SpanBreaks, SurfaceAdaptOptions,
 };
 use bezchain::chain::PatchGrid;
 use bezchain::export::SurfaceAdaptReport;
@@ -254,6 +254,45 @@ fn a_coarse_blade_meets_the_tolerance_at_every_point() {
     let h = r.held_out.expect("held-out check");
     assert_eq!(h.fitted + h.measured, points.len());
     assert!(h.max.is_finite() && h.max > 0.0);
+}
+
+#[test]
+fn the_bulk_families_put_their_span_breaks_where_they_are_told() {
+    // The bulk families alone (the greedy ones place their breaks where the offsets are):
+    // every span break of the result at a section, or half-way between two neighbouring
+    // ones, and the tolerance met either way.
+    let (points, grid, chord) = blade(Some(24));
+    let tol = 5e-4 * chord;
+    let per = grid.per_section;
+    let z: Vec<f64> = (0..grid.sections).map(|k| points[k * per].z).collect();
+    let v: Vec<f64> = z.iter().map(|s| (s - z[0]) / (z[z.len() - 1] - z[0])).collect();
+    let mid: Vec<f64> = v.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+    for (rule, sites) in [(SpanBreaks::Sections, &v), (SpanBreaks::Midway, &mid)] {
+        let r = adapt_surface(
+            &points,
+            grid,
+            &SurfaceAdaptOptions {
+                tol,
+                degrees_u: [3, 4],
+                degrees_v: [3, 3],
+                greedy: false,
+                span_breaks: rule,
+                ..SurfaceAdaptOptions::default()
+            },
+        )
+        .unwrap();
+        check_met(&r, &points, grid, tol);
+        let (_, lv) = r.encoding.layouts().unwrap();
+        let all = lv.breaks();
+        let breaks = &all[1..all.len() - 1];
+        assert!(!breaks.is_empty(), "{rule:?}: one span");
+        for b in breaks {
+            assert!(
+                sites.iter().any(|s| (s - b).abs() < 1e-12),
+                "{rule:?}: span break {b} at none of {sites:?}"
+            );
+        }
+    }
 }
 
 /// The chord rule's design net regenerated the way an outside tool would, from the report's

@@ -1,7 +1,7 @@
 //! Chains and surfaces, and the fits and adaptive searches that make them.
 
 use crate::convert::*;
-use bezchain::adaptive::{adapt_curve, AdaptOptions, ChordRule, Mode, SurfaceAdaptOptions};
+use bezchain::adaptive::{adapt_curve, AdaptOptions, ChordRule, Mode, SpanBreaks, SurfaceAdaptOptions};
 use bezchain::chain::{Continuity, CurveChain, PatchGrid};
 use bezchain::export::{AdaptReport, CurveReport, InputInfo, Schema, SurfaceAdaptReport};
 use bezchain::fit::segments::{check_segments, SegmentsRefused};
@@ -382,7 +382,7 @@ pub(crate) fn adapt(
 /// `tol`, as `bezchain adapt-surface CLOUD --tol T` searches it. `cloud`: an `(M, 5)` array
 /// `x, y, z, section, index` (as [`blade`] returns) or a sectioned cloud CSV file.
 #[pyfunction]
-#[pyo3(signature = (cloud, tol, norm="max", degrees_u=None, degrees_v=None, span_rule=true, chord_rule="auto", max_scalars=None, relative=false))]
+#[pyo3(signature = (cloud, tol, norm="max", degrees_u=None, degrees_v=None, span_rule=true, chord_rule="auto", max_scalars=None, relative=false, span_breaks="midway"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn adapt_surface(
     py: Python<'_>,
@@ -395,8 +395,19 @@ pub(crate) fn adapt_surface(
     chord_rule: &str,
     max_scalars: Option<usize>,
     relative: bool,
+    span_breaks: &str,
 ) -> PyResult<Surface> {
     check_tol(tol, max_scalars, "a patch grid")?;
+    let span_breaks = match span_breaks.to_ascii_lowercase().as_str() {
+        "midway" => SpanBreaks::Midway,
+        "sections" => SpanBreaks::Sections,
+        "by-degree" | "by_degree" => SpanBreaks::ByDegree,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "span_breaks '{span_breaks}': expected midway, sections or by-degree"
+            )))
+        }
+    };
     let chord_rule = match chord_rule.to_ascii_lowercase().as_str() {
         "auto" => ChordRule::Auto,
         "on" => ChordRule::On,
@@ -443,6 +454,7 @@ pub(crate) fn adapt_surface(
         span_rule,
         chord_rule,
         max_scalars,
+        span_breaks,
         ..SurfaceAdaptOptions::default()
     };
     let r = py

@@ -120,6 +120,21 @@ def test_adapt_surface_equals_the_cli_report(cli, blade_json, tmp_path):
     np.testing.assert_array_equal(from_file.design_net, surf.design_net)
 
 
+def test_adapt_surface_takes_the_clis_span_breaks(cli, blade_json, tmp_path):
+    cloud_csv = tmp_path / "b.csv"
+    cli("blade", blade_json, "--points-per-section", 41, "--sections", 4, "-o", cloud_csv)
+    rep = tmp_path / "s.json"
+    cli("adapt-surface", cloud_csv, "--tol", "5e-3", "--relative", "--degrees-u", "3-4", "--degrees-v", "2",
+        "--span-breaks", "sections", "--quiet", "--json", rep)
+    want = json.loads(rep.read_text())
+    surf = bezchain.adapt_surface(cloud_csv, 5e-3, relative=True, degrees_u="3-4", degrees_v=2,
+                                  span_breaks="sections")
+    np.testing.assert_array_equal(surf.design_net, np.array(want["design_net"]))
+    assert json.loads(surf.to_json())["adapt"]["encoding"] == want["adapt"]["encoding"]
+    with pytest.raises(ValueError, match="span_breaks 'between'"):
+        bezchain.adapt_surface(cloud_csv, 5e-3, relative=True, span_breaks="between")
+
+
 # ---------------------------------------------------------------------------------------------
 # Population evaluation.
 

@@ -52,9 +52,9 @@ pub use fairness::{Follows, SignChanges};
 pub use search::HELD_OUT_FACTOR;
 pub use surface::{
     adapt_blade, adapt_surface, adapt_surface_with, sampled_offsets, AdaptedBlade, AdaptedSurface,
-    BetweenSections, CheckedOffsets, ChordRule, DataScatter, JoinedSections, Lofted, SpanFairness, SpanRule,
-    SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace, SurfaceProgress, BETWEEN_FACTOR,
-    FAIR_CENTROID, FAIR_SHAPE, SCATTER_FACTOR,
+    BetweenSections, CheckedOffsets, ChordRule, DataScatter, JoinedSections, Lofted, SpanBreaks,
+    SpanFairness, SpanRule, SurfaceAdaptOptions, SurfaceCount, SurfaceEncoding, SurfaceFamilyTrace,
+    SurfaceProgress, BETWEEN_FACTOR, FAIR_CENTROID, FAIR_SHAPE, SCATTER_FACTOR,
 };
 
 use crate::chain::CurveChain;

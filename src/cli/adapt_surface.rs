@@ -6,7 +6,9 @@ use super::output::Outputs;
 use super::progress::Generations;
 use super::{note_all, usage, warn_all};
 use anyhow::{Context, Result};
-use bezchain::adaptive::{adapt_blade, adapt_surface_with, ChordRule, SurfaceAdaptOptions, SurfaceProgress};
+use bezchain::adaptive::{
+    adapt_blade, adapt_surface_with, ChordRule, SpanBreaks, SurfaceAdaptOptions, SurfaceProgress,
+};
 use bezchain::closest::{grid_feet, FootOptions};
 use bezchain::export::{summary, SurfaceAdaptReport};
 use bezchain::export::{InputInfo, RenderOptions};
@@ -46,6 +48,11 @@ pub struct Args {
     /// never.
     #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
     pub chord_rule: ChordArg,
+    /// Where the span breaks may go: `midway` between neighbouring sections, at the
+    /// `sections`, or `by-degree` (at the sections for odd span degrees, midway for even). Which
+    /// stores fewer scalars depends on the blade (`docs/GUIDE.md`).
+    #[arg(long, value_enum, default_value_t = SpanBreaksArg::Midway)]
+    pub span_breaks: SpanBreaksArg,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
     /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary then goes to standard
     /// error).
@@ -67,6 +74,17 @@ pub enum ChordArg {
     On,
     /// Never the chord rule.
     Off,
+}
+
+/// `--span-breaks`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpanBreaksArg {
+    /// Half-way between every two neighbouring sections.
+    Midway,
+    /// At the sections.
+    Sections,
+    /// At the sections for an odd span degree, half-way for an even one.
+    ByDegree,
 }
 
 /// The sectioned cloud to fit (for a blade definition, lofted at its stations), and the
@@ -141,6 +159,11 @@ pub fn run(args: Args) -> Result<()> {
             ChordArg::Off => ChordRule::Off,
         },
         max_scalars: args.tolerance.max_scalars,
+        span_breaks: match args.span_breaks {
+            SpanBreaksArg::Midway => SpanBreaks::Midway,
+            SpanBreaksArg::Sections => SpanBreaks::Sections,
+            SpanBreaksArg::ByDegree => SpanBreaks::ByDegree,
+        },
         ..SurfaceAdaptOptions::default()
     };
     if let Some(t) = tols

@@ -2,7 +2,7 @@
 //! blade's chord rule and trailing-edge data, and the held-out split.
 
 use super::super::blade::{section_frame, section_params, SectionFrame};
-use super::SpanRule;
+use super::{SpanBreaks, SpanRule};
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
 use crate::geometry::SectionShape;
@@ -254,12 +254,26 @@ impl<'a> Data<'a> {
         }
     }
 
-    /// The middles between every two neighbouring sections' `v`, increasing: where the bulk
-    /// families put their span breaks.
-    pub(super) fn mid_v(&self) -> Vec<f64> {
+    /// Where the bulk families of span degree `dv` put their span breaks, increasing
+    /// ([`SpanBreaks`]): the middles between every two neighbouring sections' `v`, or the
+    /// sections' own `v` but the first and the last.
+    pub(super) fn break_sites(&self, dv: usize, rule: SpanBreaks) -> Vec<f64> {
         let mut sorted = self.v.clone();
         sorted.sort_by(f64::total_cmp);
-        sorted.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect()
+        sorted.dedup();
+        let at_sections = match rule {
+            SpanBreaks::Midway => false,
+            SpanBreaks::Sections => true,
+            SpanBreaks::ByDegree => dv % 2 == 1,
+        };
+        if at_sections {
+            sorted
+                .get(1..sorted.len().saturating_sub(1))
+                .unwrap_or_default()
+                .to_vec()
+        } else {
+            sorted.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect()
+        }
     }
 
     /// The span parameter `v_k` of every point.

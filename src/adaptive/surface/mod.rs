@@ -118,6 +118,8 @@ pub struct SurfaceAdaptOptions {
     /// and a blade definition's sections between the data's). Default true; the result's
     /// `met` holds them either way.
     pub span_checks: bool,
+    /// Where the bulk families put their span breaks. Default [`SpanBreaks::Midway`].
+    pub span_breaks: SpanBreaks,
 }
 
 impl Default for SurfaceAdaptOptions {
@@ -135,8 +137,33 @@ impl Default for SurfaceAdaptOptions {
             max_family_fits: 80,
             greedy: true,
             span_checks: true,
+            span_breaks: SpanBreaks::Midway,
         }
     }
+}
+
+/// Where the bulk families put their span breaks: they start with one span a section and
+/// remove and merge breaks among these places only.
+///
+/// Which stores fewer scalars depends on the blade (`docs/GUIDE.md`, "Where the span
+/// breaks go"): at 1e-3 of the chord, 160 points a section, [`SpanBreaks::Sections`] took the
+/// IEA 10 MW from 851 stored scalars to 624 and met the BAR USC, but took the IEA 15 MW from
+/// 608 to 1,329; [`SpanBreaks::ByDegree`] kept the IEA 15 MW's 608 and met the BAR USC too,
+/// but took the NREL 5 MW from 466 to 491 and from 19 to 28 s (a third search).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpanBreaks {
+    /// Half-way between every two neighbouring sections: each span holds one section, on the
+    /// middle row of the checker's 7 × 7 seeds a patch.
+    #[default]
+    Midway,
+    /// At the sections (a lofted blade is only C1 at its stations): a span between two
+    /// neighbouring sections, which lie on its first and last rows of seeds.
+    Sections,
+    /// At the sections for an odd span degree, half-way between them for an even one: the
+    /// knots de Boor gives spline interpolation (Schoenberg–Whitney), one design column a
+    /// section more or less.
+    ByDegree,
 }
 
 /// When the search uses the chord rule ([`mod@super::blade`]).
@@ -885,6 +912,33 @@ mod tests {
             vec![1.0, 1.0, 1.0 / BETWEEN_FACTOR, 1.0 / BETWEEN_FACTOR, 1.0]
         );
         assert!(data.with_joined(&[3]).is_none(), "no section 3");
+    }
+
+    #[test]
+    fn span_breaks_go_midway_at_the_sections_or_by_the_span_degree() {
+        // Four circles in the planes z = 0, 1, 3, 4: v = 0, 1/4, 3/4, 1.
+        let points: Vec<DVec3> = [0.0, 1.0, 3.0, 4.0]
+            .into_iter()
+            .flat_map(|z| {
+                (0..8).map(move |i| {
+                    let a = std::f64::consts::TAU * i as f64 / 8.0;
+                    DVec3::new(a.cos(), a.sin(), z)
+                })
+            })
+            .collect();
+        let grid = Grid {
+            sections: 4,
+            per_section: 8,
+        };
+        let data = Data::new(&points, grid, true, false).unwrap();
+        let midway = vec![0.125, 0.5, 0.875];
+        let sections = vec![0.25, 0.75];
+        for dv in [2, 3] {
+            assert_eq!(data.break_sites(dv, SpanBreaks::Midway), midway);
+            assert_eq!(data.break_sites(dv, SpanBreaks::Sections), sections);
+        }
+        assert_eq!(data.break_sites(2, SpanBreaks::ByDegree), midway);
+        assert_eq!(data.break_sites(3, SpanBreaks::ByDegree), sections);
     }
 
     #[test]

@@ -379,11 +379,11 @@ impl<'d, 'a> Search<'d, 'a> {
     ) -> Option<Cand> {
         let data = self.data;
         let tol = self.opts.tol;
-        // Along the span a break half-way between every two neighbouring sections: each span
-        // holds one section, at the middle row of the checker's seeds where the sections
-        // are evenly spaced.
+        // Along the span a break at every place `SpanBreaks` allows: by default half-way
+        // between every two neighbouring sections, so that each span holds one section, at
+        // the middle row of the checker's seeds where the sections are evenly spaced.
         let mut bv = vec![0.0];
-        bv.extend(data.mid_v());
+        bv.extend(data.break_sites(fam.dv, self.opts.span_breaks));
         bv.push(1.0);
         let bv = bv;
         let mut bu: Vec<f64> = (0..=BULK_START).map(|k| k as f64 / BULK_START as f64).collect();
@@ -759,13 +759,13 @@ impl<'d, 'a> Search<'d, 'a> {
 
     /// Merges of two neighbouring breaks of `w` into one, around the sections (`along_v`
     /// false) or along the span, while one is kept: breaks `k` and `k + 1` give way to one
-    /// half-way between them (along the span, the middle between two neighbouring sections
-    /// nearest to it, other than the two breaks, inside the spans around them). The pairs are
+    /// half-way between them (along the span, the place [`super::SpanBreaks`] allows nearest
+    /// to it, other than the two breaks, inside the spans around them). The pairs are
     /// tried in the order of the largest offset of their three spans, the least first; a
     /// merge is kept when the layout has fewer stored scalars and still meets the tolerance
     /// ([`Search::met`]).
     pub(super) fn merge(&self, fam: &Family, mut w: Cand, nfits: &mut usize, along_v: bool) -> Cand {
-        let mids = self.data.mid_v();
+        let sites = self.data.break_sites(fam.dv, self.opts.span_breaks);
         loop {
             let b = if along_v { w.bv.clone() } else { w.bu.clone() };
             if b.len() < 4 {
@@ -777,7 +777,8 @@ impl<'d, 'a> Search<'d, 'a> {
                 .filter_map(|k| {
                     let half = 0.5 * (b[k] + b[k + 1]);
                     let m = if along_v {
-                        mids.iter()
+                        sites
+                            .iter()
                             .copied()
                             .filter(|&x| x > b[k - 1] && x < b[k + 2] && x != b[k] && x != b[k + 1])
                             .min_by(|x, y| (x - half).abs().total_cmp(&(y - half).abs()))?
