@@ -160,9 +160,9 @@ pub enum SpanBreaks {
     /// At the sections (a lofted blade is only C1 at its stations): a span between two
     /// neighbouring sections, which lie on its first and last rows of seeds.
     Sections,
-    /// At the sections for an odd span degree, half-way between them for an even one: the
-    /// knots de Boor gives spline interpolation (Schoenberg–Whitney), one design column a
-    /// section more or less.
+    /// At the sections for an odd span degree, half-way between them for an even one: where
+    /// de Boor puts the knots of an interpolating spline (at the data for odd degrees, between
+    /// them for even ones).
     ByDegree,
 }
 
