@@ -48,9 +48,10 @@ pub struct Args {
     /// never.
     #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
     pub chord_rule: ChordArg,
-    /// Where the span breaks may go: `midway` between neighbouring sections, at the
-    /// `sections`, or `by-degree` (at the sections for odd span degrees, midway for even). Which
-    /// stores fewer scalars depends on the blade (`docs/GUIDE.md`).
+    /// Where the bulk families' span breaks may go (the greedy families split where the
+    /// offsets are): `midway` between neighbouring sections, at the `sections`, or `by-degree`
+    /// (at the sections for odd span degrees, midway for even). Which stores fewer scalars
+    /// depends on the blade (`docs/GUIDE.md`).
     #[arg(long, value_enum, default_value_t = SpanBreaksArg::Midway)]
     pub span_breaks: SpanBreaksArg,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
