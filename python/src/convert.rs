@@ -1,6 +1,5 @@
 //! Conversions between Python objects and the library's types, and errors as Python exceptions.
 
-use bezchain::adaptive::Norm;
 use bezchain::export::{Schema, Stamp};
 use bezchain::geometry::{parse_cloud, parse_curve, Grid, Loaded2};
 use bezchain::Error;
@@ -185,17 +184,6 @@ pub(crate) fn check_tol(tol: f64, max_scalars: Option<usize>, what: &str) -> PyR
         )));
     }
     Ok(())
-}
-
-/// The norm a tolerance bounds, `max` or `rms`.
-pub(crate) fn norm(text: &str) -> PyResult<Norm> {
-    match text.to_ascii_lowercase().as_str() {
-        "max" => Ok(Norm::Max),
-        "rms" => Ok(Norm::Rms),
-        _ => Err(PyValueError::new_err(format!(
-            "norm '{text}': expected max or rms"
-        ))),
-    }
 }
 
 /// Evaluate `f` at a parameter or an array of them: `(dim,)` for a number, `(..., dim)` for

@@ -345,7 +345,7 @@ pub(crate) fn adapt(
     let pts = loaded.points;
     let opts = AdaptOptions {
         tol: tol * scale,
-        norm: self::norm(norm)?,
+        norm: word(norm)?,
         min_degree,
         max_degree,
         mode,
@@ -398,26 +398,8 @@ pub(crate) fn adapt_surface(
     span_breaks: &str,
 ) -> PyResult<Surface> {
     check_tol(tol, max_scalars, "a patch grid")?;
-    let span_breaks = match span_breaks.to_ascii_lowercase().as_str() {
-        "midway" => SpanBreaks::Midway,
-        "sections" => SpanBreaks::Sections,
-        "by-degree" | "by_degree" => SpanBreaks::ByDegree,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "span_breaks '{span_breaks}': expected midway, sections or by-degree"
-            )))
-        }
-    };
-    let chord_rule = match chord_rule.to_ascii_lowercase().as_str() {
-        "auto" => ChordRule::Auto,
-        "on" => ChordRule::On,
-        "off" => ChordRule::Off,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "chord_rule '{chord_rule}': expected auto, on or off"
-            )))
-        }
-    };
+    let span_breaks: SpanBreaks = word(span_breaks)?;
+    let chord_rule: ChordRule = word(chord_rule)?;
     let (name, points, grid) = match path_of(cloud) {
         Ok(path) if !cloud.is_instance_of::<numpy::PyUntypedArray>() => {
             let loaded = py.detach(|| read_cloud(&path)).map_err(py_err)?;
@@ -448,7 +430,7 @@ pub(crate) fn adapt_surface(
     }
     let opts = SurfaceAdaptOptions {
         tol: tol * scale,
-        norm: self::norm(norm)?,
+        norm: word(norm)?,
         degrees_u: degrees("--degrees-u", degrees_u, [3, 6])?,
         degrees_v: degrees("--degrees-v", degrees_v, [2, 3])?,
         span_rule,

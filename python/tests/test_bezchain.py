@@ -131,7 +131,7 @@ def test_adapt_surface_takes_the_clis_span_breaks(cli, blade_json, tmp_path):
                                   span_breaks="sections")
     np.testing.assert_array_equal(surf.design_net, np.array(want["design_net"]))
     assert json.loads(surf.to_json())["adapt"]["encoding"] == want["adapt"]["encoding"]
-    with pytest.raises(ValueError, match="span_breaks 'between'"):
+    with pytest.raises(ValueError, match="span-break placement 'between'"):
         bezchain.adapt_surface(cloud_csv, 5e-3, relative=True, span_breaks="between")
 
 

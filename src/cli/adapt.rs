@@ -8,26 +8,7 @@ use anyhow::{anyhow, Context, Result};
 use bezchain::adaptive::{adapt_curve, AdaptOptions, Mode, Norm};
 use bezchain::export::summary::{self, Adapted, SweepRow};
 use bezchain::export::{AdaptReport, InputInfo, Schema, Sweep};
-use clap::ValueEnum;
 use std::path::{Path, PathBuf};
-
-/// The norm the tolerance bounds.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum NormArg {
-    /// The largest closest-point offset of any data point.
-    Max,
-    /// The root mean square of the offsets.
-    Rms,
-}
-
-impl From<NormArg> for Norm {
-    fn from(n: NormArg) -> Norm {
-        match n {
-            NormArg::Max => Norm::Max,
-            NormArg::Rms => Norm::Rms,
-        }
-    }
-}
 
 /// The searches of `adapt` and `adapt-surface`: `search` at each of `tols` times `scale`
 /// (model units), an error naming `input` and the tolerance.
@@ -87,17 +68,6 @@ pub(crate) fn finish<R: Adapted>(
     Ok(())
 }
 
-/// How x may be stored.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ModeArg {
-    /// Both ways; the aerofoil rule where the data look like an aerofoil contour.
-    Auto,
-    /// Only y stored, x following the aerofoil rule.
-    Aerofoil,
-    /// Both coordinates of every design point stored (the paper's chains).
-    Free,
-}
-
 /// The tolerance arguments `adapt` and `adapt-surface` share.
 #[derive(clap::Args, Debug)]
 pub struct Tolerances {
@@ -114,9 +84,10 @@ pub struct Tolerances {
         allow_negative_numbers = true
     )]
     pub sweep: Vec<f64>,
-    /// The norm the tolerance bounds.
-    #[arg(long, value_enum, default_value_t = NormArg::Max)]
-    pub norm: NormArg,
+    /// The norm the tolerance bounds: max (the largest closest-point offset of any data point)
+    /// or rms (the root mean square of the offsets).
+    #[arg(long, default_value = "max", value_parser = super::parse_word::<Norm>)]
+    pub norm: Norm,
     /// Read the tolerance as a fraction of the data's size (see `--tol`).
     #[arg(long)]
     pub relative: bool,
@@ -161,9 +132,11 @@ pub struct Args {
     /// Degrees searched, `LO-HI` or one degree (2 to 7).
     #[arg(long, default_value = "2-7")]
     pub degrees: String,
-    /// How x may be stored.
-    #[arg(long, value_enum, default_value_t = ModeArg::Auto)]
-    pub mode: ModeArg,
+    /// How x may be stored: auto (both ways; the aerofoil rule where the data look like an
+    /// aerofoil contour), aerofoil (only y stored, x following the aerofoil rule) or free (both
+    /// coordinates of every design point stored, the paper's chains).
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<Mode>)]
+    pub mode: Mode,
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
@@ -202,14 +175,10 @@ pub fn run(args: Args) -> Result<()> {
         1.0
     };
     let base = AdaptOptions {
-        norm: args.tolerance.norm.into(),
+        norm: args.tolerance.norm,
         min_degree,
         max_degree,
-        mode: match args.mode {
-            ModeArg::Auto => Mode::Auto,
-            ModeArg::Aerofoil => Mode::Aerofoil,
-            ModeArg::Free => Mode::Free,
-        },
+        mode: args.mode,
         max_scalars: args.tolerance.max_scalars,
         search_points: args.search_points,
         ..AdaptOptions::default()

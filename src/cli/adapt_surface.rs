@@ -9,11 +9,9 @@ use anyhow::{Context, Result};
 use bezchain::adaptive::{
     adapt_blade, adapt_surface_with, ChordRule, SpanBreaks, SurfaceAdaptOptions, SurfaceProgress,
 };
-use bezchain::closest::{grid_feet, FootOptions};
 use bezchain::export::{summary, SurfaceAdaptReport};
 use bezchain::export::{InputInfo, RenderOptions};
 use bezchain::geometry::{read_cloud, Blade, Grid, LoftOptions};
-use bezchain::problem::section_params;
 use glam::DVec3;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -46,14 +44,14 @@ pub struct Args {
     /// looks like an aerofoil section starting and ending at its trailing edge): `auto` tries
     /// it first and searches without it too when it meets nothing, `on` only with it, `off`
     /// never.
-    #[arg(long, value_enum, default_value_t = ChordArg::Auto)]
-    pub chord_rule: ChordArg,
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<ChordRule>)]
+    pub chord_rule: ChordRule,
     /// Where the bulk families' span breaks may go (the greedy families split where the
     /// offsets are): `midway` between neighbouring sections, at the `sections`, or `by-degree`
     /// (at the sections for odd span degrees, midway for even). Which stores fewer scalars
     /// depends on the blade (`docs/GUIDE.md`).
-    #[arg(long, value_enum, default_value_t = SpanBreaksArg::Midway)]
-    pub span_breaks: SpanBreaksArg,
+    #[arg(long, default_value = "midway", value_parser = super::parse_word::<SpanBreaks>)]
+    pub span_breaks: SpanBreaks,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
     /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary then goes to standard
     /// error).
@@ -64,28 +62,6 @@ pub struct Args {
     pub picture: super::picture::PictureArgs,
     #[command(flatten)]
     pub cad: super::export::CadArgs,
-}
-
-/// `--chord-rule`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ChordArg {
-    /// The chord rule first, without it too when it meets nothing.
-    Auto,
-    /// Only the chord rule.
-    On,
-    /// Never the chord rule.
-    Off,
-}
-
-/// `--span-breaks`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SpanBreaksArg {
-    /// Half-way between every two neighbouring sections.
-    Midway,
-    /// At the sections.
-    Sections,
-    /// At the sections for an odd span degree, half-way for an even one.
-    ByDegree,
 }
 
 /// The sectioned cloud to fit (for a blade definition, lofted at its stations), and the
@@ -150,21 +126,13 @@ pub fn run(args: Args) -> Result<()> {
         1.0
     };
     let base = SurfaceAdaptOptions {
-        norm: args.tolerance.norm.into(),
+        norm: args.tolerance.norm,
         degrees_u: parse_degrees("--degrees-u", &args.degrees_u)?.into(),
         degrees_v: parse_degrees("--degrees-v", &args.degrees_v)?.into(),
         span_rule: !args.no_span_rule,
-        chord_rule: match args.chord_rule {
-            ChordArg::Auto => ChordRule::Auto,
-            ChordArg::On => ChordRule::On,
-            ChordArg::Off => ChordRule::Off,
-        },
+        chord_rule: args.chord_rule,
         max_scalars: args.tolerance.max_scalars,
-        span_breaks: match args.span_breaks {
-            SpanBreaksArg::Midway => SpanBreaks::Midway,
-            SpanBreaksArg::Sections => SpanBreaks::Sections,
-            SpanBreaksArg::ByDegree => SpanBreaks::ByDegree,
-        },
+        span_breaks: args.span_breaks,
         ..SurfaceAdaptOptions::default()
     };
     if let Some(t) = tols
@@ -207,14 +175,10 @@ pub fn run(args: Args) -> Result<()> {
         }
         let (r, refined) = r?;
         let fitted = refined.as_ref().map_or(&points[..], |c| &c.0.points[..]);
-        if let Some((_, added, rounds)) = refined.as_ref().filter(|c| c.1 > 0) {
-            outs.say(&format!(
-                "note: {name}: {added} section(s) lofted between stations joined the data where the surface \
-                 (or, before any layout met the stations, a smooth interpolation of them) left the definition \
-                 between them ({rounds} searches); they are held to {} tolerances, as the surface is between \
-                 the stations\n",
-                bezchain::adaptive::BETWEEN_FACTOR
-            ));
+        if let Some((_, added, rounds)) = &refined {
+            if let Some(note) = summary::joined_sections(&name, *added, *rounds) {
+                outs.say(&note);
+            }
         }
         if tols.len() == 1 {
             outs.say(&summary::adapted_surface(
@@ -244,16 +208,10 @@ pub fn run(args: Args) -> Result<()> {
             Some(c) => (&c.points[..], c.grid.unwrap_or(grid)),
             None => (&points[..], grid),
         };
-        let params: Vec<[f64; 2]> = grid_feet(surface, points, &FootOptions::default())
-            .iter()
-            .map(|f| f.t)
-            .collect();
-        // The span axis fit-surface draws a sectioned cloud along.
-        let (_, axis) = section_params(points, grid, None)?;
         let [w, h] = pictures.size();
         let ropts = RenderOptions {
             remarks: remark.iter().cloned().collect(),
-            ..RenderOptions::of_surface(surface, &params, axis.dir, points, Some(grid), w, h)
+            ..RenderOptions::of_sectioned(surface, points, grid, w, h)?
         };
         pictures.put(&mut outs, surface, &ropts)?;
     }

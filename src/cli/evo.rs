@@ -144,32 +144,30 @@ impl EvoArgs {
 
     /// The flags given, by name (to refuse them for methods that do not use them).
     pub fn given(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        let mut add = |on: bool, name| {
-            if on {
-                v.push(name);
-            }
-        };
-        add(self.backend.is_some(), "--backend");
-        add(self.seed.is_some(), "--seed");
-        add(self.population.is_some(), "--population");
-        add(self.generations.is_some(), "--generations");
-        add(self.target.is_some(), "--target");
-        add(self.stall.is_some(), "--stall");
-        add(self.newton.is_some(), "--newton");
-        add(self.spread.is_some(), "--spread");
-        add(self.margin.is_some(), "--margin");
-        add(self.crossover_rate.is_some(), "--crossover-rate");
-        add(self.mutation_rate.is_some(), "--mutation-rate");
-        add(self.tournament.is_some(), "--tournament");
-        add(self.covariance_rate.is_some(), "--covariance-rate");
-        add(self.covariance_pool.is_some(), "--covariance-pool");
-        add(self.restarts.is_some(), "--restarts");
-        add(self.history.is_some(), "--history");
-        add(self.run.checkpoint.is_some(), "--checkpoint");
-        add(self.run.checkpoint_every.is_some(), "--checkpoint-every");
-        add(self.run.resume.is_some(), "--resume");
-        v
+        [
+            (self.backend.is_some(), "--backend"),
+            (self.seed.is_some(), "--seed"),
+            (self.population.is_some(), "--population"),
+            (self.generations.is_some(), "--generations"),
+            (self.target.is_some(), "--target"),
+            (self.stall.is_some(), "--stall"),
+            (self.newton.is_some(), "--newton"),
+            (self.spread.is_some(), "--spread"),
+            (self.margin.is_some(), "--margin"),
+            (self.crossover_rate.is_some(), "--crossover-rate"),
+            (self.mutation_rate.is_some(), "--mutation-rate"),
+            (self.tournament.is_some(), "--tournament"),
+            (self.covariance_rate.is_some(), "--covariance-rate"),
+            (self.covariance_pool.is_some(), "--covariance-pool"),
+            (self.restarts.is_some(), "--restarts"),
+            (self.history.is_some(), "--history"),
+            (self.run.checkpoint.is_some(), "--checkpoint"),
+            (self.run.checkpoint_every.is_some(), "--checkpoint-every"),
+            (self.run.resume.is_some(), "--resume"),
+        ]
+        .into_iter()
+        .filter_map(|(given, name)| given.then_some(name))
+        .collect()
     }
 
     /// The library's options (checked by the library when the run starts).

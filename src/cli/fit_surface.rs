@@ -3,6 +3,7 @@
 
 use super::evo::{EvoArgs, Monitor};
 use super::output::Outputs;
+use super::progress::spinner;
 use super::{parse_pair, usage, warn, warn_all};
 use anyhow::{Context, Result};
 use bezchain::chain::Continuity;
@@ -14,8 +15,8 @@ use bezchain::fit::{
 };
 use bezchain::geometry::read_cloud;
 use bezchain::optim::evo::Checkpoint;
+use bezchain::problem::SpanDirection;
 use glam::DVec3;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -56,8 +57,8 @@ pub struct Args {
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<ParamSource>)]
     pub params: ParamSource,
     /// Span axis: x, y, z, or auto (the cloud's principal axis).
-    #[arg(long, default_value = "z", value_parser = parse_span)]
-    pub span: SpanArg,
+    #[arg(long, default_value = "z", value_parser = super::parse_word::<SpanDirection>)]
+    pub span: SpanDirection,
     /// Clouds larger than this are fitted on a subsample of about this many points first
     /// (0: never).
     #[arg(long, default_value_t = SurfaceOptions::default().subsample)]
@@ -91,30 +92,11 @@ pub struct Args {
     pub evo: EvoArgs,
 }
 
-/// The span axis as given on the command line.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SpanArg {
-    /// A coordinate axis.
-    Axis(DVec3),
-    /// The cloud's principal axis.
-    Auto,
-}
-
 fn parse_continuity(s: &str) -> std::result::Result<[Continuity; 2], String> {
     let one = |t: &str| t.parse::<Continuity>().map_err(|e| e.to_string());
     match s.split_once(['x', 'X']) {
         Some((a, b)) => Ok([one(a)?, one(b)?]),
         None => one(s).map(|c| [c, c]),
-    }
-}
-
-fn parse_span(s: &str) -> std::result::Result<SpanArg, String> {
-    match s.to_ascii_lowercase().as_str() {
-        "x" => Ok(SpanArg::Axis(DVec3::X)),
-        "y" => Ok(SpanArg::Axis(DVec3::Y)),
-        "z" => Ok(SpanArg::Axis(DVec3::Z)),
-        "auto" => Ok(SpanArg::Auto),
-        _ => Err(format!("unknown span axis '{s}' (expected x, y, z or auto)")),
     }
 }
 
@@ -192,10 +174,7 @@ pub fn run(args: Args) -> Result<()> {
         ..SurfaceOptions::default()
     };
     opts.lsq.max_iterations = args.max_iterations;
-    opts.blade.span = match args.span {
-        SpanArg::Axis(d) => Some(d),
-        SpanArg::Auto => None,
-    };
+    opts.blade.span = args.span.dir();
     // Span breaks (`span:` or `stations:FILE`) depend on the cloud's span: an error in them
     // names the option and its file, not the cloud.
     if matches!(layout.breaks_v, Breaks::Span(_)) {
@@ -296,15 +275,7 @@ fn choose_breaks_v(
     layout: &SurfaceLayout,
     opts: &SurfaceOptions,
 ) -> Result<Option<BreakSearch>> {
-    let bar = if super::output::quiet() {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(0)
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed:>4} breaks v: fit {pos}/{len}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
+    let bar = spinner("{spinner} {elapsed:>4} breaks v: fit {pos}/{len}", false);
     let decided = auto_breaks_v(points, grid, layout, opts, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
@@ -339,15 +310,7 @@ fn fit_with_progress(
 ) -> Result<SurfaceFit> {
     let evolutionary = args.method.evolutionary().is_some();
     // The spinner for least squares; an evolutionary run has the monitor's bar instead.
-    let bar = if evolutionary || super::output::quiet() {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new_spinner()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed:>4} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
+    let bar = spinner("{spinner} {elapsed:>4} {msg}", evolutionary);
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut stage = "";
     let mut stage_points = 0usize;

@@ -3,17 +3,7 @@
 use super::output::Outputs;
 use anyhow::Result;
 use bezchain::geometry::{write_selig_to, Naca, NacaOptions, Spacing, MAX_NACA_POINTS};
-use clap::ValueEnum;
 use std::path::PathBuf;
-
-/// Station spacing along the chord.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum SpacingArg {
-    /// Dense at the leading and trailing edges.
-    Cosine,
-    /// Uniform in x on each surface.
-    Uniform,
-}
 
 /// Arguments of `bezchain naca`.
 #[derive(clap::Args, Debug)]
@@ -23,9 +13,10 @@ pub struct Args {
     /// Total number of contour points (upper TE → LE → lower TE).
     #[arg(long, default_value_t = 82)]
     pub points: usize,
-    /// Station spacing.
-    #[arg(long, value_enum, default_value_t = SpacingArg::Cosine)]
-    pub spacing: SpacingArg,
+    /// Station spacing: cosine (dense at the leading and trailing edges) or uniform (uniform in x
+    /// on each surface).
+    #[arg(long, default_value = "cosine", value_parser = super::parse_word::<Spacing>)]
+    pub spacing: Spacing,
     /// Close the trailing edge (thickness coefficient −0.1036 instead of −0.1015).
     #[arg(long)]
     pub closed_te: bool,
@@ -45,13 +36,9 @@ pub fn run(args: Args) -> Result<()> {
     let naca = Naca::parse(&args.code)?;
     let mut outs = Outputs::new();
     let out = outs.add("--output", &args.output)?;
-    let spacing = match args.spacing {
-        SpacingArg::Cosine => Spacing::Cosine,
-        SpacingArg::Uniform => Spacing::Uniform,
-    };
     let points = naca.contour(&NacaOptions {
         points: args.points,
-        spacing,
+        spacing: args.spacing,
         closed_te: args.closed_te,
     })?;
     let mut text = Vec::new();

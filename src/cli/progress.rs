@@ -116,6 +116,20 @@ impl Generations {
     }
 }
 
+/// A spinner drawn with indicatif's `template`; hidden under `--quiet`, or when `hidden` (a run
+/// that shows its progress otherwise).
+pub fn spinner(template: &str, hidden: bool) -> ProgressBar {
+    let bar = if hidden || super::output::quiet() {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

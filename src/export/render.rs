@@ -16,11 +16,13 @@ use super::offset_map::{offset_label, stations, Colouring, Marked};
 use super::raster::{draw_boxed_text, draw_disc, draw_line, draw_text, fill_triangle, Canvas};
 pub use super::raster::{Image, BACKGROUND, NET};
 use crate::chain::{GridLayout, PatchGrid};
+use crate::closest::{grid_feet, FootOptions};
 use crate::error::{Error, Result};
 use crate::eval::dense::{dense_grid, uniform, DensePoint};
 use crate::eval::Backend;
 use crate::fit::SurfaceFit;
 use crate::geometry::Grid;
+use crate::problem::section_params;
 use glam::DVec3;
 pub use svg::render_svg;
 
@@ -423,6 +425,32 @@ impl RenderOptions {
             width,
             height,
         )
+    }
+
+    /// [`of_surface`](Self::of_surface) for a `grid` made without [`crate::fit`] (an adapted
+    /// surface) and the sectioned cloud `points`: their parameters on it by the exact
+    /// closest-point search, the span direction the cloud's sections give.
+    pub fn of_sectioned(
+        grid: &PatchGrid<DVec3>,
+        points: &[DVec3],
+        sections: Grid,
+        width: u32,
+        height: u32,
+    ) -> Result<RenderOptions> {
+        let params: Vec<[f64; 2]> = grid_feet(grid, points, &FootOptions::default())
+            .iter()
+            .map(|f| f.t)
+            .collect();
+        let (_, axis) = section_params(points, sections, None)?;
+        Ok(RenderOptions::of_surface(
+            grid,
+            &params,
+            axis.dir,
+            points,
+            Some(sections),
+            width,
+            height,
+        ))
     }
 
     /// [`of_fit`](Self::of_fit) for any `grid` fitted to `points`, their closest-point

@@ -161,6 +161,22 @@ pub fn ends_warning(ends: Option<&SectionEnds>, tol: f64) -> Option<String> {
     })
 }
 
+/// The note for a blade definition whose search joined `added` sections lofted between its
+/// stations to the data (over `rounds` searches), `name` the definition; none when it joined
+/// none.
+#[must_use]
+pub fn joined_sections(name: &str, added: usize, rounds: usize) -> Option<String> {
+    (added > 0).then(|| {
+        format!(
+            "note: {name}: {added} section(s) lofted between stations joined the data where the surface \
+             (or, before any layout met the stations, a smooth interpolation of them) left the definition \
+             between them ({rounds} searches); they are held to {} tolerances, as the surface is between \
+             the stations\n",
+            crate::adaptive::BETWEEN_FACTOR
+        )
+    })
+}
+
 /// The picture's remark for section ends that double back ([`ends_warning`]): a dotted ring
 /// where, labelled with how far.
 #[must_use]
@@ -667,6 +683,22 @@ impl Adapted for SurfaceAdaptReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Sections joined between stations get one note with how many and how they are held;
+    /// none joined, no note.
+    #[test]
+    fn joined_sections_are_noted_only_when_there_are_some() {
+        assert_eq!(joined_sections("b.yaml", 0, 1), None);
+        let note = joined_sections("b.yaml", 4, 2).unwrap();
+        assert!(
+            note.starts_with("note: b.yaml: 4 section(s) lofted between stations"),
+            "{note}"
+        );
+        assert!(
+            note.contains("(2 searches)") && note.contains("held to 3 tolerances"),
+            "{note}"
+        );
+    }
 
     /// Only section ends beyond the allowance warn, with where and how far in tolerances.
     #[test]

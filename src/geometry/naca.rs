@@ -2,6 +2,7 @@
 //! around the contour in Selig order.
 
 use crate::error::{Error, Result};
+use crate::keyword::keywords;
 use glam::DVec2;
 use std::f64::consts::PI;
 
@@ -14,6 +15,7 @@ pub enum Spacing {
     /// `x` uniform along the chord on each surface.
     Uniform,
 }
+keywords!(Spacing, "spacing", { Cosine => "cosine", Uniform => "uniform" });
 
 /// Options for sampling a NACA contour.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -33,4 +33,4 @@ pub use offset::{
     chord_length_params, corresponding_offsets, corresponding_stats, exponent_params, grid_offset_stats,
     offset_stats, point_offsets, shape_offsets, span_ratio, Metric, OffsetStats,
 };
-pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis};
+pub use param::{blade_params, section_params, span_axis, BladeParamOptions, SpanAxis, SpanDirection};

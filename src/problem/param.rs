@@ -12,6 +12,7 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::Grid;
+use crate::keyword::keywords;
 use glam::{DVec2, DVec3};
 use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
@@ -212,6 +213,29 @@ pub struct BladeParamOptions {
     /// paper's blade), so slices would cut across sections. Default +z, the span axis of
     /// lofted blades.
     pub span: Option<DVec3>,
+}
+
+/// A span direction by name: a coordinate axis, or `auto`, the cloud's principal axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpanDirection {
+    X,
+    Y,
+    Z,
+    Auto,
+}
+keywords!(SpanDirection, "span axis", { X => "x", Y => "y", Z => "z", Auto => "auto" });
+
+impl SpanDirection {
+    /// The direction as [`BladeParamOptions::span`] takes it (`None` for `Auto`).
+    #[must_use]
+    pub fn dir(self) -> Option<DVec3> {
+        match self {
+            SpanDirection::X => Some(DVec3::X),
+            SpanDirection::Y => Some(DVec3::Y),
+            SpanDirection::Z => Some(DVec3::Z),
+            SpanDirection::Auto => None,
+        }
+    }
 }
 
 impl Default for BladeParamOptions {
@@ -499,6 +523,20 @@ fn slice_u(pts: &[(DVec2, u32)]) -> Vec<(u32, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn span_directions_name_the_axes_and_auto_none() {
+        let dirs: Vec<Option<DVec3>> = ["x", "Y", "z", "auto"]
+            .iter()
+            .map(|w| w.parse::<SpanDirection>().unwrap().dir())
+            .collect();
+        assert_eq!(dirs, [Some(DVec3::X), Some(DVec3::Y), Some(DVec3::Z), None]);
+        let e = "w".parse::<SpanDirection>().unwrap_err().to_string();
+        assert!(
+            e.contains("unknown span axis 'w' (expected x, y, z or auto)"),
+            "{e}"
+        );
+    }
     use crate::geometry::{Blade, LoftOptions};
     use std::path::Path;
 

@@ -74,6 +74,7 @@ pub const FOLD_SAMPLES: usize = 16;
 /// Equal u segments the bulk families start from (a break at the leading edge).
 const BULK_START: usize = 8;
 use crate::geometry::{Cloud, Grid};
+use crate::keyword::keywords;
 use crate::problem::{Metric, OffsetStats};
 use crate::team;
 use glam::DVec3;
@@ -179,6 +180,13 @@ pub enum ChordRule {
     #[default]
     Auto,
 }
+
+keywords!(ChordRule, "chord rule", { Auto => "auto", On => "on", Off => "off" });
+keywords!(SpanBreaks, "span-break placement", {
+    Midway => "midway",
+    Sections => "sections",
+    ByDegree => "by-degree" | "by_degree",
+});
 
 /// The span rule: coordinate `axis` of design column `j` is `ends[0] + g_j (ends[1] - ends[0])`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
