@@ -156,7 +156,7 @@ def adapt_surface(
     chord_rule: str = "auto",
     max_scalars: Optional[int] = None,
     relative: bool = False,
-    span_breaks: str = "midway",
+    span_breaks: str = "auto",
 ) -> Surface:
     """The patch grid with the fewest stored scalars meeting ``tol``, as ``bezchain adapt-surface``."""
 

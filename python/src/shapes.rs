@@ -382,7 +382,7 @@ pub(crate) fn adapt(
 /// `tol`, as `bezchain adapt-surface CLOUD --tol T` searches it. `cloud`: an `(M, 5)` array
 /// `x, y, z, section, index` (as [`blade`] returns) or a sectioned cloud CSV file.
 #[pyfunction]
-#[pyo3(signature = (cloud, tol, norm="max", degrees_u=None, degrees_v=None, span_rule=true, chord_rule="auto", max_scalars=None, relative=false, span_breaks="midway"))]
+#[pyo3(signature = (cloud, tol, norm="max", degrees_u=None, degrees_v=None, span_rule=true, chord_rule="auto", max_scalars=None, relative=false, span_breaks="auto"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn adapt_surface(
     py: Python<'_>,

@@ -47,10 +47,12 @@ pub struct Args {
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<ChordRule>)]
     pub chord_rule: ChordRule,
     /// Where the bulk families' span breaks may go (the greedy families split where the
-    /// offsets are): `midway` between neighbouring sections, at the `sections`, or `by-degree`
-    /// (at the sections for odd span degrees, midway for even). Which stores fewer scalars
-    /// depends on the blade (`docs/GUIDE.md`).
-    #[arg(long, default_value = "midway", value_parser = super::parse_word::<SpanBreaks>)]
+    /// offsets are): `midway` between neighbouring sections, at the `sections`, `by-degree` (at
+    /// the sections for odd span degrees, midway for even), or `auto`: midway, but in a blade
+    /// definition's searches after the first, the trailing-edge families of odd span degree
+    /// that find nothing to split there try the sections. Which stores fewer scalars depends on
+    /// the blade (`docs/GUIDE.md`).
+    #[arg(long, default_value = "auto", value_parser = super::parse_word::<SpanBreaks>)]
     pub span_breaks: SpanBreaks,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
     /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary then goes to standard

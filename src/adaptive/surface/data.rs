@@ -262,7 +262,7 @@ impl<'a> Data<'a> {
         sorted.sort_by(f64::total_cmp);
         sorted.dedup();
         let at_sections = match rule {
-            SpanBreaks::Midway => false,
+            SpanBreaks::Auto | SpanBreaks::Midway => false,
             SpanBreaks::Sections => true,
             SpanBreaks::ByDegree => dv % 2 == 1,
         };

@@ -85,6 +85,12 @@ pub fn adapt_blade(
             span_checks: checks || !opts.span_checks,
             chord_rule,
             greedy,
+            // `SpanBreaks::Auto` retries at the sections only where the result stands.
+            span_breaks: if rounds == 1 {
+                opts.span_breaks.first_search()
+            } else {
+                opts.span_breaks
+            },
             ..*opts
         };
         // The sections lofted between the stations (`radii` past the stations', sorted in).

@@ -8,7 +8,7 @@ use super::data::Data;
 use super::encoding::SurfaceEncoding;
 use super::fitter::{fold_at, norm_of, scale_by, span_maxima, Fitted, Fitter};
 use super::span;
-use super::{sampled_offsets, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
+use super::{sampled_offsets, SpanBreaks, SurfaceAdaptOptions, SurfaceFamilyTrace, BULK_START};
 use crate::chain::{ChainLayout, PatchGrid};
 use crate::error::{Error, Result};
 use crate::problem::checker::sampled_within;
@@ -27,6 +27,9 @@ pub(super) struct Family {
     pub(super) split: bool,
     /// How it grows ([`Growth`]).
     pub(super) growth: Growth,
+    /// Where a bulk family's span breaks go ([`Data::break_sites`]; never
+    /// [`SpanBreaks::Auto`], which [`Search::run`] resolves).
+    pub(super) sites: SpanBreaks,
 }
 
 /// How a family grows and what it must pass.
@@ -67,7 +70,11 @@ impl Family {
                 Growth::Bulk => " bulk",
                 Growth::Greedy => "",
             }
-        )
+        ) + if self.bulk() && self.sites == SpanBreaks::Sections {
+            ", span breaks at the sections"
+        } else {
+            ""
+        }
     }
 
     pub(super) fn layout(&self, degree: usize, order: usize, breaks: &[f64]) -> Option<ChainLayout> {
@@ -383,7 +390,7 @@ impl<'d, 'a> Search<'d, 'a> {
         // between every two neighbouring sections, so that each span holds one section, at
         // the middle row of the checker's seeds where the sections are evenly spaced.
         let mut bv = vec![0.0];
-        bv.extend(data.break_sites(fam.dv, self.opts.span_breaks));
+        bv.extend(data.break_sites(fam.dv, fam.sites));
         bv.push(1.0);
         let bv = bv;
         let mut bu: Vec<f64> = (0..=BULK_START).map(|k| k as f64 / BULK_START as f64).collect();
@@ -486,18 +493,41 @@ impl<'d, 'a> Search<'d, 'a> {
         let mut nfits = 0;
         let mut closest: Option<Cand> = None;
         if fam.bulk() {
-            let winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
+            let mut fam = fam;
+            let mut winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
+            // [`SpanBreaks::Auto`]: the breaks at the sections where midway ones left nothing
+            // to split.
+            let retry = self.opts.span_breaks == SpanBreaks::Auto
+                && fam.te()
+                && fam.dv % 2 == 1
+                && fam.sites == SpanBreaks::Midway;
+            if winner.is_none() && retry {
+                let at = Family {
+                    sites: SpanBreaks::Sections,
+                    ..fam
+                };
+                let mut again = SurfaceFamilyTrace {
+                    family: at.name(),
+                    ..trace.clone()
+                };
+                winner = self.grow_bulk(&at, &mut nfits, &mut closest, &mut again);
+                if winner.is_some() {
+                    (fam, trace) = (at, again);
+                } else {
+                    trace.outcome = format!("{}; at the sections, {}", trace.outcome, again.outcome);
+                }
+            }
             // Kept for a second sweep, span breaks first ([`super::run_families`]).
             let grown = if fam.te() { winner.clone() } else { None };
             let (w, c, t) = self.finish(fam, winner, closest, nfits, trace);
-            return Searched(w, c, t, grown);
+            return Searched(w, c, t, grown, fam.sites);
         }
         let mut cur = match self.fit(&mut nfits, &fam, &[0.0, 1.0], &[0.0, 1.0], self.data.u0(fam.te())) {
             Some(c) => c,
             None => {
                 trace.outcome = "the first layout could not be fitted".into();
                 trace.fits = nfits;
-                return Searched(None, None, trace, None);
+                return Searched(None, None, trace, None, fam.sites);
             }
         };
         let mut stall = 0;
@@ -611,7 +641,7 @@ impl<'d, 'a> Search<'d, 'a> {
             cur = next;
         };
         let (w, c, t) = self.finish(fam, winner, closest, nfits, trace);
-        Searched(w, c, t, None)
+        Searched(w, c, t, None, fam.sites)
     }
 
     /// The largest offset of `w`'s fit in every segment (`along_v` false) or span of `b`.
@@ -765,7 +795,7 @@ impl<'d, 'a> Search<'d, 'a> {
     /// merge is kept when the layout has fewer stored scalars and still meets the tolerance
     /// ([`Search::met`]).
     pub(super) fn merge(&self, fam: &Family, mut w: Cand, nfits: &mut usize, along_v: bool) -> Cand {
-        let sites = self.data.break_sites(fam.dv, self.opts.span_breaks);
+        let sites = self.data.break_sites(fam.dv, fam.sites);
         loop {
             let b = if along_v { w.bv.clone() } else { w.bu.clone() };
             if b.len() < 4 {
@@ -885,13 +915,15 @@ impl SweepOrder {
 }
 
 /// A family's search as [`Search::run`] ends it: its winner, its closest layout, its trace,
-/// and a trailing-edge family's grown layout that its winner's break removal started from; a
-/// [`Record`] so that a family searched on another rank arrives as the same bits.
+/// a trailing-edge family's grown layout that its winner's break removal started from, and
+/// where its span breaks went ([`Family::sites`]); a [`Record`] so that a family searched on
+/// another rank arrives as the same bits.
 pub(super) struct Searched(
     pub(super) Option<Cand>,
     pub(super) Option<Cand>,
     pub(super) SurfaceFamilyTrace,
     pub(super) Option<Cand>,
+    pub(super) SpanBreaks,
 );
 
 impl Cand {
@@ -947,6 +979,12 @@ impl Record for Searched {
             .put(t.outcome.as_bytes())
             .one(t.seconds);
         Cand::write(self.3.as_ref(), out);
+        out.one(
+            SpanBreaks::KEYWORDS
+                .iter()
+                .position(|k| k.0 == self.4)
+                .unwrap_or(0) as u8,
+        );
     }
 
     fn read(from: &mut Reader<'_>) -> Result<Self> {
@@ -966,6 +1004,10 @@ impl Record for Searched {
                 seconds: from.one()?,
             },
             Cand::read(from)?,
+            SpanBreaks::KEYWORDS
+                .get(usize::from(from.one::<u8>()?))
+                .map(|k| k.0)
+                .ok_or_else(|| Error::Numerical("a family's span-break placement is unknown".into()))?,
         ))
     }
 }
