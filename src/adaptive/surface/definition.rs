@@ -85,7 +85,8 @@ pub fn adapt_blade(
             span_checks: checks || !opts.span_checks,
             chord_rule,
             greedy,
-            // `SpanBreaks::Auto` retries at the sections only where the result stands.
+            // `SpanBreaks::Auto` retries at the sections only after the first search, which
+            // only finds where the surface leaves the definition.
             span_breaks: if rounds == 1 {
                 opts.span_breaks.first_search()
             } else {

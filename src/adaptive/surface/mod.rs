@@ -151,16 +151,17 @@ impl Default for SurfaceAdaptOptions {
 /// IEA 10 MW from 851 stored scalars to 624 and met the BAR USC, but took the IEA 15 MW from
 /// 608 to 1,329; [`SpanBreaks::ByDegree`] kept the IEA 15 MW's 608 and met the BAR USC too,
 /// but took the NREL 5 MW from 466 to 491 and from 19 to 28 s (a third search).
-/// [`SpanBreaks::Auto`] takes the IEA 10 MW to 624 and keeps the others' midway results.
+/// [`SpanBreaks::Auto`] takes the IEA 10 MW to 624, meets the BAR USC (862) and keeps the
+/// other blades' midway results.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SpanBreaks {
-    /// Midway; but in a blade definition's searches after the first (those with sections
-    /// joined between its stations, whose result stands), a trailing-edge family of odd span
-    /// degree whose growth finds nothing left to split there grows again with its breaks at
-    /// the sections, as [`SpanBreaks::ByDegree`] would put them. Not in a first search or a
-    /// bare cloud's: every search so took the IEA 10 MW from 13.1 to 21.5 s, the later ones
-    /// alone to 17.7 s, both to 624 stored scalars.
+    /// Midway; but in a blade definition's searches after the first (the first only finds
+    /// where the surface leaves the definition between its stations), a trailing-edge family
+    /// of odd span degree whose growth finds nothing left to split there grows again with its
+    /// breaks at the sections, as [`SpanBreaks::ByDegree`] would put them. Not in a first
+    /// search or a bare cloud's: every search so took the IEA 10 MW from 13.1 to 21.5 s, the
+    /// later ones alone to 17.5 s, both to 624 stored scalars.
     #[default]
     Auto,
     /// Half-way between every two neighbouring sections: each span holds one section, on the
@@ -683,6 +684,8 @@ fn run_families(
     let [u_lo, u_hi] = opts.degrees_u;
     let [v_lo, v_hi] = opts.degrees_v;
     let mut families = Vec::new();
+    // [`SpanBreaks::Auto`]'s families start midway ([`Search::run`] may move a bulk one's).
+    let sites = opts.span_breaks.first_search();
     // `adapt_surface` checked 2 <= u_lo <= u_hi: degree 2 is also the least the chord rule's
     // parabola needs around (`blade::MIN_DEGREE`).
     for du in u_lo..=u_hi {
@@ -709,7 +712,7 @@ fn run_families(
                         ov: dv - 1,
                         split,
                         growth: Growth::Greedy,
-                        sites: opts.span_breaks.first_search(),
+                        sites,
                     });
                 }
             }
@@ -727,7 +730,7 @@ fn run_families(
                     ov: dv - 1,
                     split: true,
                     growth: if te { Growth::TrailingEdge } else { Growth::Bulk },
-                    sites: opts.span_breaks.first_search(),
+                    sites,
                 });
             }
         }

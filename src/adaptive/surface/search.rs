@@ -495,12 +495,9 @@ impl<'d, 'a> Search<'d, 'a> {
         if fam.bulk() {
             let mut fam = fam;
             let mut winner = self.grow_bulk(&fam, &mut nfits, &mut closest, &mut trace);
-            // [`SpanBreaks::Auto`]: the breaks at the sections where midway ones left nothing
-            // to split.
-            let retry = self.opts.span_breaks == SpanBreaks::Auto
-                && fam.te()
-                && fam.dv % 2 == 1
-                && fam.sites == SpanBreaks::Midway;
+            // [`SpanBreaks::Auto`] (whose families start midway): the breaks at the sections
+            // where midway ones left nothing to split.
+            let retry = self.opts.span_breaks == SpanBreaks::Auto && fam.te() && fam.dv % 2 == 1;
             if winner.is_none() && retry {
                 let at = Family {
                     sites: SpanBreaks::Sections,
