@@ -1,10 +1,11 @@
-//! The crate's layering, checked from its source: the top-level modules form a DAG (no import
-//! cycle, direct or through others), and inside every module the files form one too (a folder's
-//! `mod.rs`, which declares and re-exports the files below it, aside).
+//! The crate's shape, checked from its source: the top-level modules form a DAG (no import
+//! cycle, direct or through others), inside every module the files form one too (a folder's
+//! `mod.rs`, which declares and re-exports the files below it, aside), and no source file is
+//! longer than [`MAX_FILE_LINES`].
 //!
 //! A reference is every path in code (not in comments or strings) that starts with `crate::`,
-//! `super::` or `self::`, resolved to the longest module path that names a file of `src/`. `src/main.rs` and `src/cli/` are the
-//! shell on top and may use anything.
+//! `super::` or `self::`, resolved to the longest module path that names a file of `src/`.
+//! `src/main.rs` and `src/cli/` are the shell on top and may use anything.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -336,5 +337,34 @@ fn the_reference_parser_reads_groups_and_relative_paths() {
             vec!["b".to_string()],
             vec!["c".to_string()]
         ]]
+    );
+}
+
+/// The most lines a source file may have: past it a file holds several concepts, and one of
+/// them wants a file of its own.
+const MAX_FILE_LINES: usize = 1200;
+
+#[test]
+fn no_source_file_is_longer_than_the_limit() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut long = String::new();
+    let mut shaders: Vec<PathBuf> = std::fs::read_dir(root.join("shaders"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    shaders.sort();
+    let files = sources().into_iter().map(|s| s.path).chain(shaders);
+    let mut read = 0;
+    for path in files {
+        let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+        read += 1;
+        if lines > MAX_FILE_LINES {
+            long.push_str(&format!("\n  {}: {lines} lines", path.display()));
+        }
+    }
+    assert!(read > 50, "the sources were not found");
+    assert!(
+        long.is_empty(),
+        "files over {MAX_FILE_LINES} lines (split them by concept):{long}"
     );
 }
