@@ -18,3 +18,13 @@ pub mod newton;
 pub mod polar;
 
 pub use polar::{polars, polars_around, Viscous, ViscousOptions, ViscousPoint, Warm};
+
+/// The panel nodes of an aerofoil file shipped with the repository (`file` relative to it),
+/// for the tests of the viscous analysis.
+#[cfg(test)]
+fn shipped_nodes(file: &str) -> Vec<glam::DVec2> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+    let paneling = crate::aero::Paneling::default();
+    let (_, a) = crate::aero::input::Aerofoil::analyse(&path, &paneling, "", &mut |_, _| {}).unwrap();
+    a.solution.nodes().to_vec()
+}

@@ -419,14 +419,11 @@ fn rescued_or(first: ViscousPoint, retry: (ViscousPoint, Option<Warm>)) -> (Visc
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aero::input::Aerofoil;
     use crate::aero::Paneling;
     use std::path::Path;
 
-    pub(crate) fn shipped(file: &str) -> Viscous {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
-        let (_, a) = Aerofoil::analyse(&path, &Paneling::default(), "", &mut |_, _| {}).unwrap();
-        Viscous::new(a.solution.nodes()).unwrap()
+    fn shipped(file: &str) -> Viscous {
+        Viscous::new(&crate::aero::viscous::shipped_nodes(file)).unwrap()
     }
 
     /// NACA 4413 at Re 1e6: a cold start converges to a plausible point.

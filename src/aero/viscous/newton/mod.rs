@@ -846,14 +846,9 @@ fn fd_step(v: f64, q: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aero::input::Aerofoil;
-    use crate::aero::Paneling;
-    use std::path::Path;
 
     fn body(file: &str) -> Body {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
-        let (_, a) = Aerofoil::analyse(&path, &Paneling::default(), "", &mut |_, _| {}).unwrap();
-        Body::new(a.solution.nodes()).unwrap()
+        Body::new(&crate::aero::viscous::shipped_nodes(file)).unwrap()
     }
 
     /// A solve started from a neighbour's solution converges to the same point with the
