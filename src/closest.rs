@@ -214,8 +214,8 @@ pub(crate) fn free_params<const K: usize>(t: &[f64; K], g: &[f64; K]) -> [bool; 
 
 /// The local closest point to `q` from the start `t0`: Newton's method on the squared distance
 /// (Gauss-Newton where the Hessian is not positive definite), with backtracking so that the
-/// distance never grows by more than rounding, and each parameter held at 0 or 1 where the distance decreases
-/// outwards. Stops when a step moves the parameter by less than `1e-15`, or after a full
+/// distance never grows by more than rounding, and each parameter held at 0 or 1 where the distance
+/// decreases outwards. Stops when a step moves the parameter by less than `1e-15`, or after a full
 /// Newton step shorter than `1e-9` (the next one would be below `1e-15`).
 ///
 /// `scratch` is working space for [`Shape::eval_jet`].

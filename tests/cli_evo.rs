@@ -1,6 +1,7 @@
-//! `bezchain fit --method ga|cmaes|ga+lsq|cmaes+lsq` and `bezchain compare` end to end: the
-//! report (its offsets re-measured by the tests' own closest-point search), the history file, checkpoints that resume bit-identically
-//! and survive a killed run, and every bad setting answered with exit status 2.
+//! `bezchain fit --method ga|cmaes|ga+lsq|cmaes+lsq` and `bezchain compare` end to end: the report
+//! (its offsets re-measured by the tests' own closest-point search), the history file, checkpoints
+//! that resume bit-identically and survive a killed run, and every bad setting answered with exit
+//! status 2.
 
 mod common;
 

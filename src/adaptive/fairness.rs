@@ -294,9 +294,9 @@ impl Fairness {
         self.thresholds.iter().fold(f64::INFINITY, |a, &b| a.min(b))
     }
 
-    /// Sign changes of `samples` (points and curvatures, in order along the curve from the
-    /// first data point to the last) under this rule: each sample held to the threshold of its nearest data point (found by walking along the data
-    /// with the samples).
+    /// Sign changes of `samples` (points and curvatures, in order along the curve from the first
+    /// data point to the last) under this rule: each sample held to the threshold of its nearest
+    /// data point (found by walking along the data with the samples).
     #[must_use]
     pub fn count(&self, samples: &[(DVec2, f64)]) -> usize {
         let n = self.points.len();

@@ -20,15 +20,15 @@
 //! offsets stall (the data's noise). The winner's breaks are then moved by a coordinate
 //! search so that more of them can go.
 //!
-//! "Met" is four criteria, all judged inside the search on candidates that meet the
-//! tolerance: the held-out check of the layout (refitted on every other point, the others
-//! within [`HELD_OUT_FACTOR`] tolerances), no more curvature sign changes than the source
-//! ([`fairness`]: counted on the cubic spline through the data points, with a threshold that
-//! rises with the data's estimated scatter, so that on noisy data the interpolant's noise
-//! waves are not taken for the contour's shape), and the chain following the source between
-//! the points ([`Follows`]: every chain sample within [`fairness::AWAY_FACTOR`] tolerances of
-//! that spline, or of its bend between the two points, and no loop or fold: the chain turns at most [`fairness::EXTRA_TURN_DEG`] more than
-//! it). A candidate that fails any is refused and its family grows on; a result that is not
+//! "Met" is four criteria, all judged inside the search on candidates that meet the tolerance: the
+//! held-out check of the layout (refitted on every other point, the others within
+//! [`HELD_OUT_FACTOR`] tolerances), no more curvature sign changes than the source ([`fairness`]:
+//! counted on the cubic spline through the data points, with a threshold that rises with the data's
+//! estimated scatter, so that on noisy data the interpolant's noise waves are not taken for the
+//! contour's shape), and the chain following the source between the points ([`Follows`]: every
+//! chain sample within [`fairness::AWAY_FACTOR`] tolerances of that spline, or of its bend between
+//! the two points, and no loop or fold: the chain turns at most [`fairness::EXTRA_TURN_DEG`] more
+//! than it). A candidate that fails any is refused and its family grows on; a result that is not
 //! met says which criteria fail.
 //!
 //! The tolerance is judged on the fit's own foot-point distances (local Newton searches,

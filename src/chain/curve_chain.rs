@@ -1,4 +1,5 @@
-//! `CurveChain`: a chain of Bezier segments with generated joins, over a global parameter in `[0, 1]`.
+//! `CurveChain`: a chain of Bezier segments with generated joins, over a global parameter in `[0,
+//! 1]`.
 
 use super::layout::ChainLayout;
 use crate::bezier::{BezierCurve, Vector};

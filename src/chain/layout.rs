@@ -2,11 +2,11 @@
 //! chain, with its clamped knot vector, the extraction map, knot insertion and the basis.
 //!
 //! A chain of degree `d` whose join at break `t_i` has continuity `C(k_i)` is a B-spline whose
-//! interior knot `t_i` has multiplicity `d - k_i`; its B-spline coefficients are the design
-//! points (`docs/ARCHITECTURE.md` §2.2). The paper's chains have `k_i = 1` at every join ([`Continuity::C1`]);
-//! a join with a larger `k_i` generates more of its neighbouring control points and so stores
-//! fewer. Raising every interior knot to multiplicity `d` (Boehm's insertion) gives the
-//! expanded Bezier control points: the sparse map `expanded = E · design`
+//! interior knot `t_i` has multiplicity `d - k_i`; its B-spline coefficients are the design points
+//! (`docs/ARCHITECTURE.md` §2.2). The paper's chains have `k_i = 1` at every join
+//! ([`Continuity::C1`]); a join with a larger `k_i` generates more of its neighbouring control
+//! points and so stores fewer. Raising every interior knot to multiplicity `d` (Boehm's insertion)
+//! gives the expanded Bezier control points: the sparse map `expanded = E · design`
 //! ([`ExtractionMap`]), built once per layout.
 //!
 //! The basis at a parameter is the segment's Bernstein polynomials (from the one evaluator in

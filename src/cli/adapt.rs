@@ -140,9 +140,9 @@ pub struct Args {
     /// Points the search runs on (the winner is refitted and checked on all); 0 for all.
     #[arg(long, default_value_t = 80)]
     pub search_points: usize,
-    /// Write the JSON report (the curve report with an `adapt` block, `docs/ARCHITECTURE.md`
-    /// §5.6; a sweep report for several tolerances, §5.10); `-` for standard output (the table then goes to standard
-    /// error).
+    /// Write the JSON report (the curve report with an `adapt` block, `docs/ARCHITECTURE.md` §5.6;
+    /// a sweep report for several tolerances, §5.10); `-` for standard output (the table then goes
+    /// to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     // The plot (the last tolerance's chain) and the CAD files.

@@ -55,8 +55,8 @@ pub struct Args {
     #[arg(long, default_value = "auto", value_parser = super::parse_word::<SpanBreaks>)]
     pub span_breaks: SpanBreaks,
     /// Write the JSON report (the surface report with an `adapt` block, `docs/ARCHITECTURE.md`
-    /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary then goes to standard
-    /// error).
+    /// §5.7; a sweep report for several tolerances, §5.10); `-` for standard output (the summary
+    /// then goes to standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// The pictures of the surface (of the last tolerance's, with several).

@@ -72,7 +72,8 @@ pub fn stem(path: &Path) -> String {
 /// Arguments of `bezchain export`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A JSON report of `fit`, `adapt`, `fit-surface` or `adapt-surface` (or a sweep report of several).
+    /// A JSON report of `fit`, `adapt`, `fit-surface` or `adapt-surface` (or a sweep report of
+    /// several).
     pub report: PathBuf,
     #[command(flatten)]
     pub cad: CadArgs,

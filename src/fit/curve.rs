@@ -113,13 +113,13 @@ impl<P: Vector> CurveFit<P> {
 
 /// Fit a chain with `layout` to `points` (ordered along the curve, e.g. a Selig contour).
 ///
-/// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the
-/// paper's start, and keeps the best loop-free fit (see [`FitOptions::max_span_ratio`]).
-/// `nelder-mead` and `bfgs` start as the paper does, from design points picked from the data
-/// at an even increment ([`crate::problem::increment_start`]), and minimise the metric's sum of squares
-/// over the flattened design points `x0, y0, x1, y1, …`. With `anchor_ends` (the default) all
-/// three minimise the closest-point sum with the first and last data points tied to the
-/// chain's ends; the reported offsets are always true closest-point offsets.
+/// `lsq` starts from each of `opts.parametrizations` with a linear solve and from the paper's
+/// start, and keeps the best loop-free fit (see [`FitOptions::max_span_ratio`]). `nelder-mead` and
+/// `bfgs` start as the paper does, from design points picked from the data at an even increment
+/// ([`crate::problem::increment_start`]), and minimise the metric's sum of squares over the
+/// flattened design points `x0, y0, x1, y1, …`. With `anchor_ends` (the default) all three minimise
+/// the closest-point sum with the first and last data points tied to the chain's ends; the reported
+/// offsets are always true closest-point offsets.
 pub fn fit_curve<P: Vector>(points: &[P], layout: ChainLayout, opts: &FitOptions) -> Result<CurveFit<P>> {
     fit_curve_with(points, layout, opts, &mut EvoHooks::default())
 }

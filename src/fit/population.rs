@@ -9,14 +9,13 @@
 //! borders. Anchored points (a chain's ends) add their squared distance to the shape point
 //! they are tied to, in f64. A run's result is re-measured in f64 with the global search.
 //!
-//! **Precision.** The evolutionary methods carry their populations in f32, so they see the
-//! problem in a [`Frame`](crate::problem::Frame) centred on its search box: their variables are the design
-//! coordinates less that centre, and the evaluator's targets are moved with them; a shape is
-//! then resolved as finely wherever its data sit. Every generation the evaluator's reference
-//! design is re-anchored where the population lies (the GA's best design so far, CMA-ES's
-//! mean): the kernels compute in f32 only each
-//! individual's small difference from it (see [`crate::eval::kernel`]), and
-//! [`Scorer::resolution`] reports the rounding that leaves, which CMA-ES's flatness stop uses.
+//! **Precision.** The evolutionary methods carry their populations in f32, so they see the problem
+//! in a [`Frame`](crate::problem::Frame) centred on its search box: their variables are the design
+//! coordinates less that centre, and the evaluator's targets are moved with them; a shape is then
+//! resolved as finely wherever its data sit. Every generation the evaluator's reference design is
+//! re-anchored where the population lies (the GA's best design so far, CMA-ES's mean): the kernels
+//! compute in f32 only each individual's small difference from it (see [`crate::eval::kernel`]),
+//! and [`Scorer::resolution`] reports the rounding that leaves, which CMA-ES's flatness stop uses.
 
 use crate::bezier::Vector;
 use crate::chain::shape::{CurveShape, GridShape, Shape};

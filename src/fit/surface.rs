@@ -1,15 +1,15 @@
 //! `fit_surface`: one call from a 3D cloud and a patch-grid layout to a fitted grid, with the
 //! closest-point offsets and the solver's effort (what the CLI's `fit-surface` reports).
 //!
-//! The fit is the joint Levenberg-Marquardt of [`mod@crate::optim::lsq`] (design net and every point's
-//! `(u, v)` together, the parameters eliminated blockwise), so each iteration costs `O(n)` in
-//! the number of points plus a banded solve independent of `n`. Large clouds are fitted in two
-//! stages: a random subsample of [`SurfaceOptions::subsample`] points is fitted to convergence
-//! from the initial parameters (see [`mod@crate::problem::param`]); then every point is projected onto
-//! that surface (Newton's method from its own initial parameters) and a few joint iterations
-//! on the whole cloud ([`SurfaceOptions::polish_iterations`]) let every point count. The
-//! reported offsets are true closest-point distances, found by a global search warm-started
-//! from the final parameters.
+//! The fit is the joint Levenberg-Marquardt of [`mod@crate::optim::lsq`] (design net and every
+//! point's `(u, v)` together, the parameters eliminated blockwise), so each iteration costs `O(n)`
+//! in the number of points plus a banded solve independent of `n`. Large clouds are fitted in two
+//! stages: a random subsample of [`SurfaceOptions::subsample`] points is fitted to convergence from
+//! the initial parameters (see [`mod@crate::problem::param`]); then every point is projected onto
+//! that surface (Newton's method from its own initial parameters) and a few joint iterations on the
+//! whole cloud ([`SurfaceOptions::polish_iterations`]) let every point count. The reported offsets
+//! are true closest-point distances, found by a global search warm-started from the final
+//! parameters.
 
 use super::grid_evo::fit_grid_evo;
 use crate::chain::{ChainLayout, Continuity, GridLayout, PatchGrid};

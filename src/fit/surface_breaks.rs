@@ -1,13 +1,13 @@
 //! Choosing the span breaks of a surface fit.
 //!
-//! Uniform breaks suit a blade badly: the paper's blade closes from a 0.08 chord to a point
-//! over the last 0.3 % of its span, and a bicubic patch that must follow that collapse
-//! overshoots over half the span. [`search_breaks_v`] moves the interior `v` breaks one at a
-//! time over a grid of candidate positions (every candidate fitted in full, in parallel) and
-//! keeps the fit with the smallest sum of squares among those that pass the
-//! [`projection_check`] (the emulation of a plain outside tool's closest-point search, see
-//! [`crate::problem::checker`]). [`auto_breaks_v`] is the policy of `--breaks-v auto` (when the search
-//! runs at all) and [`check_fit`] the one of the projection check after a fit.
+//! Uniform breaks suit a blade badly: the paper's blade closes from a 0.08 chord to a point over
+//! the last 0.3 % of its span, and a bicubic patch that must follow that collapse overshoots over
+//! half the span. [`search_breaks_v`] moves the interior `v` breaks one at a time over a grid of
+//! candidate positions (every candidate fitted in full, in parallel) and keeps the fit with the
+//! smallest sum of squares among those that pass the [`projection_check`] (the emulation of a plain
+//! outside tool's closest-point search, see [`crate::problem::checker`]). [`auto_breaks_v`] is the
+//! policy of `--breaks-v auto` (when the search runs at all) and [`check_fit`] the one of the
+//! projection check after a fit.
 
 use super::surface::{fit_surface, Breaks, SurfaceFit, SurfaceLayout, SurfaceOptions, SurfaceProgress};
 use crate::error::{Error, Result};

@@ -51,9 +51,9 @@
 //! normal part has the same deviation.
 //!
 //! **Truth** (the tests below, NACA 0012, 4412 and 23015 at 200 points with cosine, uniform and
-//! jittered spacing): noiseless f64 contours give under 1e-9 of the chord, contours rounded to
-//! 6 decimals their rounding scatter within 30 % (in practice 10 %), and added Gaussian noise of 1e-5, 1e-4 and
-//! 1e-3 of the chord is recovered within 30 % (in practice within 10 %).
+//! jittered spacing): noiseless f64 contours give under 1e-9 of the chord, contours rounded to 6
+//! decimals their rounding scatter within 30 % (in practice 10 %), and added Gaussian noise of
+//! 1e-5, 1e-4 and 1e-3 of the chord is recovered within 30 % (in practice within 10 %).
 
 use super::points::Grid;
 use glam::{DVec2, DVec3};

@@ -333,12 +333,12 @@ pub fn sampled_offsets(grid: &PatchGrid<DVec3>, points: &[DVec3]) -> Vec<f64> {
         .collect()
 }
 
-/// Whether every point's offset by the checker's search ([`sampled_offsets`]) is within
-/// its tolerance, `tol(p)` for point `p` (a NaN offset passes, as the max of [`sampled_offsets`] by `f64::max` skips it):
-/// the same answer as comparing each offset with its tolerance, for less work. A point's offset is the
-/// least over its four seeds, so once one seed's refinement ends within `tol` the others
-/// cannot take the point out of it and are not refined; the scan stops at the first point
-/// beyond it.
+/// Whether every point's offset by the checker's search ([`sampled_offsets`]) is within its
+/// tolerance, `tol(p)` for point `p` (a NaN offset passes, as the max of [`sampled_offsets`] by
+/// `f64::max` skips it): the same answer as comparing each offset with its tolerance, for less
+/// work. A point's offset is the least over its four seeds, so once one seed's refinement ends
+/// within `tol` the others cannot take the point out of it and are not refined; the scan stops at
+/// the first point beyond it.
 #[must_use]
 pub fn sampled_within(
     grid: &PatchGrid<DVec3>,

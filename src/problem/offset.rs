@@ -1,5 +1,5 @@
-//! Offset metrics (`docs/ARCHITECTURE.md` §2.4): the distance of every data point to a chain or grid, and the
-//! summary figures reports carry (`sum_sq`, `sum`, `rms`, `max`, `max_at`).
+//! Offset metrics (`docs/ARCHITECTURE.md` §2.4): the distance of every data point to a chain or
+//! grid, and the summary figures reports carry (`sum_sq`, `sum`, `rms`, `max`, `max_at`).
 
 use crate::bezier::Vector;
 use crate::chain::shape::{Basis, CurveShape, GridShape, Shape};

@@ -264,10 +264,10 @@ fn patches(net: &[Vec<DVec3>], du: usize, dv: usize) -> Vec<Patch> {
     out
 }
 
-/// Squared distance `(d², u, v)` from `q` to one patch, from the start `(u0, v0)` inside the bracket
-/// `[u_lo, u_hi] x [v_lo, v_hi]`: Gauss-Newton with partial derivatives by central differences,
-/// steps clamped to the bracket and halved until the distance does not grow, then a pattern
-/// search along the axes and diagonals (Gauss-Newton stalls on the bracket's edges, where a
+/// Squared distance `(d², u, v)` from `q` to one patch, from the start `(u0, v0)` inside the
+/// bracket `[u_lo, u_hi] x [v_lo, v_hi]`: Gauss-Newton with partial derivatives by central
+/// differences, steps clamped to the bracket and halved until the distance does not grow, then a
+/// pattern search along the axes and diagonals (Gauss-Newton stalls on the bracket's edges, where a
 /// clamped step need not descend).
 fn refine_in_box(
     p: &Patch,

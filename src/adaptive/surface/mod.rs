@@ -1,17 +1,16 @@
 //! `adapt_surface`: the patch grid with the fewest stored scalars whose closest-point offsets
 //! from a sectioned 3D cloud meet a tolerance (the paper's Fig. 8 for surfaces).
 //!
-//! The cloud is a grid of sections (a blade's stations: `section,index` columns). Each
-//! direction of the tensor-product spline has its own [`ChainLayout`](crate::chain::ChainLayout): u around the sections,
-//! v along the span. The section `k` sits at span parameter `v_k`; every data point has its own
-//! `u`. A candidate is fitted by alternating a linear least-squares solve for the design net
-//! (all points at their `(u, v_k)`) with a Newton correction of each point's `u` on the section
-//! curve `S(·, v_k)` (Hoschek's parameter correction along u), then, for the max norm, by
-//! Lawson's reweighting towards the minimax fit. Its offsets are judged as the distance from
-//! every point to `S(u, v_k)`: a point of the surface, so never below the true closest-point
-//! distance. The winner is re-measured by two global searches (the library's and the shared
-//! checker's, see [`sampled_offsets`]); it is accepted only when the checker's own search
-//! confirms the tolerance.
+//! The cloud is a grid of sections (a blade's stations: `section,index` columns). Each direction of
+//! the tensor-product spline has its own [`ChainLayout`](crate::chain::ChainLayout): u around the
+//! sections, v along the span. The section `k` sits at span parameter `v_k`; every data point has
+//! its own `u`. A candidate is fitted by alternating a linear least-squares solve for the design
+//! net (all points at their `(u, v_k)`) with a Newton correction of each point's `u` on the section
+//! curve `S(·, v_k)` (Hoschek's parameter correction along u), then, for the max norm, by Lawson's
+//! reweighting towards the minimax fit. Its offsets are judged as the distance from every point to
+//! `S(u, v_k)`: a point of the surface, so never below the true closest-point distance. The winner
+//! is re-measured by two global searches (the library's and the shared checker's, see
+//! [`sampled_offsets`]); it is accepted only when the checker's own search confirms the tolerance.
 //!
 //! **Span rule.** When every section lies in a plane `x_a = s_k` of one coordinate axis `a`,
 //! with `s_k` strictly monotone along the sections, the span coordinate of design column `j`
@@ -29,18 +28,18 @@
 //! column's frame ([`mod@super::blade`]); [`ChordRule`] says when it is searched.
 //!
 //! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
-//! data-driven positions) run in parallel, and under MPI spread over the ranks. Each starts with one patch and grows the direction
-//! that buys the most accuracy per stored scalar: a u split in the segment holding the worst
-//! point, at the squared-error-weighted mean of its points' `u`; a v split in the span holding
-//! the worst section, at the weighted mean of its sections' `v`. Once the tolerance holds, it
-//! removes every break it can while the tolerance still holds. A family stops when it would
-//! need more design points than the data allow (half the points of a section around, the
-//! number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
-//! The bulk families (`Search::grow_bulk`: a span break between every two sections, the
-//! sections' ends anchored, every bad u segment split at once, the fold check part of meeting
-//! the tolerance; under the chord rule these are its trailing-edge families) run first; the
-//! others then stop growing at the fewest stored scalars those met the tolerance with, a
-//! bound fixed before they start, so the result does not depend on thread timing.
+//! data-driven positions) run in parallel, and under MPI spread over the ranks. Each starts with
+//! one patch and grows the direction that buys the most accuracy per stored scalar: a u split in
+//! the segment holding the worst point, at the squared-error-weighted mean of its points' `u`; a v
+//! split in the span holding the worst section, at the weighted mean of its sections' `v`. Once the
+//! tolerance holds, it removes every break it can while the tolerance still holds. A family stops
+//! when it would need more design points than the data allow (half the points of a section around,
+//! the number of sections along the span) or after [`SurfaceAdaptOptions::max_family_fits`] fits.
+//! The bulk families (`Search::grow_bulk`: a span break between every two sections, the sections'
+//! ends anchored, every bad u segment split at once, the fold check part of meeting the tolerance;
+//! under the chord rule these are its trailing-edge families) run first; the others then stop
+//! growing at the fewest stored scalars those met the tolerance with, a bound fixed before they
+//! start, so the result does not depend on thread timing.
 
 #![allow(clippy::needless_range_loop)]
 

@@ -215,7 +215,8 @@ impl Body {
             .lu
             .solve(&bw)
             .ok_or_else(|| Error::Numerical("the panel system is singular".into()))?;
-        // The body rows (column-major, n × np): the body sources' response, then the wake stations'.
+        // The body rows (column-major, n × np): the body sources' response, then the wake
+        // stations'.
         let mut body = vec![0.0; n * np];
         body[..nb * n].copy_from_slice(self.g_body.as_slice());
         for k in 0..nw {

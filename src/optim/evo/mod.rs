@@ -7,9 +7,10 @@
 //!   point offsets on the population evaluator), any other objective can be.
 //! - [`Evolution`]: one run, generation by generation ([`Evolution::step`]), with
 //!   [`Evolution::checkpoint`] / [`Evolution::resume`] that continue bit-identically.
-//! - [`evolve`]: a whole run with a per-generation callback; [`polish`](crate::optim::hybrid::polish) runs the
-//!   least-squares fit from its result (the `ga+lsq` and `cmaes+lsq` methods);
-//!   [`fit_grid_evo`](crate::fit::fit_grid_evo) does both for a patch grid (curves: [`crate::fit::fit_curve`]).
+//! - [`evolve`]: a whole run with a per-generation callback;
+//!   [`polish`](crate::optim::hybrid::polish) runs the least-squares fit from its result (the
+//!   `ga+lsq` and `cmaes+lsq` methods); [`fit_grid_evo`](crate::fit::fit_grid_evo) does both for a
+//!   patch grid (curves: [`crate::fit::fit_curve`]).
 //!
 //! **Reproducibility.** Random numbers come from ChaCha8 streams fixed by the seed, the
 //! generation and the individual; sorting breaks ties by index; sums over individuals run in
@@ -473,11 +474,11 @@ impl<'p> Evolution<'p> {
         })
     }
 
-    /// Continue a run from a checkpoint. The problem, method and the options that shape the
-    /// run (population, seed, Newton steps, projection, operators) must be those it was
-    /// written with (else [`Error::Invalid`]); the generation limit, target, stall options and
-    /// CMA-ES restarts may differ. On the same backend the continuation is bit-identical to a run that was
-    /// never interrupted.
+    /// Continue a run from a checkpoint. The problem, method and the options that shape the run
+    /// (population, seed, Newton steps, projection, operators) must be those it was written with
+    /// (else [`Error::Invalid`]); the generation limit, target, stall options and CMA-ES restarts
+    /// may differ. On the same backend the continuation is bit-identical to a run that was never
+    /// interrupted.
     pub fn resume(
         problem: &'p dyn PopulationObjective,
         algorithm: Method,

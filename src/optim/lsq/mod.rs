@@ -15,7 +15,8 @@
 //! Eliminating it leaves an `mD x mD` system
 //!
 //! ```text
-//! S = Σ_j (a_j a_jᵀ) ⊗ P_j + λ Dx,   b = Σ_j a_j ⊗ (P_j r_j),   P_j = I - T_j (M_j + λ Dt_j)⁻¹ T_jᵀ,
+//! S = Σ_j (a_j a_jᵀ) ⊗ P_j + λ Dx,   b = Σ_j a_j ⊗ (P_j r_j),   P_j = I - T_j (M_j + λ Dt_j)⁻¹
+//! T_jᵀ,
 //! ```
 //!
 //! with `a_j` the basis of point `j` over the design points; then `dx = -S⁻¹ b` and
