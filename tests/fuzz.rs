@@ -225,7 +225,7 @@ fn run_ok(args: &[&str], dir: &Path) {
 fn seeds() -> &'static Seeds {
     static SEEDS: OnceLock<Seeds> = OnceLock::new();
     SEEDS.get_or_init(|| {
-        let dir = common::scratch("fuzz-seeds");
+        let dir = common::scratch("fuzz-seeds").keep();
         let data = common::crate_root().join("data");
         let naca = data.join("naca4413.dat");
         let naca = naca.to_str().unwrap();

@@ -8,7 +8,7 @@ use bezchain::geometry::{
     read_cloud, read_curve, write_cloud_csv, Blade, Grid, LoftOptions, Naca, NacaOptions,
 };
 use bezchain::Error;
-use common::{airfoil, crate_root, scratch};
+use common::{airfoil, crate_root, scratch, Scratch};
 use glam::{DVec2, DVec3};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
@@ -178,20 +178,21 @@ fn interpolated_sections_follow_a_monotone_cubic_between_stations() {
     assert_eq!(&cloud.points[..81], &stations.points[..81]);
 }
 
-/// Write `json` as `blade.json` in a fresh folder (with `extra` files beside it).
-fn blade_file(tag: &str, json: &str, extra: &[(&str, &Path)]) -> PathBuf {
+/// Write `json` as `blade.json` in a fresh folder (with `extra` files beside it): the folder
+/// (removed when dropped) and the file.
+fn blade_file(tag: &str, json: &str, extra: &[(&str, &Path)]) -> (Scratch, PathBuf) {
     let dir = scratch(tag);
     for (name, from) in extra {
         std::fs::copy(from, dir.join(name)).unwrap();
     }
     let path = dir.join("blade.json");
     std::fs::write(&path, json).unwrap();
-    path
+    (dir, path)
 }
 
 #[test]
 fn two_stations_interpolate_linearly_with_offsets_and_pitch_axis() {
-    let path = blade_file(
+    let (_dir, path) = blade_file(
         "linear",
         r#"{"stations": [
             {"radius": 1.0, "chord": 0.4, "twist_deg": 20, "pitch_axis": 0.3, "prebend": 0.0, "sweep": 0.02},
@@ -242,7 +243,7 @@ fn file_aerofoils_resample_along_the_contour_and_blend() {
             ..Default::default()
         })
         .unwrap();
-    let path = blade_file(
+    let (_dir, path) = blade_file(
         "blend",
         r#"{"radius": [1, 2, 3], "chord": 1, "twist_deg": 0, "pitch_axis": 0,
             "aerofoil": ["naca4413.dat", "naca4413.dat", "clarky.dat"]}"#,
@@ -304,7 +305,7 @@ fn file_aerofoils_resample_along_the_contour_and_blend() {
 
 #[test]
 fn a_single_file_aerofoil_keeps_its_points_unless_asked() {
-    let path = blade_file(
+    let (_dir, path) = blade_file(
         "file",
         r#"{"radius": [0, 1], "chord": [2, 1], "twist_deg": 0, "pitch_axis": 0, "aerofoil": "clarky.dat"}"#,
         &[("clarky.dat", &airfoil("clarky.dat"))],
@@ -441,7 +442,7 @@ fn bad_blade_files_name_the_field() {
         ("{\"radius\": [1, 2],\n\"chord\": [1 1]}".into(), "blade.json:2: not valid JSON"),
     ];
     for (json, needle) in cases {
-        let path = blade_file("bad", &json, &[]);
+        let (_dir, path) = blade_file("bad", &json, &[]);
         if json.contains("bad.dat") {
             std::fs::write(path.with_file_name("bad.dat"), "BAD\n1 0\n0.5 zzz\n").unwrap();
         }
@@ -454,7 +455,7 @@ fn bad_blade_files_name_the_field() {
         assert_eq!(msg.lines().count(), 1, "{msg}");
     }
     // An aerofoil file's own error (its line) comes through.
-    let path = blade_file(
+    let (_dir, path) = blade_file(
         "bad-aerofoil",
         r#"{"radius": [1, 2], "chord": 1, "twist_deg": 0, "aerofoil": "foil.dat"}"#,
         &[],

@@ -26,12 +26,50 @@ pub fn airfoil(name: &str) -> PathBuf {
     airfoils_dir().join(name)
 }
 
-/// A fresh empty folder under the system temporary directory, unique to this test.
-pub fn scratch(tag: &str) -> PathBuf {
+/// A fresh empty folder under the system temporary directory, unique to this test: removed
+/// when the test passes, kept for a look (and named on standard error) when it fails.
+pub fn scratch(tag: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("bezchain-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create a scratch folder");
-    dir
+    Scratch(dir)
+}
+
+/// The folder of [`scratch`]; it derefs to its path.
+pub struct Scratch(PathBuf);
+
+impl Scratch {
+    /// The path, the folder left in place: for one shared through a static by a test
+    /// binary's tests (a static is never dropped; the next run's [`scratch`] empties it).
+    pub fn keep(mut self) -> PathBuf {
+        std::mem::take(&mut self.0)
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if self.0.as_os_str().is_empty() {
+            return;
+        }
+        if std::thread::panicking() {
+            eprintln!("the failed test's files are kept in {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// The `bezchain` binary built for these tests.
