@@ -253,7 +253,7 @@ pub(crate) trait HoldsProblem {
         Self: Sized;
 }
 
-/// Every backend evaluates both precisions through its one generic [`HoldsProblem::run`].
+/// Every backend evaluates both precisions through its one generic `HoldsProblem::run`.
 impl<E: HoldsProblem + Send> PopulationEvaluator for E {
     fn evaluate(&mut self, population: &[f32], out: &mut [Fitness]) -> Result<()> {
         self.run(population, out)
@@ -291,7 +291,7 @@ pub trait PopulationEvaluator: Send + HoldsProblem {
     /// Re-anchor the reference design (`design_variables` finite values): the kernels then
     /// compute only each individual's difference from it in f32. Results are accurate to f32
     /// relative to the offsets when the population lies near the reference (see
-    /// [`kernel`](self::kernel)); population methods set it to their best design every
+    /// [`kernel`]); population methods set it to their best design every
     /// generation.
     fn set_reference(&mut self, design: &[f64]) -> Result<()> {
         self.problem_mut().set_reference(design)?;

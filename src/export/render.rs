@@ -66,7 +66,7 @@ pub struct RenderOptions {
     pub cloud: Vec<DVec3>,
     /// The data points with their closest-point parameters on the surface and offsets. When
     /// given, the surface is coloured by the local offset (see [`local_offsets`]; relative to
-    /// the local chord when every point has a station, see [`super::offset_map`]) from 0 to the
+    /// the local chord when every point has a station, see `export::offset_map`) from 0 to the
     /// largest, with a colour bar on the right, the worst points ringed and a caption below.
     /// Default none.
     pub offsets: Vec<OffsetPoint>,
@@ -407,7 +407,7 @@ impl RenderOptions {
     /// +z, its thickness along y; they turn with the fit's span axis, and to x when the cloud
     /// is thinnest along x (a windIO or AeroDyn blade in its blade-root axes).
     /// With `sections` (the cloud's grid) the colour is relative to each point's local chord
-    /// and the stations are drawn (see [`super::offset_map`]).
+    /// and the stations are drawn (see `export::offset_map`).
     #[must_use]
     pub fn of_fit(
         fit: &SurfaceFit,

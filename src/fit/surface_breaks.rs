@@ -71,7 +71,7 @@ fn describe(breaks: &[f64], candidates: &[BreakCandidate], sum_sq: f64) -> Strin
 const FRACTIONS: [f64; 11] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98];
 
 /// Fit `points` with `layout` (its `breaks_u` kept, its `breaks_v` replaced) for candidate
-/// `v` breaks: uniform first, then each interior break in turn over [`FRACTIONS`] of the
+/// `v` breaks: uniform first, then each interior break in turn over `FRACTIONS` of the
 /// interval between its neighbours (a position the break already has is not fitted again).
 /// Keeps the smallest sum of squares among the fits that pass the [`projection_check`] (among
 /// all fits when none does). Least squares only; each fit is a whole [`fit_surface`] call, so

@@ -90,7 +90,7 @@ const EXACT_CHORD_POINTS: usize = 2048;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scatter {
     /// The noise's standard deviation normal to the curve, in model units; `None` when fewer
-    /// than [`MIN_WINDOWS`] windows could be used (a contour of fewer than
+    /// than `MIN_WINDOWS` windows could be used (a contour of fewer than
     /// `2 HALF_WINDOW + MIN_WINDOWS` points, or one that folds everywhere).
     pub sigma: Option<f64>,
     /// The contour's chord: the largest distance between two of its points, in model units.
@@ -98,7 +98,7 @@ pub struct Scatter {
     /// Windows (centre points) the estimate used; 0 without an estimate.
     pub used: usize,
     /// Whether more than half the windows departed from their polynomial by more than
-    /// [`BIAS_CUT`] deviations, so that only the floor of half, the smoothest, was used: the
+    /// `BIAS_CUT` deviations, so that only the floor of half, the smoothest, was used: the
     /// contour is rough or curved beyond the windows' resolution over most of its length, and
     /// `sigma` is the scatter of its smoothest half (an upper bound of a noiseless contour's,
     /// a lower bound of a contour rough everywhere).

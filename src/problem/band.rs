@@ -75,7 +75,7 @@ pub struct BandPlan {
 
 impl BandPlan {
     /// The plan for `a`'s sparsity (its lower triangle's non-zero entries), or `None` when
-    /// the dense factorisation is as fast: fewer than [`BAND_MIN`] unknowns, or a band wider
+    /// the dense factorisation is as fast: fewer than `BAND_MIN` unknowns, or a band wider
     /// than a third of them (`O(n b²)` against `O(n³ / 3)`).
     #[must_use]
     pub fn of(a: &nalgebra::DMatrix<f64>) -> Option<Self> {

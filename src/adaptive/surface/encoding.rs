@@ -24,7 +24,7 @@ pub struct SurfaceEncoding {
     pub breaks_v: Breaks,
     /// The span rule, when used.
     pub span_rule: Option<SpanRule>,
-    /// The chord rule ([`mod@super::super::blade`]), when used (it needs the span rule).
+    /// The chord rule (`adaptive::blade`), when used (it needs the span rule).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub chord_rule: bool,
     /// The chord rule's trailing-edge term (degree 4 or more around): every column frame

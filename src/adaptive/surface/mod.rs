@@ -25,7 +25,7 @@
 //! **Chord rule.** Where the span rule holds and every section looks like an aerofoil
 //! section, each design column stores a frame (leading edge, chord angle, chord length) and
 //! each design point one thickness-direction offset, x following the aerofoil rule in the
-//! column's frame ([`mod@super::blade`]); [`ChordRule`] says when it is searched.
+//! column's frame (`adaptive::blade`); [`ChordRule`] says when it is searched.
 //!
 //! **Search.** Families (degree and join continuity in each direction; breaks equal or split at
 //! data-driven positions) run in parallel, and under MPI spread over the ranks. Each starts with
@@ -95,7 +95,7 @@ pub struct SurfaceAdaptOptions {
     pub degrees_v: [usize; 2],
     /// Use the span rule where the sections are planar (see the module docs). Default true.
     pub span_rule: bool,
-    /// The chord rule ([`mod@super::blade`]), where the span rule holds and every section looks
+    /// The chord rule (`adaptive::blade`), where the span rule holds and every section looks
     /// like an aerofoil section. Default [`ChordRule::Auto`].
     pub chord_rule: ChordRule,
     /// Never report a result with more stored scalars than this. Default none.
@@ -114,7 +114,7 @@ pub struct SurfaceAdaptOptions {
     /// searches after its first run without them when none met the tolerance in the first
     /// ([`adapt_blade`]).
     pub greedy: bool,
-    /// The search rejects layouts that fail the mid-station checks ([`mod@span`]: fairness,
+    /// The search rejects layouts that fail the mid-station checks (`span`: fairness,
     /// and a blade definition's sections between the data's). Default true; the result's
     /// `met` holds them either way.
     pub span_checks: bool,
@@ -175,7 +175,7 @@ pub enum SpanBreaks {
     ByDegree,
 }
 
-/// When the search uses the chord rule ([`mod@super::blade`]).
+/// When the search uses the chord rule (`adaptive::blade`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ChordRule {
@@ -315,7 +315,7 @@ pub struct AdaptedSurface {
     /// the checker's (the mid-stations aside).
     pub at_sections: bool,
     /// The span coordinates of the mid-stations where the surface fails the checks between
-    /// the sections ([`span`]'s fairness, or a blade definition's lofted section there more
+    /// the sections (`span`'s fairness, or a blade definition's lofted section there more
     /// than [`BETWEEN_FACTOR`] tolerances away); empty when it passes.
     pub faults: Vec<f64>,
     /// True when the tolerance holds (at a blade definition's joined sections,

@@ -1,5 +1,5 @@
 //! The CPU mirror of `shaders/aero.wgsl`: the panel method for a population, blocks of
-//! [`LANES`] individuals at a time (rayon over blocks), every individual's working set
+//! `LANES` individuals at a time (rayon over blocks), every individual's working set
 //! interleaved by lane as the shader interleaves it by invocation.
 //!
 //! The node map, the assembly, the elimination and the back substitution run over all lanes
@@ -974,7 +974,7 @@ fn run_block(simd: Simd, task: &Block<'_>, work: &mut [Lanes], out: &mut [AeroRe
     }
 }
 
-/// The panel method for populations on the CPU: rayon over blocks of [`LANES`] individuals.
+/// The panel method for populations on the CPU: rayon over blocks of `LANES` individuals.
 #[derive(Clone, Debug)]
 pub struct CpuAero {
     kernel: AeroKernel,

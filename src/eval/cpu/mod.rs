@@ -3,12 +3,12 @@
 //!
 //! Every file here mirrors the shader of the same name in `shaders/`, operation for operation
 //! (`../basis.rs` mirrors `basis.wgsl`, spliced into the shaders). The shaders' `fma(a, b, c)` is
-//! [`Arith::fma`] here, in two forms:
+//! `Arith::fma` here, in two forms:
 //!
-//! - [`Unfused`]: a multiply, then an add. That is what Mesa lavapipe computes for it
+//! - `Unfused`: a multiply, then an add. That is what Mesa lavapipe computes for it
 //!   (measured: the GPU and the CPU results are bit-identical over whole populations), so the
 //!   portable kernels agree with lavapipe exactly.
-//! - [`Fused`]: one rounding (`f32::mul_add`, a hardware FMA), on the SIMD kernels, as a GPU
+//! - `Fused`: one rounding (`f32::mul_add`, a hardware FMA), on the SIMD kernels, as a GPU
 //!   that fuses computes it; results differ from lavapipe's in the last bits.
 //!
 //! Three kernel sets ([`Simd`]), picked at run time: AVX-512 (the fixed-parameter loop in

@@ -248,7 +248,7 @@ impl GpuContext {
         })
     }
 
-    /// The context [`Backend::Auto`](super::Backend::Auto) takes: [`GpuContext::shared`],
+    /// The context [`Backend::Auto`] takes: [`GpuContext::shared`],
     /// refused with the reason on a software adapter (Mesa lavapipe and other CPU-type
     /// adapters). Such an adapter runs on the same cores as the CPU kernels and slower than
     /// they (`optimise --objective max-cl` 59 s on lavapipe against 0.6 s on the CPU, a GA

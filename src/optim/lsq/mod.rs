@@ -25,7 +25,7 @@
 //! solving it costs `O((mD)³)`, independent of `n`. With `λ → 0`, `P_j` projects onto the
 //! normal space: the step is the tangent-distance step of Wang, Pottmann and Liu (2006), which
 //! converges where the alternation of a linear solve and a foot-point projection (Hoschek's
-//! parameter correction, [`alternate`]) crawls.
+//! parameter correction, `alternate`) crawls.
 //!
 //! The step's `dt` only starts Newton's method for the exact local foot points on the trial
 //! design: the trial is judged by the true sum of squared distances. At convergence a global

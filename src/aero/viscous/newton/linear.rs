@@ -68,7 +68,7 @@ impl Unit {
 }
 
 /// A Newton step's Jacobian, factored: `X = B⁻¹ C` by block forward substitution and the LU
-/// factors of the Schur complement `S` in `uₑ`. [`Factored::solve`] solves it for any residual.
+/// factors of the Schur complement `S` in `uₑ`. `Factored::solve` solves it for any residual.
 #[derive(Debug)]
 pub struct Factored {
     jac: Vec<Partials>,

@@ -10,7 +10,7 @@
 //! `F = I − D diag(δ*)` dense. `B` is eliminated by block forward substitution and the dense
 //! Schur complement in `uₑ` (stations × stations) is factored ([`crate::numeric::Lu`]); a full
 //! dense factorisation is the fallback when a block of `B` is singular. The factorisation is
-//! kept for chord steps while they converge fast enough ([`CHORD_RATE`]). Partials of the
+//! kept for chord steps while they converge fast enough (`CHORD_RATE`). Partials of the
 //! interval equations (laminar, turbulent, wake: all rows but a few) are exact, by dual numbers
 //! through the closures ([`super::dual`]); the similarity, transition and wake-start rows take
 //! forward differences of the station functions (relative step 1e-7).
@@ -65,7 +65,7 @@ pub struct System<'a> {
     /// Station lists: upper surface from the stagnation point, lower, wake.
     surf: [Vec<usize>; 3],
     rows: Vec<Row>,
-    /// Exact partials where [`System::partials_exact`] gives them (the default); `false`:
+    /// Exact partials where `System::partials_exact` gives them (the default); `false`:
     /// forward differences everywhere, as a last try for a point the exact Newton loses.
     pub exact: bool,
     /// A factored Jacobian: before a solve, a start's (a nearby solution's: the first step is
