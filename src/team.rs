@@ -292,6 +292,21 @@ impl Writer {
     }
 }
 
+/// `r` written and read back whole, as [`share_records`] carries it between ranks: for the
+/// tests of a [`Record`], which run without MPI.
+#[cfg(test)]
+pub(crate) fn round_trip<R: Record>(r: &R) -> Result<R> {
+    let mut out = Writer::default();
+    r.write(&mut out);
+    let mut from = Reader(&out.0);
+    let back = R::read(&mut from)?;
+    if from.0.is_empty() {
+        Ok(back)
+    } else {
+        Err(Error::Numerical("a record left bytes unread".into()))
+    }
+}
+
 /// Reads what a [`Writer`] wrote, in the same order.
 pub struct Reader<'a>(&'a [u8]);
 

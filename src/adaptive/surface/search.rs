@@ -976,12 +976,7 @@ impl Record for Searched {
             .put(t.outcome.as_bytes())
             .one(t.seconds);
         Cand::write(self.3.as_ref(), out);
-        out.one(
-            SpanBreaks::KEYWORDS
-                .iter()
-                .position(|k| k.0 == self.4)
-                .unwrap_or(0) as u8,
-        );
+        out.put(self.4.name().as_bytes());
     }
 
     fn read(from: &mut Reader<'_>) -> Result<Self> {
@@ -1001,10 +996,9 @@ impl Record for Searched {
                 seconds: from.one()?,
             },
             Cand::read(from)?,
-            SpanBreaks::KEYWORDS
-                .get(usize::from(from.one::<u8>()?))
-                .map(|k| k.0)
-                .ok_or_else(|| Error::Numerical("a family's span-break placement is unknown".into()))?,
+            text(from)?
+                .parse()
+                .map_err(|_| Error::Numerical("a family's span-break placement is unknown".into()))?,
         ))
     }
 }
@@ -1060,5 +1054,30 @@ pub(super) fn encode(data: &Data<'_>, fam: &Family, c: &Cand) -> SurfaceEncoding
         chord_rule: data.blade.is_some(),
         te_term: data.blade.is_some() && Chordwise::carries(fam.du, fam.te()),
         coords,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A family searched on another rank arrives with its trace and its breaks' placement.
+    #[test]
+    fn a_searched_family_travels_whole() {
+        for sites in [SpanBreaks::Midway, SpanBreaks::Sections, SpanBreaks::ByDegree] {
+            let trace = SurfaceFamilyTrace {
+                family: "d5x3 C4xC2 split trailing-edge, span breaks at the sections".into(),
+                fits: 17,
+                best_scalars: Some(624),
+                best_measure: 5.765e-3,
+                outcome: "met".into(),
+                seconds: 1.25,
+            };
+            let sent = Searched(None, None, trace.clone(), None, sites);
+            let Searched(w, c, t, g, s) = crate::team::round_trip(&sent).unwrap();
+            assert!(w.is_none() && c.is_none() && g.is_none());
+            assert_eq!(t, trace);
+            assert_eq!(s, sites);
+        }
     }
 }
